@@ -1,0 +1,335 @@
+#include "commands.h"
+
+#include "console.h"
+#include "piperun/error.h"
+#include "piperun/eval/evaluation.h"
+#include "piperun/io/network_io.h"
+#include "piperun/io/point_reader.h"
+#include "piperun/io/point_writer.h"
+#include "piperun/params.h"
+#include "piperun/pipeline.h"
+#include "piperun/spacing.h"
+#include "piperun/stage_dump.h"
+#include "piperun/synth/scene_generator.h"
+
+#include <nlohmann/json.hpp>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <cstdio>
+
+namespace piperun::cli {
+
+namespace {
+
+using nlohmann::json;
+
+bool isNetworkFile(const std::string& path) {
+  std::string extension = std::filesystem::path(path).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return extension == ".json";
+}
+
+json vectorJson(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
+
+std::string joinNames(const std::vector<const char*>& names) {
+  std::string text;
+  for (const char* name : names) text += (text.empty() ? "" : ", ") + std::string(name);
+  return text.empty() ? "none" : text;
+}
+
+double secondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+int networkInfo(const InfoOptions& options) {
+  NetworkMetadata metadata;
+  const PipeNetwork network = readNetwork(options.input, &metadata);
+  int elbows = 0, tees = 0, boundaries = 0;
+  for (const auto& joint : network.joints) {
+    elbows += joint.type == JointType::Elbow;
+    tees += joint.type == JointType::Tee;
+    boundaries += joint.type == JointType::Boundary;
+  }
+  double pipeLength = 0.0;
+  for (const auto& pipe : network.pipes) pipeLength += pipe.length();
+  if (options.json) {
+    json out = {{"file", options.input},     {"format", kNetworkFormatName}, {"pipes", network.pipes.size()},
+                {"joints", network.joints.size()}, {"elbows", elbows},        {"tees", tees},
+                {"boundary_joints", boundaries},    {"runs", network.runs.size()}, {"pipe_length_m", pipeLength},
+                {"metadata", metadata}};
+    std::printf("%s\n", out.dump(2).c_str());
+    return kExitOk;
+  }
+  std::printf("file: %s\n", options.input.c_str());
+  std::printf("format: %s version %d\n", kNetworkFormatName, kNetworkFormatVersion);
+  for (const auto& [key, value] : metadata) std::printf("metadata: %s = %s\n", key.c_str(), value.c_str());
+  std::printf("pipes: %zu (total length %.2f m)\n", network.pipes.size(), pipeLength);
+  std::printf("joints: %zu (elbows %d, tees %d, boundary %d)\n", network.joints.size(), elbows, tees, boundaries);
+  std::printf("runs: %zu\n", network.runs.size());
+  return kExitOk;
+}
+
+}  // namespace
+
+int runInfo(const InfoOptions& options) {
+  if (isNetworkFile(options.input)) return networkInfo(options);
+
+  const auto start = std::chrono::steady_clock::now();
+  ProgressBar bar(options.quiet);
+  ReadOptions readOptions;
+  readOptions.progress = &bar.progress();
+  ReadReport report;
+  const PointCloud cloud = readPointCloud(options.input, readOptions, &report);
+  const double readSeconds = secondsSince(start);
+  bar.finish();
+  for (const auto& warning : report.warnings) warn(warning);
+
+  const BoundingBox box = cloud.boundingBox();
+  const double spacing = estimatePointSpacing(cloud);
+  std::string fields;
+  for (const auto& field : report.info.fields) fields += (fields.empty() ? "" : " ") + field;
+
+  if (options.json) {
+    json out = {{"file", options.input},
+                {"format", report.info.format},
+                {"fields", report.info.fields},
+                {"points", cloud.size()},
+                {"non_finite_dropped", report.nonFiniteDropped},
+                {"attributes", attributeNames(cloud.attributes())},
+                {"spacing_m", spacing},
+                {"read_seconds", readSeconds}};
+    if (!box.empty()) out["bounds"] = {{"min", vectorJson(box.min)}, {"max", vectorJson(box.max)}, {"size", vectorJson(box.size())}};
+    std::printf("%s\n", out.dump(2).c_str());
+    return kExitOk;
+  }
+  std::printf("file: %s\n", options.input.c_str());
+  std::printf("format: %s\n", report.info.format.c_str());
+  std::printf("fields: %s\n", fields.c_str());
+  std::printf("points: %zu\n", cloud.size());
+  if (report.nonFiniteDropped > 0) {
+    std::printf("dropped: %llu points with NaN or infinite coordinates\n",
+                static_cast<unsigned long long>(report.nonFiniteDropped));
+  }
+  std::printf("attributes: %s\n", joinNames(attributeNames(cloud.attributes())).c_str());
+  if (!box.empty()) {
+    std::printf("bounds min: %.3f %.3f %.3f\n", box.min.x(), box.min.y(), box.min.z());
+    std::printf("bounds max: %.3f %.3f %.3f\n", box.max.x(), box.max.y(), box.max.z());
+    std::printf("size: %.3f x %.3f x %.3f m\n", box.size().x(), box.size().y(), box.size().z());
+  }
+  std::printf("spacing: %.1f mm (median nearest-neighbour distance)\n", spacing * 1000.0);
+  std::printf("read: %.2f s\n", readSeconds);
+  return kExitOk;
+}
+
+int runGenerate(const GenerateOptions& options) {
+  SceneParams params;
+  params.preset = scenePresetFromString(options.preset);
+  params.seed = options.seed;
+  params.noiseSigma = options.noise;
+  params.outlierFraction = options.outliers;
+  params.stations = options.stations;
+  params.densityScale = options.density;
+
+  const auto start = std::chrono::steady_clock::now();
+  ProgressBar bar(options.quiet);
+  const unsigned attributes = kIntensity | (options.labels ? kLabels : kNoAttributes);
+  auto writer = openPointWriter(options.output, attributes);
+  PipeNetwork truth;
+  PointChunk kept;
+  const SceneSummary summary = generateScene(
+      params, truth,
+      [&](const PointChunk& chunk) {
+        if (options.labels) {
+          writer->write(chunk);
+          return;
+        }
+        kept.positions = chunk.positions;
+        kept.intensities = chunk.intensities;
+        writer->write(kept);
+      },
+      bar.progress());
+  writer->close();
+  if (!options.truth.empty()) {
+    const NetworkMetadata metadata = {{"generator", "piperun generate"},
+                                      {"preset", options.preset},
+                                      {"seed", std::to_string(options.seed)},
+                                      {"noise_m", std::to_string(options.noise)},
+                                      {"outlier_fraction", std::to_string(options.outliers)},
+                                      {"stations", std::to_string(summary.stations)}};
+    writeNetwork(options.truth, truth, metadata);
+  }
+  bar.finish();
+
+  const BoundingBox& box = summary.bounds;
+  std::printf("scene: preset %s, seed %llu, %d station(s)\n", options.preset.c_str(),
+              static_cast<unsigned long long>(options.seed), summary.stations);
+  std::printf("points: %llu written to %s (%llu outliers)\n", static_cast<unsigned long long>(summary.points),
+              options.output.c_str(), static_cast<unsigned long long>(summary.outliers));
+  if (!options.truth.empty()) std::printf("truth: %s\n", options.truth.c_str());
+  if (!box.empty()) std::printf("size: %.1f x %.1f x %.1f m\n", box.size().x(), box.size().y(), box.size().z());
+  std::printf("time: %.2f s\n", secondsSince(start));
+  std::printf("points=%llu pipes=%d elbows=%d tees=%d runs=%d directions=%d stations=%d\n",
+              static_cast<unsigned long long>(summary.points), summary.pipes, summary.elbows, summary.tees,
+              summary.runs, summary.directions, summary.stations);
+  return kExitOk;
+}
+
+int runEval(const EvalOptions& options) {
+  const PipeNetwork truth = readNetwork(options.truth);
+  const PipeNetwork result = readNetwork(options.result);
+  EvaluationParams params;
+  params.fixedTolerance = options.tolerance;
+  params.sampleStep = options.step;
+  const EvaluationResult figures = evaluateNetwork(truth, result, params);
+  if (options.json) {
+    const json out = {{"precision", figures.precision},
+                      {"recall", figures.recall},
+                      {"f1", figures.f1},
+                      {"radius_err_mm", figures.radiusErrorMedian * 1000.0},
+                      {"truth_samples", figures.truthSamples},
+                      {"predicted_samples", figures.predictedSamples},
+                      {"elbows_truth", figures.truthElbows},
+                      {"elbows_found", figures.foundElbows},
+                      {"tees_truth", figures.truthTees},
+                      {"tees_found", figures.foundTees},
+                      {"predicted_joints", figures.predictedJoints},
+                      {"spurious_joints", figures.spuriousJoints},
+                      {"bend_radius_err", figures.bendRadiusErrorMedian}};
+    std::printf("%s\n", out.dump(2).c_str());
+    return kExitOk;
+  }
+  std::printf("truth: %s (%zu pipes, %zu joints, %zu samples)\n", options.truth.c_str(), truth.pipes.size(),
+              truth.joints.size(), figures.truthSamples);
+  std::printf("result: %s (%zu pipes, %zu joints, %zu samples)\n", options.result.c_str(), result.pipes.size(),
+              result.joints.size(), figures.predictedSamples);
+  std::printf("%s\n", formatEvaluation(figures).c_str());
+  return kExitOk;
+}
+
+int runConvert(const ConvertOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  ProgressBar bar(options.quiet);
+  auto reader = openPointReader(options.input);
+  unsigned attributes = reader->info().attributes;
+  if (options.noNormals) attributes &= ~kNormals;
+  if (options.noColors) attributes &= ~kColors;
+  if (options.noIntensity) attributes &= ~kIntensity;
+  if (options.noLabels) attributes &= ~kLabels;
+  auto writer = openPointWriter(options.output, attributes);
+
+  // Stream chunk by chunk: memory stays bounded whatever the file size.
+  PointChunk chunk;
+  std::uint64_t written = 0;
+  std::uint64_t dropped = 0;
+  while (reader->read(chunk, 1u << 20) > 0) {
+    dropped += dropNonFinite(chunk);
+    keepAttributes(chunk, attributes);
+    writer->write(chunk);
+    written += chunk.size();
+    bar.progress().report("convert", reader->progress());
+  }
+  writer->close();
+  bar.finish();
+  if (dropped > 0) {
+    warn(options.input + ": dropped " + std::to_string(dropped) + " points with NaN or infinite coordinates");
+  }
+  std::printf("converted: %s (%s) -> %s\n", options.input.c_str(), reader->info().format.c_str(),
+              options.output.c_str());
+  std::printf("attributes: %s\n", joinNames(attributeNames(attributes)).c_str());
+  std::printf("points=%llu dropped=%llu seconds=%.2f\n", static_cast<unsigned long long>(written),
+              static_cast<unsigned long long>(dropped), secondsSince(start));
+  return kExitOk;
+}
+
+int runReconstruct(const ReconstructOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  PipelineParams params;
+  if (!options.paramsFile.empty()) params = readParams(options.paramsFile);
+  for (const auto& assignment : options.assignments) setParam(params, assignment);
+  if (options.seed >= 0) params.seed = static_cast<std::uint64_t>(options.seed);
+  const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
+  tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+
+  ProgressBar bar(options.quiet);
+  ReadOptions readOptions;
+  readOptions.progress = &bar.progress();
+  ReadReport report;
+  auto cloud = std::make_shared<const PointCloud>(readPointCloud(options.input, readOptions, &report));
+  const double readSeconds = secondsSince(start);
+  bar.finish();
+  for (const auto& warning : report.warnings) warn(warning);
+
+  Pipeline pipeline(cloud, params);
+  pipeline.run(bar.progress());
+  const PipeNetwork network = pipeline.network();
+  writeNetwork(options.output, network,
+               {{"generator", std::string("piperun reconstruct ") + PIPERUN_VERSION},
+                {"source", options.input},
+                {"seed", std::to_string(params.seed)}});
+  int dumped = 0;
+  if (!options.dumpDirectory.empty()) dumped = dumpStages(pipeline, options.dumpDirectory);
+  bar.finish();
+
+  const PreprocessResult& prepared = *pipeline.preprocessResult();
+  const auto& d = prepared.diagnostics;
+  std::size_t directions = 0, cylinders = 0, segments = 0;
+  for (const auto& tile : *pipeline.tileResults()) {
+    for (const auto& round : tile.rounds) {
+      directions += round.directions.directions.size();
+      cylinders += round.placement.cylinders.size();
+      segments += round.extents.segments.size();
+    }
+  }
+  std::printf("input: %zu points from %s, %d thread(s)  [read %.2f s]\n", cloud->size(), options.input.c_str(), threads,
+              readSeconds);
+  std::printf("preprocess: %zu after voxel grid, %zu outliers removed, %zu plane points in %d planes, %zu kept, "
+              "%zu tiles  [%.2f s]\n",
+              d.afterVoxel, d.outliersRemoved, d.planePoints, d.planes, d.keptPoints, prepared.tiles.size(),
+              pipeline.stageSeconds(Stage::Preprocess));
+  std::printf("directions: %zu over all tiles and rounds  [%.2f s]\n", directions,
+              pipeline.stageSeconds(Stage::Directions));
+  std::printf("placement: %zu cylinders  [%.2f s]\n", cylinders, pipeline.stageSeconds(Stage::Placement));
+  std::printf("extents: %zu pipe pieces  [%.2f s]\n", segments, pipeline.stageSeconds(Stage::Extents));
+  std::printf("merge: %zu pipes  [%.2f s]\n", network.pipes.size(), pipeline.stageSeconds(Stage::Merge));
+  std::printf("(per-tile stage times are summed over tiles, which run in parallel)\n");
+  std::printf("network: %s\n", options.output.c_str());
+  if (dumped > 0) std::printf("stages: %d files in %s\n", dumped, options.dumpDirectory.c_str());
+  if (!options.truth.empty()) {
+    const EvaluationResult figures = evaluateNetwork(readNetwork(options.truth), network);
+    std::printf("evaluation against %s: %s\n", options.truth.c_str(), formatEvaluation(figures).c_str());
+  }
+  std::printf("points=%zu kept=%zu directions=%zu pipes=%zu seconds=%.2f\n", cloud->size(), d.keptPoints, directions,
+              network.pipes.size(), secondsSince(start));
+  return kExitOk;
+}
+
+int runParams(const ParamsOptions& options) {
+  if (options.json) {
+    std::printf("%s", paramsToJson(PipelineParams{}).c_str());
+    return kExitOk;
+  }
+  const auto descriptions = describeParams();
+  if (options.markdown) {
+    std::printf("| parameter | default | unit | meaning |\n| --- | --- | --- | --- |\n");
+    for (const auto& p : descriptions) {
+      std::printf("| `%s` | %s | %s | %s |\n", p.key.c_str(), p.defaultValue.c_str(), p.unit.c_str(),
+                  p.description.c_str());
+    }
+    return kExitOk;
+  }
+  std::size_t width = 0;
+  for (const auto& p : descriptions) width = std::max(width, p.key.size() + p.defaultValue.size() + 3);
+  for (const auto& p : descriptions) {
+    const std::string head = p.key + " = " + p.defaultValue;
+    const std::string unit = p.unit.empty() ? "" : " [" + p.unit + "]";
+    std::printf("%-*s  %s%s\n", static_cast<int>(width), head.c_str(), p.description.c_str(), unit.c_str());
+  }
+  return kExitOk;
+}
+
+}  // namespace piperun::cli

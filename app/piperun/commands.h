@@ -1,0 +1,72 @@
+#pragma once
+// The subcommands of `piperun`; each returns the process exit code (see docs/CLI.md).
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace piperun::cli {
+
+enum ExitCode { kExitOk = 0, kExitUsage = 1, kExitBadInput = 2, kExitInternal = 3 };
+
+struct InfoOptions {
+  std::string input;
+  bool json = false;
+  bool quiet = false;
+};
+int runInfo(const InfoOptions& options);
+
+struct GenerateOptions {
+  std::string preset = "small";
+  std::uint64_t seed = 1;
+  std::string output;
+  std::string truth;
+  double noise = 0.002;
+  double outliers = 0.01;
+  int stations = 0;
+  double density = 1.0;
+  bool labels = false;
+  bool quiet = false;
+};
+int runGenerate(const GenerateOptions& options);
+
+struct EvalOptions {
+  std::string truth;
+  std::string result;
+  bool json = false;
+  double tolerance = 0.0;
+  double step = 0.01;
+};
+int runEval(const EvalOptions& options);
+
+struct ConvertOptions {
+  std::string input;
+  std::string output;
+  bool noNormals = false;
+  bool noColors = false;
+  bool noIntensity = false;
+  bool noLabels = false;
+  bool quiet = false;
+};
+int runConvert(const ConvertOptions& options);
+
+struct ReconstructOptions {
+  std::string input;
+  std::string output;
+  std::string paramsFile;
+  std::vector<std::string> assignments;  ///< "section.key=value"
+  int threads = 0;                       ///< 0: all cores
+  std::int64_t seed = -1;                ///< -1: from the parameters
+  std::string dumpDirectory;
+  std::string truth;                     ///< Optional: evaluate against this network.
+  bool quiet = false;
+};
+int runReconstruct(const ReconstructOptions& options);
+
+struct ParamsOptions {
+  bool json = false;
+  bool markdown = false;
+};
+int runParams(const ParamsOptions& options);
+
+}  // namespace piperun::cli

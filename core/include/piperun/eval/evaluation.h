@@ -1,0 +1,47 @@
+#pragma once
+// Accuracy of a reconstructed network against ground truth (the paper's metric, docs/EVALUATION.md).
+
+#include "piperun/pipe_network.h"
+
+#include <cstddef>
+#include <string>
+
+namespace piperun {
+
+struct EvaluationParams {
+  double sampleStep = 0.01;          ///< Axis polylines are sampled every this many metres.
+  double minTolerance = 0.02;        ///< A sample matches within max(minTolerance, radiusFactor × truth radius)...
+  double radiusFactor = 0.5;         ///< ...of a truth sample.
+  double fixedTolerance = 0.0;       ///< When > 0, this tolerance (m) replaces the rule above.
+  double jointMinDistance = 0.05;    ///< Joints match when their positions are within
+  double jointRadiusFactor = 1.0;    ///< max(jointMinDistance, jointRadiusFactor × truth radius), same type.
+};
+
+struct EvaluationResult {
+  double precision = 0.0;            ///< Share of predicted samples within tolerance of a truth sample.
+  double recall = 0.0;               ///< Share of truth samples within tolerance of a predicted sample.
+  double f1 = 0.0;
+  double radiusErrorMedian = 0.0;    ///< Median |r_pred − r_truth| over matched truth samples (m); 0 when none.
+  std::size_t truthSamples = 0;
+  std::size_t predictedSamples = 0;
+  std::size_t matchedTruthSamples = 0;
+  std::size_t matchedPredictedSamples = 0;
+
+  int truthElbows = 0;
+  int foundElbows = 0;               ///< Truth elbows matched by a predicted elbow.
+  int truthTees = 0;
+  int foundTees = 0;                 ///< Truth tees matched by a predicted tee.
+  int predictedJoints = 0;           ///< Predicted joints that are not rejected.
+  int spuriousJoints = 0;            ///< Predicted joints that match no truth joint.
+  double bendRadiusErrorMedian = 0.0;  ///< Median |R_pred − R_truth| / R_truth over matched elbows.
+};
+
+/// Compares `predicted` with `truth`. Pipes with status Deleted and joints with status Rejected
+/// of the prediction are left out; every element of the truth counts.
+EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& predicted,
+                                 const EvaluationParams& params = {});
+
+/// "precision=0.912 recall=0.874 f1=0.893 radius_err_mm=3.1 elbows=17/20 tees=5/6 ..."
+std::string formatEvaluation(const EvaluationResult& result);
+
+}  // namespace piperun

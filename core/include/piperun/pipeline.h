@@ -1,0 +1,104 @@
+#pragma once
+// The reconstruction pipeline: holds each stage's latest result, re-runs stages with new
+// parameters (marking later ones stale), reports progress and can be cancelled from another thread.
+
+#include "piperun/pipe_network.h"
+#include "piperun/point_cloud.h"
+#include "piperun/progress.h"
+#include "piperun/stages/directions.h"
+#include "piperun/stages/extents.h"
+#include "piperun/stages/merge.h"
+#include "piperun/stages/placement.h"
+#include "piperun/stages/preprocess.h"
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace piperun {
+
+enum class Stage { Preprocess, Directions, Placement, Extents, Merge };
+constexpr int kStageCount = 5;
+constexpr std::array<Stage, kStageCount> kAllStages = {Stage::Preprocess, Stage::Directions, Stage::Placement,
+                                                      Stage::Extents, Stage::Merge};
+
+/// "preprocess", "directions", "placement", "extents", "merge".
+const char* stageName(Stage stage);
+std::optional<Stage> stageFromName(const std::string& name);
+
+struct PipelineParams {
+  std::uint64_t seed = 1;  ///< Seed of every random choice; the same seed gives the same network.
+  int rounds = 2;          ///< Rounds of directions → placement → extents per tile on points not yet explained.
+  PreprocessParams preprocess;
+  DirectionsParams directions;
+  PlacementParams placement;
+  ExtentsParams extents;
+  MergeParams merge;
+};
+
+/// One round of the per-tile stages. Like every stage output, coordinates are in the preprocessed
+/// cloud's local frame (PointCloud::positions, relative to its origin); Pipeline::network() adds
+/// the origin back.
+struct TileRound {
+  std::vector<std::uint32_t> points;  ///< The points this round analysed (the tile's unexplained points).
+  DirectionsResult directions;
+  PlacementResult placement;
+  ExtentsResult extents;
+};
+
+struct TileReconstruction {
+  int tileId = 0;
+  std::vector<TileRound> rounds;
+};
+
+struct StageTiming {
+  double seconds = 0.0;
+};
+
+class Pipeline {
+ public:
+  explicit Pipeline(std::shared_ptr<const PointCloud> input, PipelineParams params = {});
+
+  const PipelineParams& params() const { return params_; }
+  /// Replaces the parameters: the earliest stage whose parameters changed, and every later stage,
+  /// become stale. (The seed and round count affect the tile stages.)
+  void setParams(const PipelineParams& params);
+  /// Marks `stage` and every later stage stale.
+  void invalidate(Stage stage);
+  bool isFresh(Stage stage) const { return fresh_[static_cast<int>(stage)]; }
+
+  /// Runs the stale stages up to and including `last`, in order. Tiles run in parallel; the result
+  /// does not depend on the thread count. progress.cancel() from another thread stops at the next
+  /// safe point and throws Cancelled; results of the stages that had finished are kept, the rest
+  /// stay stale.
+  void run(Progress& progress = Progress::none(), Stage last = Stage::Merge);
+
+  std::shared_ptr<const PointCloud> input() const { return input_; }
+  /// Latest results (null before the stage first ran). A stale stage keeps its previous result
+  /// until it runs again, so a viewer can go on showing it.
+  std::shared_ptr<const PreprocessResult> preprocessResult() const { return preprocess_; }
+  std::shared_ptr<const std::vector<TileReconstruction>> tileResults() const { return tiles_; }
+  std::shared_ptr<const MergeResult> mergeResult() const { return merge_; }
+  double stageSeconds(Stage stage) const { return seconds_[static_cast<int>(stage)]; }
+
+  /// The network of the merged pipes (ids from 1, longest first); empty before the merge ran.
+  PipeNetwork network() const;
+
+ private:
+  void runPreprocess(Progress& progress);
+  void runTiles(Stage first, Stage last, Progress& progress);
+  void runMerge(Progress& progress);
+
+  std::shared_ptr<const PointCloud> input_;
+  PipelineParams params_;
+  std::array<bool, kStageCount> fresh_{};
+  std::array<double, kStageCount> seconds_{};
+  std::shared_ptr<const PreprocessResult> preprocess_;
+  std::shared_ptr<const std::vector<TileReconstruction>> tiles_;
+  std::shared_ptr<const MergeResult> merge_;
+};
+
+}  // namespace piperun

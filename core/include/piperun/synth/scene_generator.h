@@ -1,0 +1,63 @@
+#pragma once
+// Synthetic industrial scenes with ground truth: pipe-runs scanned by simulated terrestrial scanners.
+
+#include "piperun/pipe_network.h"
+#include "piperun/point_cloud.h"
+#include "piperun/progress.h"
+
+#include <cstdint>
+#include <functional>
+#include <string>
+
+namespace piperun {
+
+enum class ScenePreset {
+  Small,   ///< ~300k points, ~6 x 6 x 4 m.
+  Medium,  ///< ~2M points.
+  Large,   ///< ~20M points, generated in bounded memory.
+};
+
+struct SceneParams {
+  ScenePreset preset = ScenePreset::Small;
+  std::uint64_t seed = 1;
+  double noiseSigma = 0.002;       ///< Gaussian noise along the surface normal (m).
+  double outlierFraction = 0.01;   ///< Uniform outliers in the scene box, as a share of the points.
+  int stations = 0;                ///< Scanner stations (1-3); 0 lets the seed choose.
+  double densityScale = 1.0;       ///< Multiplies the preset's angular sampling density (points ~ scale).
+};
+
+struct SceneSummary {
+  std::uint64_t points = 0;
+  std::uint64_t outliers = 0;
+  int stations = 0;
+  int pipes = 0;
+  int elbows = 0;
+  int tees = 0;
+  int runs = 0;
+  int directions = 0;              ///< Distinct pipe directions (principal directions) in the scene.
+  BoundingBox bounds;
+};
+
+/// Receives the scene's points chunk by chunk (world coordinates, labels = truth element id:
+/// the id of the pipe or joint the point lies on, 0 for distractors, -1 for outliers).
+using PointChunkSink = std::function<void(const PointChunk& chunk)>;
+
+/// Generates a scene: fills `truth` (ids unique across pipes and joints) and streams the points
+/// to `sink` in chunks, in a fixed order, so the same params give the same points whatever the
+/// thread count. Memory stays bounded for every preset.
+SceneSummary generateScene(const SceneParams& params, PipeNetwork& truth, const PointChunkSink& sink,
+                           Progress& progress = Progress::none());
+
+/// The same, collected in memory (for tests and small scenes).
+struct GeneratedScene {
+  PointCloud cloud;
+  PipeNetwork truth;
+  SceneSummary summary;
+};
+GeneratedScene generateScene(const SceneParams& params, Progress& progress = Progress::none());
+
+std::string toString(ScenePreset preset);
+/// Parses "small", "medium" or "large"; throws std::invalid_argument otherwise.
+ScenePreset scenePresetFromString(const std::string& name);
+
+}  // namespace piperun

@@ -1,0 +1,237 @@
+// The parameter table: one row per parameter, used for the JSON document, `piperun params`,
+// "key=value" assignments and detecting which stage a change affects.
+
+#include "piperun/params.h"
+
+#include "piperun/error.h"
+
+#include <nlohmann/json.hpp>
+
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <variant>
+
+namespace piperun {
+
+namespace {
+
+using nlohmann::ordered_json;
+using FieldRef = std::variant<double*, int*, bool*, std::uint64_t*>;
+
+struct Field {
+  const char* section;  // "" for top-level keys
+  const char* key;
+  const char* unit;
+  Stage stage;
+  const char* description;
+  FieldRef (*ref)(PipelineParams&);
+};
+
+#define PIPERUN_FIELD(section, key, unit, stage, member, description) \
+  Field { section, key, unit, stage, description, [](PipelineParams& p) -> FieldRef { return &p.member; } }
+
+const std::vector<Field>& fields() {
+  static const std::vector<Field> table = {
+      PIPERUN_FIELD("", "seed", "", Stage::Directions, seed, "Seed of every random choice; the same seed gives the same network"),
+      PIPERUN_FIELD("", "rounds", "", Stage::Directions, rounds, "Rounds of directions, placement and extents per tile on points not yet explained"),
+
+      PIPERUN_FIELD("preprocess", "voxel_size", "m", Stage::Preprocess, preprocess.voxelSize, "Voxel-grid leaf: one point per occupied voxel (0 keeps every point)"),
+      PIPERUN_FIELD("preprocess", "outlier_neighbors", "", Stage::Preprocess, preprocess.outlierNeighbors, "Statistical outlier removal: neighbours whose mean distance is tested"),
+      PIPERUN_FIELD("preprocess", "outlier_std_ratio", "", Stage::Preprocess, preprocess.outlierStdRatio, "Remove points whose mean neighbour distance exceeds mean + ratio x std (0 disables)"),
+      PIPERUN_FIELD("preprocess", "normal_neighbors", "", Stage::Preprocess, preprocess.normalNeighbors, "Neighbours of the PCA normal estimation"),
+      PIPERUN_FIELD("preprocess", "remove_planes", "", Stage::Preprocess, preprocess.removePlanes, "Remove large planar regions (floors, walls, equipment faces)"),
+      PIPERUN_FIELD("preprocess", "plane_cell_size", "m", Stage::Preprocess, preprocess.planeCellSize, "Edge of the cells in which planes are detected"),
+      PIPERUN_FIELD("preprocess", "plane_max_thickness", "m", Stage::Preprocess, preprocess.planeMaxThickness, "A cell is planar when the RMS distance to its plane is below this"),
+      PIPERUN_FIELD("preprocess", "plane_min_area", "m2", Stage::Preprocess, preprocess.planeMinArea, "Connected coplanar cells covering at least this area are removed"),
+      PIPERUN_FIELD("preprocess", "tile_size", "m", Stage::Preprocess, preprocess.tileSize, "Edge of the cubic sub-volumes processed independently"),
+      PIPERUN_FIELD("preprocess", "tile_overlap", "m", Stage::Preprocess, preprocess.tileOverlap, "Margin each sub-volume reaches into its neighbours"),
+
+      PIPERUN_FIELD("directions", "sample_pairs", "", Stage::Directions, directions.samplePairs, "Random normal pairs drawn per round"),
+      PIPERUN_FIELD("directions", "pair_radius", "m", Stage::Directions, directions.pairRadius, "Pairs are drawn among points closer than this"),
+      PIPERUN_FIELD("directions", "min_pair_angle_deg", "deg", Stage::Directions, directions.minPairAngleDeg, "Pairs with normals closer than this to parallel are skipped"),
+      PIPERUN_FIELD("directions", "bandwidth_deg", "deg", Stage::Directions, directions.bandwidthDeg, "Gaussian kernel width of the mean-shift on the sphere"),
+      PIPERUN_FIELD("directions", "merge_angle_deg", "deg", Stage::Directions, directions.mergeAngleDeg, "Modes closer than this are one direction"),
+      PIPERUN_FIELD("directions", "min_support", "", Stage::Directions, directions.minSupport, "A direction needs at least this share of the samples"),
+      PIPERUN_FIELD("directions", "min_stripe_points", "", Stage::Directions, directions.minStripePoints, "A direction needs at least this many points in its stripe"),
+      PIPERUN_FIELD("directions", "stripe_angle_deg", "deg", Stage::Directions, directions.stripeAngleDeg, "A point is in a direction's stripe when its normal is within this of perpendicular"),
+      PIPERUN_FIELD("directions", "max_rounds", "", Stage::Directions, directions.maxRounds, "Repeat on points in no stripe at most this many times"),
+
+      PIPERUN_FIELD("placement", "min_radius", "m", Stage::Placement, placement.minRadius, "Smallest pipe radius searched"),
+      PIPERUN_FIELD("placement", "max_radius", "m", Stage::Placement, placement.maxRadius, "Largest pipe radius searched"),
+      PIPERUN_FIELD("placement", "candidate_pairs", "", Stage::Placement, placement.candidatePairs, "Point pairs drawn per direction for circle candidates"),
+      PIPERUN_FIELD("placement", "radius_agreement", "", Stage::Placement, placement.radiusAgreement, "A pair's two centre distances may differ by this share of the radius (min 2 mm)"),
+      PIPERUN_FIELD("placement", "center_bandwidth", "m", Stage::Placement, placement.centerBandwidth, "Mean-shift kernel width for the circle centre"),
+      PIPERUN_FIELD("placement", "radius_bandwidth", "m", Stage::Placement, placement.radiusBandwidth, "Mean-shift kernel width for the radius"),
+      PIPERUN_FIELD("placement", "min_candidates", "", Stage::Placement, placement.minCandidates, "A circle needs at least this many candidates in its mode"),
+      PIPERUN_FIELD("placement", "inlier_distance", "m", Stage::Placement, placement.inlierDistance, "Inliers lie within this of the cylinder surface"),
+      PIPERUN_FIELD("placement", "inlier_normal_angle_deg", "deg", Stage::Placement, placement.inlierNormalAngleDeg, "Inliers' normals lie within this of the surface normal"),
+      PIPERUN_FIELD("placement", "min_inliers", "", Stage::Placement, placement.minInliers, "Cylinders with fewer inliers are dropped"),
+      PIPERUN_FIELD("placement", "refine_iterations", "", Stage::Placement, placement.refineIterations, "Gauss-Newton iterations of the least-squares refinement"),
+
+      PIPERUN_FIELD("extents", "section_length", "m", Stage::Extents, extents.sectionLength, "Axial section length"),
+      PIPERUN_FIELD("extents", "min_points_per_metre", "1/m", Stage::Extents, extents.minPointsPerMetre, "Axis coverage: points per metre a section needs (0: automatic)"),
+      PIPERUN_FIELD("extents", "min_density_ratio", "", Stage::Extents, extents.minDensityRatio, "Automatic axis coverage: share of the cylinder's median section density"),
+      PIPERUN_FIELD("extents", "min_arc_deg", "deg", Stage::Extents, extents.minArcDeg, "Cross-section coverage: angle around the axis a section must span"),
+      PIPERUN_FIELD("extents", "closing_sections", "", Stage::Extents, extents.closingSections, "1-D closing fills gaps up to this many sections"),
+      PIPERUN_FIELD("extents", "opening_sections", "", Stage::Extents, extents.openingSections, "1-D opening drops pieces shorter than this many sections"),
+      PIPERUN_FIELD("extents", "min_length", "m", Stage::Extents, extents.minLength, "Pipes shorter than this are dropped"),
+
+      PIPERUN_FIELD("merge", "max_angle_deg", "deg", Stage::Merge, merge.maxAngleDeg, "Pieces merge when their axes are at most this far from parallel"),
+      PIPERUN_FIELD("merge", "max_axis_distance", "", Stage::Merge, merge.maxAxisDistance, "...their axes at most this x the smaller radius apart (min 1 cm)"),
+      PIPERUN_FIELD("merge", "max_radius_difference", "", Stage::Merge, merge.maxRadiusDifference, "...their radii within this share of the larger (min 3 mm)"),
+      PIPERUN_FIELD("merge", "max_gap", "m", Stage::Merge, merge.maxGap, "...and they overlap or leave at most this gap"),
+  };
+  return table;
+}
+
+#undef PIPERUN_FIELD
+
+std::string fullKey(const Field& field) {
+  return field.section[0] ? std::string(field.section) + "." + field.key : std::string(field.key);
+}
+
+ordered_json valueJson(const FieldRef& ref) {
+  return std::visit([](auto* value) { return ordered_json(*value); }, ref);
+}
+
+// Sets a field from JSON; false when the JSON value has the wrong type.
+bool assign(const FieldRef& ref, const ordered_json& value) {
+  return std::visit(
+      [&](auto* target) {
+        using T = std::remove_pointer_t<decltype(target)>;
+        if constexpr (std::is_same_v<T, bool>) {
+          if (!value.is_boolean()) return false;
+        } else if constexpr (std::is_same_v<T, double>) {
+          if (!value.is_number()) return false;
+        } else if constexpr (std::is_same_v<T, std::uint64_t>) {
+          if (!value.is_number_unsigned()) return false;
+        } else {
+          if (!value.is_number_integer()) return false;
+          const auto wide = value.get<std::int64_t>();
+          if (wide < std::numeric_limits<int>::min() || wide > std::numeric_limits<int>::max()) return false;
+        }
+        *target = value.get<T>();
+        return true;
+      },
+      ref);
+}
+
+const char* typeName(const FieldRef& ref) {
+  return std::visit(
+      [](auto* target) -> const char* {
+        using T = std::remove_pointer_t<decltype(target)>;
+        if constexpr (std::is_same_v<T, bool>) return "true or false";
+        if constexpr (std::is_same_v<T, double>) return "a number";
+        if constexpr (std::is_same_v<T, std::uint64_t>) return "a non-negative integer";
+        return "an integer";
+      },
+      ref);
+}
+
+}  // namespace
+
+std::vector<ParamDescription> describeParams() {
+  PipelineParams defaults;
+  std::vector<ParamDescription> descriptions;
+  for (const Field& field : fields()) {
+    descriptions.push_back({fullKey(field), valueJson(field.ref(defaults)).dump(), field.unit, field.description});
+  }
+  return descriptions;
+}
+
+std::string paramsToJson(const PipelineParams& params, int indent) {
+  PipelineParams copy = params;
+  ordered_json document = ordered_json::object();
+  for (const Field& field : fields()) {
+    if (field.section[0]) {
+      document[field.section][field.key] = valueJson(field.ref(copy));
+    } else {
+      document[field.key] = valueJson(field.ref(copy));
+    }
+  }
+  return document.dump(indent) + "\n";
+}
+
+PipelineParams paramsFromJson(const std::string& text, const std::filesystem::path& source, const PipelineParams& base) {
+  ordered_json document;
+  try {
+    document = ordered_json::parse(text);
+  } catch (const ordered_json::parse_error& error) {
+    std::string message = error.what();
+    if (const auto colon = message.find(": "); colon != std::string::npos) message = message.substr(colon + 2);
+    throw InputError(source, byteLocation(error.byte > 0 ? error.byte - 1 : 0), "invalid JSON: " + message);
+  }
+  if (!document.is_object()) throw InputError(source, "/", "expected a JSON object of parameters");
+  PipelineParams params = base;
+  const auto findField = [](const std::string& section, const std::string& key) -> const Field* {
+    for (const Field& field : fields()) {
+      if (section == field.section && key == field.key) return &field;
+    }
+    return nullptr;
+  };
+  const auto setFrom = [&](const Field& field, const ordered_json& value, const std::string& pointer) {
+    if (!assign(field.ref(params), value)) {
+      throw InputError(source, pointer, std::string("expected ") + typeName(field.ref(params)));
+    }
+  };
+  for (const auto& [name, value] : document.items()) {
+    if (value.is_object()) {
+      for (const auto& [key, item] : value.items()) {
+        const Field* field = findField(name, key);
+        if (!field) throw InputError(source, "/" + name + "/" + key, "unknown parameter (see `piperun params`)");
+        setFrom(*field, item, "/" + name + "/" + key);
+      }
+    } else {
+      const Field* field = findField("", name);
+      if (!field) throw InputError(source, "/" + name, "unknown parameter (see `piperun params`)");
+      setFrom(*field, value, "/" + name);
+    }
+  }
+  return params;
+}
+
+PipelineParams readParams(const std::filesystem::path& path, const PipelineParams& base) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path, "", "cannot open the parameter file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return paramsFromJson(text.str(), path, base);
+}
+
+std::optional<Stage> firstChangedStage(const PipelineParams& a, const PipelineParams& b) {
+  PipelineParams left = a;
+  PipelineParams right = b;
+  std::optional<Stage> earliest;
+  for (const Field& field : fields()) {
+    if (valueJson(field.ref(left)) != valueJson(field.ref(right))) {
+      if (!earliest || static_cast<int>(field.stage) < static_cast<int>(*earliest)) earliest = field.stage;
+    }
+  }
+  return earliest;
+}
+
+void setParam(PipelineParams& params, const std::string& assignment) {
+  const auto equals = assignment.find('=');
+  if (equals == std::string::npos) {
+    throw std::invalid_argument("expected key=value, got '" + assignment + "'");
+  }
+  const std::string key = assignment.substr(0, equals);
+  const std::string text = assignment.substr(equals + 1);
+  for (const Field& field : fields()) {
+    if (fullKey(field) != key) continue;
+    ordered_json value;
+    try {
+      value = ordered_json::parse(text);
+    } catch (const ordered_json::parse_error&) {
+      throw std::invalid_argument("parameter " + key + ": '" + text + "' is not " + typeName(field.ref(params)));
+    }
+    if (!assign(field.ref(params), value)) {
+      throw std::invalid_argument("parameter " + key + ": '" + text + "' is not " + typeName(field.ref(params)));
+    }
+    return;
+  }
+  throw std::invalid_argument("unknown parameter '" + key + "' (see `piperun params`)");
+}
+
+}  // namespace piperun

@@ -1,0 +1,81 @@
+#include "piperun/spacing.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <unordered_map>
+
+namespace piperun {
+
+namespace {
+Eigen::Vector3i cellOf(const Eigen::Vector3f& p, float cell) { return (p / cell).array().floor().cast<int>(); }
+
+std::uint64_t cellKey(const Eigen::Vector3i& c) {
+  const auto part = [](int v) { return static_cast<std::uint64_t>(static_cast<std::uint32_t>(v) & 0x1FFFFFu); };
+  return part(c.x()) | (part(c.y()) << 21) | (part(c.z()) << 42);
+}
+}  // namespace
+
+double estimatePointSpacing(const PointCloud& cloud, std::size_t samples) {
+  const std::size_t n = cloud.size();
+  if (n < 2 || samples == 0) return 0.0;
+  samples = std::min(samples, n);
+
+  // Cell size: a few times the spacing points would have if they filled the box's largest face
+  // (scans are surfaces, not volumes), so a 3x3x3 block of cells almost always holds the neighbour.
+  const Eigen::Vector3d size = cloud.boundingBox().size();
+  std::array<double, 3> sides = {size.x(), size.y(), size.z()};
+  std::sort(sides.begin(), sides.end());
+  const double face = std::max(sides[1] * sides[2], 1e-12);
+  const auto cell = static_cast<float>(std::max(3.0 * std::sqrt(face / static_cast<double>(n)), 1e-6));
+
+  std::vector<std::size_t> queries(samples);
+  for (std::size_t k = 0; k < samples; ++k) queries[k] = k * n / samples;
+
+  // Index only the points in the 27 cells around each query point.
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells;
+  for (std::size_t q : queries) {
+    const Eigen::Vector3i center = cellOf(cloud.positions[q], cell);
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dz = -1; dz <= 1; ++dz) {
+          cells.try_emplace(cellKey(center + Eigen::Vector3i(dx, dy, dz)));
+        }
+      }
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto found = cells.find(cellKey(cellOf(cloud.positions[i], cell)));
+    if (found != cells.end()) found->second.push_back(static_cast<std::uint32_t>(i));
+  }
+
+  std::vector<double> distances;
+  distances.reserve(samples);
+  for (std::size_t q : queries) {
+    const Eigen::Vector3f& p = cloud.positions[q];
+    const Eigen::Vector3i center = cellOf(p, cell);
+    float best = std::numeric_limits<float>::infinity();
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dz = -1; dz <= 1; ++dz) {
+          const auto& members = cells.at(cellKey(center + Eigen::Vector3i(dx, dy, dz)));
+          for (std::uint32_t i : members) {
+            if (i == q) continue;
+            const float d = (cloud.positions[i] - p).squaredNorm();
+            // Exact duplicates (several returns of one spot) say nothing about spacing.
+            if (d > 0.0f) best = std::min(best, d);
+          }
+        }
+      }
+    }
+    if (std::isfinite(best)) distances.push_back(std::sqrt(static_cast<double>(best)));
+  }
+  if (distances.empty()) return 0.0;
+  const auto middle = distances.begin() + static_cast<std::ptrdiff_t>(distances.size() / 2);
+  std::nth_element(distances.begin(), middle, distances.end());
+  return *middle;
+}
+
+}  // namespace piperun

@@ -1,0 +1,708 @@
+// Stage 2 — principal directions (Qiu, Zhou & Neumann 2014, §4).
+//
+// A pipe's normals all lie on the great circle perpendicular to its axis, so the cross product of two
+// of its normals is the axis. We draw random pairs of nearby points (near, so that most pairs lie on
+// one pipe), map each to d = n_i × n_j folded to the upper hemisphere (d and −d are one axis), and
+// look for the dense spots of these samples on the sphere by mean-shift with a Gaussian kernel on
+// the angle. Pairs of nearly parallel normals (planes, two points close on one pipe) give a
+// meaningless cross product and are skipped, but still count as drawn: a mode's support is its
+// share of all drawn pairs, so the rare noisy pairs on a large plane cannot add up to a direction.
+//
+// Mean-shift: the samples and their antipodes (so modes near the equator are not cut in half) sit
+// in a dense grid of cells as large as the kernel's reach. Every cell holding samples starts one
+// run at their mean, and its samples are taken to converge where that run converges: a coarse but
+// deterministic basin assignment that costs one run per cell instead of one per sample. The kernel
+// is exp((cos θ − 1) / σ²), the Gaussian exp(−θ² / 2σ²) to second order, cut at 3σ.
+//
+// Each strong mode is then refined: the axis minimising Σ w (n·d)² over its stripe is the
+// eigenvector of the smallest eigenvalue of Σ w n nᵀ, with weights that fade out normals far from
+// perpendicular (a robust least-squares fit, iterated a few times). It averages thousands of
+// normals, where a sample carries the noise of two normals amplified by 1 / sin of their angle, so
+// it is far more precise than the mode. The fit also tells when the axis is not determined: when
+// the stripe's normals do not spread around it (a plane's all point one way) the two smallest
+// eigenvalues are alike, and such directions are dropped.
+//
+// Rounds: points in no stripe are analysed again with fresh samples, so a weak direction masked by
+// strong ones appears once their points are gone. Stripes always cover the whole input subset (a
+// point may be in several), so a later direction's stripe is not eaten by earlier ones.
+//
+// Determinism: pairs are drawn in fixed chunks, each from its own random stream seeded by (seed,
+// round, chunk); parallel loops write by index and sums are reduced over fixed blocks in order.
+
+#include "piperun/stages/directions.h"
+
+#include "synth/random.h"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+namespace piperun {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr std::uint64_t kStreamTag = 0xd12ec7;  // Keeps this stage's random streams apart from other stages'.
+constexpr int kPairsPerChunk = 1024;
+constexpr int kPartnerTries = 8;
+constexpr std::uint64_t kNoPair = ~std::uint64_t{0};
+constexpr double kKernelReach = 3.0;      // The kernel is cut at this many bandwidths.
+constexpr int kMaxShiftIterations = 100;
+constexpr double kShiftTolerance = 1e-4;  // Radians: a run has converged when it moves less than this.
+constexpr int kMaxSphereGridResolution = 96;
+constexpr int kMaxFitIterations = 12;
+constexpr double kFitTolerance = 1e-5;     // Radians: the axis fit has settled when it moves less than this.
+constexpr std::size_t kMaxFitNormals = 50000;  // Plenty for a precise axis; an even subsample beyond.
+constexpr double kFinalFitWidthDeg = 1.5;  // Final kernel width of the axis fit: about normal noise.
+constexpr std::size_t kBlockSize = 8192;
+constexpr int kSectors = 6;  // Azimuth sectors of the stripe test.  // Points per block of the fixed-order parallel sums.
+
+double radians(double degrees) { return degrees * kPi / 180.0; }
+
+/// d and −d are one axis: the representative with z > 0 (ties at z = 0 broken by y, then x).
+template <typename Vector>
+Vector foldedUp(const Vector& d) {
+  const bool flip = d.z() < 0 || (d.z() == 0 && (d.y() < 0 || (d.y() == 0 && d.x() < 0)));
+  return flip ? Vector(-d) : d;
+}
+
+/// SplitMix64's finaliser: a bijective mixer, for hashing cell keys and point indices.
+std::uint64_t mix(std::uint64_t z) {
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
+}
+
+bool usableNormal(const Eigen::Vector3f& n) { return n.allFinite() && n.squaredNorm() > 0.25f; }
+
+/// Open addressing from cell keys to dense cell ids, numbered in order of first insertion.
+class CellTable {
+ public:
+  std::uint32_t insert(std::uint64_t key) {
+    if (2 * (static_cast<std::size_t>(size_) + 1) > keys_.size()) grow();
+    const std::size_t slot = probe(key);
+    if (keys_[slot] == kEmpty) {
+      keys_[slot] = key;
+      ids_[slot] = size_++;
+    }
+    return ids_[slot];
+  }
+  std::int64_t find(std::uint64_t key) const {
+    const std::size_t slot = probe(key);
+    return keys_[slot] == kEmpty ? std::int64_t{-1} : std::int64_t{ids_[slot]};
+  }
+  std::uint32_t size() const { return size_; }
+
+ private:
+  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};  // Keys use 63 bits, so never this.
+
+  std::size_t probe(std::uint64_t key) const {
+    const std::size_t mask = keys_.size() - 1;
+    std::size_t slot = static_cast<std::size_t>(mix(key)) & mask;
+    while (keys_[slot] != kEmpty && keys_[slot] != key) slot = (slot + 1) & mask;
+    return slot;
+  }
+  void grow() {
+    std::vector<std::uint64_t> keys(std::max<std::size_t>(1024, 2 * keys_.size()), kEmpty);
+    std::vector<std::uint32_t> ids(keys.size());
+    keys.swap(keys_);
+    ids.swap(ids_);
+    for (std::size_t k = 0; k < keys.size(); ++k) {
+      if (keys[k] == kEmpty) continue;
+      const std::size_t slot = probe(keys[k]);
+      keys_[slot] = keys[k];
+      ids_[slot] = ids[k];
+    }
+  }
+
+  std::vector<std::uint64_t> keys_;
+  std::vector<std::uint32_t> ids_;
+  std::uint32_t size_ = 0;
+};
+
+/// A subset's points bucketed by cubic cell, to draw a random point near another.
+class PointGrid {
+ public:
+  PointGrid(const PointCloud& cloud, const std::vector<std::uint32_t>& points, float cellSize)
+      : cloud_(cloud), points_(points), cellSize_(cellSize), cellOfPoint_(points.size()) {
+    std::vector<std::uint64_t> keys(points.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), kBlockSize), [&](const auto& range) {
+      for (std::size_t k = range.begin(); k != range.end(); ++k) keys[k] = key(cellOf(cloud.positions[points[k]]));
+    });
+    for (std::size_t k = 0; k < points.size(); ++k) cellOfPoint_[k] = cells_.insert(keys[k]);
+    // Counting sort by cell; within a cell the subset's order is kept.
+    starts_.assign(static_cast<std::size_t>(cells_.size()) + 1, 0);
+    for (const std::uint32_t cell : cellOfPoint_) ++starts_[cell + 1];
+    std::partial_sum(starts_.begin(), starts_.end(), starts_.begin());
+    members_.resize(points.size());
+    std::vector<std::uint32_t> fill(starts_.begin(), starts_.end() - 1);
+    for (std::size_t k = 0; k < points.size(); ++k) members_[fill[cellOfPoint_[k]]++] = points[k];
+  }
+
+  std::size_t size() const { return points_.size(); }
+  std::uint32_t point(std::size_t position) const { return points_[position]; }
+
+  /// A random point of the subset within `radius` of the one at `position`, other than it, drawn
+  /// from the 3 × 3 × 3 cells around it; -1 after kPartnerTries misses.
+  std::int64_t randomPartner(std::size_t position, float radius, synth::Rng& rng) const {
+    const std::uint32_t i = points_[position];
+    const Eigen::Vector3f& p = cloud_.positions[i];
+    const Eigen::Vector3i center = cellOf(p);
+    std::array<std::pair<std::uint32_t, std::uint32_t>, 27> ranges;  // (first member, cumulative count)
+    std::uint32_t total = 0;
+    int count = 0;
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dz = -1; dz <= 1; ++dz) {
+          const std::int64_t cell = dx == 0 && dy == 0 && dz == 0
+                                        ? std::int64_t{cellOfPoint_[position]}
+                                        : cells_.find(key(center + Eigen::Vector3i(dx, dy, dz)));
+          if (cell < 0) continue;
+          total += starts_[cell + 1] - starts_[cell];
+          ranges[count++] = {starts_[cell], total};
+        }
+      }
+    }
+    const float radiusSquared = radius * radius;
+    for (int attempt = 0; attempt < kPartnerTries; ++attempt) {
+      const auto pick = static_cast<std::uint32_t>(rng.next() % total);
+      int r = 0;
+      while (pick >= ranges[r].second) ++r;
+      const std::uint32_t before = r == 0 ? 0 : ranges[r - 1].second;
+      const std::uint32_t j = members_[ranges[r].first + (pick - before)];
+      if (j != i && (cloud_.positions[j] - p).squaredNorm() <= radiusSquared) return j;
+    }
+    return -1;
+  }
+
+ private:
+  Eigen::Vector3i cellOf(const Eigen::Vector3f& p) const { return (p / cellSize_).array().floor().cast<int>(); }
+  static std::uint64_t key(const Eigen::Vector3i& c) {
+    const auto part = [](int v) { return static_cast<std::uint64_t>(static_cast<std::uint32_t>(v) & 0x1FFFFFu); };
+    return part(c.x()) | (part(c.y()) << 21) | (part(c.z()) << 42);
+  }
+
+  const PointCloud& cloud_;
+  const std::vector<std::uint32_t>& points_;
+  float cellSize_;
+  CellTable cells_;
+  std::vector<std::uint32_t> cellOfPoint_;  // By position in points_.
+  std::vector<std::uint32_t> starts_;       // Cell c holds members_[starts_[c], starts_[c + 1]).
+  std::vector<std::uint32_t> members_;      // Point indices ordered by cell.
+};
+
+struct RoundSamples {
+  std::vector<Eigen::Vector3f> samples;  // Unit, upper hemisphere.
+  std::size_t pairsDrawn = 0;
+};
+
+RoundSamples drawSamples(const PointCloud& cloud, const std::vector<std::uint32_t>& points,
+                         const DirectionsParams& params, std::uint64_t seed, int round) {
+  RoundSamples result;
+  if (points.size() < 2 || params.samplePairs <= 0) return result;
+  const PointGrid grid(cloud, points, static_cast<float>(params.pairRadius));
+  const auto radius = static_cast<float>(params.pairRadius);
+  const auto minCross = static_cast<float>(std::sin(radians(params.minPairAngleDeg)));
+
+  const auto pairCount = static_cast<std::size_t>(params.samplePairs);
+  std::vector<std::uint64_t> pairs(pairCount, kNoPair);  // (smaller index << 32) | larger index.
+  const std::size_t chunks = (pairCount + kPairsPerChunk - 1) / kPairsPerChunk;
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t chunk) {
+    synth::Rng rng(seed, {kStreamTag, static_cast<std::uint64_t>(round), chunk});
+    const std::size_t end = std::min(pairCount, (chunk + 1) * kPairsPerChunk);
+    for (std::size_t k = chunk * kPairsPerChunk; k < end; ++k) {
+      const std::size_t position = rng.next() % grid.size();
+      const std::int64_t partner = grid.randomPartner(position, radius, rng);
+      if (partner < 0) continue;
+      const auto i = std::uint64_t{grid.point(position)}, j = static_cast<std::uint64_t>(partner);
+      pairs[k] = (std::min(i, j) << 32) | std::max(i, j);
+    }
+  });
+
+  // A pair drawn twice would put two identical samples on the sphere: a peak made by chance.
+  std::vector<std::uint64_t> order(pairs);
+  std::sort(order.begin(), order.end());
+  order.erase(std::unique(order.begin(), order.end()), order.end());
+  std::vector<char> seen(order.size(), 0);
+  for (const std::uint64_t pair : pairs) {
+    if (pair == kNoPair) continue;
+    const auto slot = static_cast<std::size_t>(std::lower_bound(order.begin(), order.end(), pair) - order.begin());
+    if (seen[slot]) continue;
+    seen[slot] = 1;
+    ++result.pairsDrawn;
+    const Eigen::Vector3f d = cloud.normals[pair >> 32].cross(cloud.normals[pair & 0xFFFFFFFFu]);
+    const float length = d.norm();
+    if (length >= minCross) result.samples.push_back(foldedUp(Eigen::Vector3f(d / length)));
+  }
+  return result;
+}
+
+/// The samples and their antipodes in a dense grid of cubic cells over [-1, 1]³.
+class SphereGrid {
+ public:
+  SphereGrid(const std::vector<Eigen::Vector3f>& samples, double cellSize)
+      // Cells at least cellSize wide, so the 3 × 3 × 3 block around a point holds all within cellSize.
+      : resolution_(std::clamp(static_cast<int>(std::floor(2.0 / cellSize)), 1, kMaxSphereGridResolution)),
+        cellSize_(static_cast<float>(2.0 / resolution_)) {
+    const std::size_t cellCount = static_cast<std::size_t>(resolution_) * resolution_ * resolution_;
+    starts_.assign(cellCount + 1, 0);
+    for (const Eigen::Vector3f& s : samples) {
+      ++starts_[cellOf(s) + 1];
+      ++starts_[cellOf(-s) + 1];
+    }
+    std::partial_sum(starts_.begin(), starts_.end(), starts_.begin());
+    points_.resize(2 * samples.size());
+    entries_.resize(2 * samples.size());
+    std::vector<std::uint32_t> fill(starts_.begin(), starts_.end() - 1);
+    for (std::size_t k = 0; k < samples.size(); ++k) {
+      for (const bool antipode : {false, true}) {
+        const Eigen::Vector3f p = antipode ? Eigen::Vector3f(-samples[k]) : samples[k];
+        const std::uint32_t slot = fill[cellOf(p)]++;
+        points_[slot] = p;
+        entries_[slot] = static_cast<std::uint32_t>(2 * k + (antipode ? 1 : 0));
+      }
+    }
+  }
+
+  std::size_t cellCount() const { return starts_.size() - 1; }
+  std::size_t cellOf(const Eigen::Vector3f& x) const {
+    const auto axis = [&](float v) {
+      return static_cast<std::size_t>(std::clamp(static_cast<int>(std::floor((v + 1.0f) / cellSize_)), 0, resolution_ - 1));
+    };
+    return (axis(x.z()) * resolution_ + axis(x.y())) * resolution_ + axis(x.x());
+  }
+  /// Slots [first, second) of cell c.
+  std::pair<std::uint32_t, std::uint32_t> cell(std::size_t c) const { return {starts_[c], starts_[c + 1]}; }
+  const Eigen::Vector3f& point(std::uint32_t slot) const { return points_[slot]; }
+  /// 2 × sample index, + 1 for the antipode.
+  std::uint32_t entry(std::uint32_t slot) const { return entries_[slot]; }
+
+  /// Calls visit(point) for every point in the 3 × 3 × 3 cells around x.
+  template <typename Visit>
+  void forNeighbours(const Eigen::Vector3f& x, Visit&& visit) const {
+    const std::size_t c = cellOf(x);
+    const auto r = static_cast<std::size_t>(resolution_);
+    const std::size_t cx = c % r, cy = (c / r) % r, cz = c / (r * r);
+    for (std::size_t z = cz == 0 ? 0 : cz - 1; z <= std::min(cz + 1, r - 1); ++z) {
+      for (std::size_t y = cy == 0 ? 0 : cy - 1; y <= std::min(cy + 1, r - 1); ++y) {
+        const std::size_t row = (z * r + y) * r;
+        const std::size_t first = row + (cx == 0 ? 0 : cx - 1), last = row + std::min(cx + 1, r - 1);
+        for (std::uint32_t slot = starts_[first]; slot < starts_[last + 1]; ++slot) visit(points_[slot]);
+      }
+    }
+  }
+
+ private:
+  int resolution_;
+  float cellSize_;
+  std::vector<std::uint32_t> starts_;
+  std::vector<Eigen::Vector3f> points_;
+  std::vector<std::uint32_t> entries_;
+};
+
+struct Modes {
+  std::vector<Eigen::Vector3d> axes;      // Upper hemisphere, by support, strongest first.
+  std::vector<std::size_t> sampleCounts;  // Samples that converged to each mode.
+  std::vector<int> sampleMode;            // Mode of each sample, -1 for none.
+};
+
+Modes findModes(const std::vector<Eigen::Vector3f>& samples, const DirectionsParams& params) {
+  Modes result;
+  result.sampleMode.assign(samples.size(), -1);
+  if (samples.empty()) return result;
+  const double sigma = radians(params.bandwidthDeg);
+  const double reach = kKernelReach * sigma;
+  const SphereGrid grid(samples, 2.0 * std::sin(0.5 * reach));
+  const auto kappa = static_cast<float>(1.0 / (sigma * sigma));
+  const auto cosReach = static_cast<float>(std::cos(reach));
+
+  // Seeds: the mean of the samples (not antipodes) in each cell; sampleSeed maps samples to seeds.
+  std::vector<Eigen::Vector3f> seeds;
+  std::vector<int> sampleSeed(samples.size(), -1);
+  for (std::size_t c = 0; c < grid.cellCount(); ++c) {
+    const auto [first, last] = grid.cell(c);
+    Eigen::Vector3f sum = Eigen::Vector3f::Zero();
+    for (std::uint32_t slot = first; slot < last; ++slot) {
+      if (grid.entry(slot) % 2 != 0) continue;
+      sum += grid.point(slot);
+      sampleSeed[grid.entry(slot) / 2] = static_cast<int>(seeds.size());
+    }
+    if (sum != Eigen::Vector3f::Zero()) seeds.push_back(sum.normalized());
+  }
+
+  // One mean-shift run per seed; each writes its own slot.
+  std::vector<Eigen::Vector3f> converged(seeds.size());
+  std::vector<double> density(seeds.size(), 0.0);
+  tbb::parallel_for(std::size_t{0}, seeds.size(), [&](std::size_t s) {
+    Eigen::Vector3f x = seeds[s];
+    double weightSum = 0.0;
+    for (int iteration = 0; iteration < kMaxShiftIterations; ++iteration) {
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      weightSum = 0.0;
+      grid.forNeighbours(x, [&](const Eigen::Vector3f& p) {
+        const float cosine = p.dot(x);
+        if (cosine < cosReach) return;
+        const double w = std::exp(kappa * (cosine - 1.0f));
+        mean += w * p.cast<double>();
+        weightSum += w;
+      });
+      const double length = mean.norm();
+      if (!(length > 0.0)) break;
+      const Eigen::Vector3f next = (mean / length).cast<float>();
+      const float step = (next - x).norm();
+      x = next;
+      if (step < kShiftTolerance) break;
+    }
+    converged[s] = foldedUp(x);
+    density[s] = weightSum;
+  });
+
+  // Merge the converged points, densest first, into modes at least mergeAngle apart.
+  std::vector<std::size_t> order(seeds.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return density[a] > density[b]; });
+  const double cosMerge = std::cos(radians(params.mergeAngleDeg));
+  std::vector<int> seedMode(seeds.size(), -1);
+  std::vector<Eigen::Vector3d> axes;
+  for (const std::size_t s : order) {
+    if (!(density[s] > 0.0)) continue;
+    const Eigen::Vector3d x = converged[s].cast<double>().normalized();
+    int mode = -1;
+    for (std::size_t m = 0; m < axes.size() && mode < 0; ++m) {
+      if (std::fabs(axes[m].dot(x)) >= cosMerge) mode = static_cast<int>(m);
+    }
+    if (mode < 0) {
+      mode = static_cast<int>(axes.size());
+      axes.push_back(x);
+    }
+    seedMode[s] = mode;
+  }
+
+  std::vector<std::size_t> counts(axes.size(), 0);
+  for (const int seed : sampleSeed) {
+    if (seed >= 0 && seedMode[seed] >= 0) ++counts[seedMode[seed]];
+  }
+  std::vector<int> byStrength(axes.size());
+  std::iota(byStrength.begin(), byStrength.end(), 0);
+  std::stable_sort(byStrength.begin(), byStrength.end(), [&](int a, int b) { return counts[a] > counts[b]; });
+  std::vector<int> rank(axes.size());
+  for (std::size_t r = 0; r < byStrength.size(); ++r) {
+    const int mode = byStrength[r];
+    rank[mode] = static_cast<int>(r);
+    result.axes.push_back(axes[mode]);
+    result.sampleCounts.push_back(counts[mode]);
+  }
+  for (std::size_t k = 0; k < samples.size(); ++k) {
+    const int seed = sampleSeed[k];
+    if (seed >= 0 && seedMode[seed] >= 0) result.sampleMode[k] = rank[seedMode[seed]];
+  }
+  return result;
+}
+
+/// How far the kernel density at `axis` stands above its surroundings, in standard deviations.
+/// The samples in the ring from the kernel's reach to three times it give the local background
+/// density λ (per steradian); spread evenly, such samples would give a kernel density of mean
+/// 2πσ²λ and variance πσ²λ (the integrals of the kernel and its square over the sphere). A local
+/// background, not the global mean, so that a broad unevenness (the normals left once earlier
+/// stripes are removed are uneven) is not taken for a peak.
+double peakSignificance(const std::vector<Eigen::Vector3f>& samples, const Eigen::Vector3d& axis, double sigma) {
+  const double reach = kKernelReach * sigma;
+  const double cosReach = std::cos(reach), cosRing = std::cos(3.0 * reach);
+  const double kappa = 1.0 / (sigma * sigma);
+  double core = 0.0;
+  std::size_t ring = 0;
+  for (const Eigen::Vector3f& s : samples) {
+    const double cosine = std::fabs(s.cast<double>().dot(axis));  // The nearer of s and its antipode.
+    if (cosine >= cosReach) {
+      core += std::exp(kappa * (cosine - 1.0));
+    } else if (cosine >= cosRing) {
+      ++ring;
+    }
+  }
+  // At least one sample's worth of background, so that a lone sample in an empty ring is no peak.
+  const double ringArea = 2.0 * kPi * (cosReach - cosRing);
+  const double background = std::max<double>(ring, 1.0) / ringArea;
+  const double mean = 2.0 * kPi * sigma * sigma * background;
+  const double deviation = std::sqrt(kPi * sigma * sigma * background);
+  return (core - mean) / deviation;
+}
+
+/// Sums f(k) over k in [0, count) in parallel, block by block, adding the block sums in order so
+/// that the result does not depend on the thread count.
+template <typename T, typename Term>
+T orderedSum(std::size_t count, const T& zero, Term&& term) {
+  const std::size_t blocks = (count + kBlockSize - 1) / kBlockSize;
+  std::vector<T> partial(blocks, zero);
+  tbb::parallel_for(std::size_t{0}, blocks, [&](std::size_t block) {
+    T sum = zero;
+    const std::size_t end = std::min(count, (block + 1) * kBlockSize);
+    for (std::size_t k = block * kBlockSize; k < end; ++k) term(k, sum);
+    partial[block] = sum;
+  });
+  T total = zero;
+  for (const T& sum : partial) total += sum;
+  return total;
+}
+
+/// Refines a mode into the axis its stripe's normals are most nearly perpendicular to: the axis
+/// minimising Σ w (n·d)², with Gaussian weights on n·d whose width shrinks from half the stripe to
+/// kFinalFitWidthDeg, so that the fit first finds its way from the mode and then listens only to
+/// normals within noise of perpendicular (a floor at 7° from a sloped pipe's stripe no longer pulls).
+Eigen::Vector3d fitAxis(const PointCloud& cloud, const std::vector<std::uint32_t>& points, Eigen::Vector3d axis,
+                        double sinStripe) {
+  const Eigen::Vector3f start = axis.cast<float>();
+  std::vector<Eigen::Vector3f> normals;
+  for (const std::uint32_t i : points) {
+    if (std::fabs(cloud.normals[i].dot(start)) < sinStripe) normals.push_back(cloud.normals[i]);
+  }
+  if (normals.size() > kMaxFitNormals) {
+    const std::size_t stride = (normals.size() + kMaxFitNormals - 1) / kMaxFitNormals;
+    for (std::size_t k = 0; k * stride < normals.size(); ++k) normals[k] = normals[k * stride];
+    normals.resize((normals.size() + stride - 1) / stride);
+  }
+  const double cosTolerance = std::cos(kFitTolerance);
+  const double finalWidth = std::sin(radians(kFinalFitWidthDeg));
+  double width = 0.5 * sinStripe;
+  for (int iteration = 0; iteration < kMaxFitIterations; ++iteration) {
+    const double inverseScale = 1.0 / (2.0 * width * width);
+    const Eigen::Matrix3d scatter = orderedSum(normals.size(), Eigen::Matrix3d::Zero().eval(), [&](std::size_t k, Eigen::Matrix3d& sum) {
+      const Eigen::Vector3d n = normals[k].cast<double>();
+      const double along = n.dot(axis);
+      sum.noalias() += std::exp(-along * along * inverseScale) * (n * n.transpose());
+    });
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(scatter);
+    const Eigen::Vector3d next = foldedUp(Eigen::Vector3d(solver.eigenvectors().col(0).normalized()));
+    const bool settled = width <= finalWidth && std::fabs(next.dot(axis)) > cosTolerance;
+    axis = next;
+    if (settled) break;
+    width = std::max(finalWidth, 0.5 * width);
+  }
+  return axis;
+}
+
+/// A direction's stripe and how well its normals determine the axis.
+struct Stripe {
+  std::vector<std::uint32_t> positions;  // Positions in the analysed subset, ascending.
+  double rmsAngleDeg = 0.0;              // RMS angle of the normals from perpendicular.
+  double spreadRatio = 0.0;              // Spread of the normals around the axis over their stray from perpendicular.
+};
+
+Stripe collectStripe(const PointCloud& cloud, const std::vector<std::uint32_t>& points, const Eigen::Vector3d& axis,
+                     double sinStripe) {
+  const Eigen::Vector3f d = axis.cast<float>();
+  const auto inStripe = [&](std::size_t k) { return std::fabs(cloud.normals[points[k]].dot(d)) < sinStripe; };
+  // Plain Σ n nᵀ over the stripe: how much the normals spread around the axis (the smaller
+  // eigenvalue in the plane perpendicular to it) against how much they stray from it (Σ (n·d)²).
+  const Eigen::Matrix3d scatter = orderedSum(points.size(), Eigen::Matrix3d::Zero().eval(), [&](std::size_t k, Eigen::Matrix3d& sum) {
+    if (!inStripe(k)) return;
+    const Eigen::Vector3d n = cloud.normals[points[k]].cast<double>();
+    sum.noalias() += n * n.transpose();
+  });
+  Stripe stripe;
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    if (inStripe(k)) stripe.positions.push_back(static_cast<std::uint32_t>(k));
+  }
+  if (stripe.positions.empty()) return stripe;
+  const double stray = axis.dot(scatter * axis);
+  const Eigen::Vector3d u = axis.unitOrthogonal();
+  const Eigen::Vector3d v = axis.cross(u);
+  Eigen::Matrix2d inPlane;
+  inPlane << u.dot(scatter * u), u.dot(scatter * v), v.dot(scatter * u), v.dot(scatter * v);
+  const double spread = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(inPlane).eigenvalues()(0);
+  stripe.spreadRatio = stray > 0.0 ? spread / stray : std::numeric_limits<double>::infinity();
+  // For small angles the angle is n·d; the stripe is at most a few degrees wide.
+  stripe.rmsAngleDeg = std::sqrt(stray / static_cast<double>(stripe.positions.size())) * 180.0 / kPi;
+  return stripe;
+}
+
+/// How far a stripe stands above chance among the round's points, in standard deviations.
+///
+/// Normals of random orientation fall as often within the stripe (|n·d| < s) as in the band beside
+/// it (s ≤ |n·d| < 2s): on the sphere, area is uniform in n·d (Archimedes), so moving a normal by
+/// ±s in n·d at fixed azimuth maps one band onto the other. A pipe's normals fall within. Two
+/// things spoil the even chance and are taken out. Normals in earlier rounds' stripes are gone, so
+/// a point counts only when its image in the other band lies outside those stripes too. A plane
+/// whose normal lies in the band beside (a floor beside a sloped pipe's stripe) is no chance
+/// either: the bands are compared sector by sector of azimuth around the axis, and only the
+/// sectors where the stripe holds more are summed, so the plane hides no more than its sector.
+double stripeSignificance(const PointCloud& cloud, const std::vector<std::uint32_t>& points, const Eigen::Vector3d& axis,
+                          const std::vector<Eigen::Vector3f>& earlierAxes, double sinStripe) {
+  using Counts = Eigen::Array<double, 2, kSectors>;  // Row 0 within the stripe, row 1 beside it.
+  const Eigen::Vector3f d = axis.cast<float>();
+  const Eigen::Vector3d u3 = axis.unitOrthogonal();
+  const Eigen::Vector3f u = u3.cast<float>(), v = axis.cross(u3).cast<float>();
+  const auto s = static_cast<float>(sinStripe);
+  const Counts counts = orderedSum(points.size(), Counts::Zero().eval(), [&](std::size_t k, Counts& sum) {
+    const Eigen::Vector3f& n = cloud.normals[points[k]];
+    const float along = n.dot(d);
+    const float distance = std::fabs(along);
+    if (distance >= 2.0f * s) return;
+    const bool within = distance < s;
+    const float imageAlong = along + std::copysign(within ? s : -s, along);
+    const Eigen::Vector3f across = (n - along * d).normalized();
+    const Eigen::Vector3f image = std::sqrt(std::max(0.0f, 1.0f - imageAlong * imageAlong)) * across + imageAlong * d;
+    for (const Eigen::Vector3f& earlier : earlierAxes) {
+      if (std::fabs(image.dot(earlier)) < s) return;
+    }
+    // Azimuth modulo π: n and −n are one normal.
+    float azimuth = std::atan2(n.dot(v), n.dot(u));
+    if (azimuth < 0.0f) azimuth += static_cast<float>(kPi);
+    const int sector = std::min(kSectors - 1, static_cast<int>(azimuth / static_cast<float>(kPi) * kSectors));
+    sum(within ? 0 : 1, sector) += 1.0;
+  });
+  double excess = 0.0, variance = 0.0;
+  for (int sector = 0; sector < kSectors; ++sector) {
+    if (counts(0, sector) <= counts(1, sector)) continue;
+    excess += counts(0, sector) - counts(1, sector);
+    variance += counts(0, sector) + counts(1, sector);
+  }
+  return variance > 0.0 ? excess / std::sqrt(variance) : 0.0;
+}
+
+void checkParams(const DirectionsParams& p) {
+  const auto require = [](bool ok, const char* what) {
+    if (!ok) throw std::invalid_argument(std::string("detectDirections: ") + what);
+  };
+  require(p.samplePairs >= 0, "samplePairs must be at least 0");
+  require(p.pairRadius > 0.0, "pairRadius must be positive");
+  require(p.minPairAngleDeg >= 0.0 && p.minPairAngleDeg < 90.0, "minPairAngleDeg must lie in [0, 90)");
+  require(p.bandwidthDeg > 0.0 && p.bandwidthDeg <= 30.0, "bandwidthDeg must lie in (0, 30]");
+  require(p.mergeAngleDeg >= 0.0 && p.mergeAngleDeg < 90.0, "mergeAngleDeg must lie in [0, 90)");
+  require(p.minSupport >= 0.0 && p.minSupport <= 1.0, "minSupport must lie in [0, 1]");
+  require(p.minSignificance >= 0.0, "minSignificance must be at least 0");
+  require(p.minStripePoints >= 0, "minStripePoints must be at least 0");
+  require(p.stripeAngleDeg > 0.0 && p.stripeAngleDeg <= 30.0, "stripeAngleDeg must lie in (0, 30]");
+  require(p.minSpreadRatio >= 0.0, "minSpreadRatio must be at least 0");
+  require(p.maxRounds >= 0, "maxRounds must be at least 0");
+}
+
+}  // namespace
+
+DirectionsResult detectDirections(const DirectionsInput& input, const DirectionsParams& params, Progress& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  checkParams(params);
+  const PointCloud& cloud = input.cloud;
+  if (!cloud.hasNormals()) throw std::invalid_argument("detectDirections: the cloud has no normals");
+
+  DirectionsResult result;
+  result.diagnostics.inputPoints = input.points.size();
+  std::vector<std::uint32_t> usable;
+  usable.reserve(input.points.size());
+  for (const std::uint32_t i : input.points) {
+    if (i >= cloud.size()) {
+      throw std::out_of_range("detectDirections: point index " + std::to_string(i) + " is beyond the cloud's " +
+                              std::to_string(cloud.size()) + " points");
+    }
+    if (usableNormal(cloud.normals[i])) usable.push_back(i);
+  }
+  result.diagnostics.ignoredPoints = input.points.size() - usable.size();
+
+  const double sinStripe = std::sin(radians(params.stripeAngleDeg));
+  const double cosMerge = std::cos(radians(params.mergeAngleDeg));
+  const auto minPoints = std::max<std::size_t>(2, static_cast<std::size_t>(params.minStripePoints));
+  std::vector<char> covered(usable.size(), 0);  // By position in `usable`: in some stripe.
+  std::size_t uncovered = usable.size();
+  for (int round = 0; round < params.maxRounds && uncovered >= minPoints; ++round) {
+    const auto reportPhase = [&](double phase) {
+      progress.report("directions", (round + phase) / params.maxRounds);
+    };
+    progress.checkCancelled();
+    reportPhase(0.0);
+
+    // The round's points (those in no stripe yet) are split at random in two: directions are
+    // searched for (samples, mode, axis fit) without the held-out half, and tested on it alone. A
+    // test on the points the search maximised over would find a "significant" stripe in any noise.
+    std::vector<char> heldOut(usable.size(), 0);
+    std::vector<std::uint32_t> searchPoints, testPoints, fitPoints;
+    for (std::size_t k = 0; k < usable.size(); ++k) {
+      heldOut[k] = !covered[k] && (mix(input.seed ^ mix(kStreamTag + static_cast<std::uint64_t>(round)) ^ usable[k]) & 1);
+      if (heldOut[k]) {
+        testPoints.push_back(usable[k]);
+      } else {
+        fitPoints.push_back(usable[k]);
+        if (!covered[k]) searchPoints.push_back(usable[k]);
+      }
+    }
+    const RoundSamples drawn = drawSamples(cloud, searchPoints, params, input.seed, round);
+    result.diagnostics.pairsDrawn += drawn.pairsDrawn;
+    result.diagnostics.rounds = round + 1;
+    progress.checkCancelled();
+    reportPhase(0.3);
+    const Modes modes = findModes(drawn.samples, params);
+    progress.checkCancelled();
+    reportPhase(0.6);
+
+    const std::vector<char> coveredBefore = covered;
+    std::vector<Eigen::Vector3f> earlierAxes;
+    for (const PrincipalDirection& direction : result.directions) earlierAxes.push_back(direction.axis.cast<float>());
+    const std::size_t firstNew = result.directions.size();
+    std::vector<int> modeDirection(modes.axes.size(), -1);
+    for (std::size_t m = 0; m < modes.axes.size(); ++m) {
+      const double support = static_cast<double>(modes.sampleCounts[m]) / static_cast<double>(drawn.pairsDrawn);
+      if (support < params.minSupport) break;
+      if (peakSignificance(drawn.samples, modes.axes[m], radians(params.bandwidthDeg)) < params.minSignificance) continue;
+      ++result.diagnostics.modes;
+      progress.checkCancelled();
+      const Eigen::Vector3d axis = fitAxis(cloud, fitPoints, modes.axes[m], sinStripe);
+
+      // Modes that refine to an axis already found are that direction.
+      int same = -1;
+      for (std::size_t d = 0; d < result.directions.size() && same < 0; ++d) {
+        if (std::fabs(result.directions[d].axis.dot(axis)) >= cosMerge) same = static_cast<int>(d);
+      }
+      if (same >= 0) {
+        modeDirection[m] = same;
+        if (static_cast<std::size_t>(same) >= firstNew) result.directions[same].support += support;
+        continue;
+      }
+
+      const Stripe stripe = collectStripe(cloud, usable, axis, sinStripe);
+      // It must explain enough of the points it was found among (all of them in the first round).
+      const auto roundPoints = static_cast<std::size_t>(std::count_if(
+          stripe.positions.begin(), stripe.positions.end(), [&](std::uint32_t k) { return !coveredBefore[k]; }));
+      if (roundPoints == 0 || roundPoints < static_cast<std::size_t>(params.minStripePoints) ||
+          stripe.spreadRatio < params.minSpreadRatio ||
+          stripeSignificance(cloud, testPoints, axis, earlierAxes, sinStripe) < params.minSignificance) {
+        continue;
+      }
+      PrincipalDirection direction;
+      direction.axis = axis;
+      direction.support = support;
+      direction.round = round;
+      direction.rmsAngleDeg = stripe.rmsAngleDeg;
+      direction.stripe.reserve(stripe.positions.size());
+      for (const std::uint32_t k : stripe.positions) {
+        direction.stripe.push_back(usable[k]);
+        if (!covered[k]) --uncovered;
+        covered[k] = 1;
+      }
+      modeDirection[m] = static_cast<int>(result.directions.size());
+      result.directions.push_back(std::move(direction));
+    }
+
+    for (std::size_t k = 0; k < drawn.samples.size(); ++k) {
+      result.samples.push_back(drawn.samples[k]);
+      const int mode = modes.sampleMode[k];
+      result.sampleDirection.push_back(mode >= 0 ? modeDirection[mode] : -1);
+    }
+    if (result.directions.size() == firstNew) break;
+  }
+  result.diagnostics.unexplainedPoints = uncovered;
+  progress.report("directions", 1.0);
+  result.diagnostics.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+}  // namespace piperun

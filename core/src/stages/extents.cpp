@@ -1,0 +1,185 @@
+// Stage 4 — extents (paper §5.2).
+//
+// A cylinder from placement is infinite and its inliers may come from several pipes on one line,
+// from a pipe with occluded stretches, or from stray points that happen to lie on the surface.
+// Along the axis the inliers are cut into sections; a section passes when it holds enough points
+// (axis coverage) and its points spread around the axis (cross-section coverage: the angle they
+// span, i.e. 360° minus the largest angular gap, which a thin sliver of a neighbouring surface or
+// a few stray points do not reach). On the pass mask a 1-D closing bridges short occlusions and an
+// opening then removes isolated passing sections; each remaining run of sections is a pipe that
+// ends at its extreme inliers.
+
+#include "piperun/stages/extents.h"
+
+#include <Eigen/Geometry>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+namespace piperun {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+/// Spans [first, last) of sections in a mask.
+struct Run {
+  std::size_t first, last;
+};
+
+std::vector<Run> runsOf(const std::vector<bool>& mask) {
+  std::vector<Run> runs;
+  for (std::size_t k = 0; k < mask.size(); ++k) {
+    if (!mask[k]) continue;
+    if (runs.empty() || runs.back().last != k) runs.push_back({k, k});
+    runs.back().last = k + 1;
+  }
+  return runs;
+}
+
+/// 1-D closing (interior gaps of at most `closing` sections are filled; the mask never grows past
+/// its outermost passing sections) followed by an opening (runs shorter than `opening` go).
+std::vector<bool> closeThenOpen(const std::vector<bool>& pass, int closing, int opening) {
+  std::vector<bool> mask = pass;
+  const std::vector<Run> runs = runsOf(mask);
+  for (std::size_t r = 1; r < runs.size(); ++r) {
+    if (runs[r].first - runs[r - 1].last <= static_cast<std::size_t>(std::max(0, closing))) {
+      std::fill(mask.begin() + runs[r - 1].last, mask.begin() + runs[r].first, true);
+    }
+  }
+  for (const Run& run : runsOf(mask)) {
+    if (run.last - run.first < static_cast<std::size_t>(std::max(0, opening))) {
+      std::fill(mask.begin() + run.first, mask.begin() + run.last, false);
+    }
+  }
+  return mask;
+}
+
+/// The angle (degrees) spanned by sorted angles (radians) on the circle: 360° minus the largest gap.
+double spannedDeg(const std::vector<double>& sortedAngles) {
+  if (sortedAngles.size() < 2) return 0.0;
+  double largestGap = sortedAngles.front() + 2.0 * kPi - sortedAngles.back();
+  for (std::size_t k = 1; k < sortedAngles.size(); ++k) largestGap = std::max(largestGap, sortedAngles[k] - sortedAngles[k - 1]);
+  return 360.0 - largestGap * 180.0 / kPi;
+}
+
+std::vector<PipeSegment> segmentsOf(const PointCloud& cloud, const Cylinder& cylinder, int cylinderIndex,
+                                    const ExtentsParams& params, std::size_t& sectionCount, std::size_t& keptCount) {
+  std::vector<PipeSegment> segments;
+  const std::size_t n = cylinder.inliers.size();
+  if (n == 0 || !(params.sectionLength > 0.0)) return segments;
+  const Eigen::Vector3d axis = cylinder.direction.normalized();
+  Eigen::Index smallest = 0;
+  axis.cwiseAbs().minCoeff(&smallest);
+  const Eigen::Vector3d b1 = axis.cross(Eigen::Vector3d::Unit(smallest)).normalized();
+  const Eigen::Vector3d b2 = axis.cross(b1);
+
+  std::vector<double> along(n), angle(n), offset(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d q = cloud.positions[cylinder.inliers[i]].cast<double>() - cylinder.point;
+    along[i] = q.dot(axis);
+    const Eigen::Vector3d radial = q - along[i] * axis;
+    angle[i] = std::atan2(radial.dot(b2), radial.dot(b1));
+    offset[i] = radial.norm() - cylinder.radius;
+  }
+  const auto [lowest, highest] = std::minmax_element(along.begin(), along.end());
+  const double start = *lowest;
+  const std::size_t sections = static_cast<std::size_t>((*highest - start) / params.sectionLength) + 1;
+  const auto sectionOf = [&](std::size_t i) {
+    return std::min(sections - 1, static_cast<std::size_t>((along[i] - start) / params.sectionLength));
+  };
+
+  // Counting sort of the inliers by section.
+  std::vector<std::size_t> begin(sections + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) ++begin[sectionOf(i) + 1];
+  std::partial_sum(begin.begin(), begin.end(), begin.begin());
+  std::vector<std::uint32_t> order(n);
+  {
+    std::vector<std::size_t> fill(begin.begin(), begin.end() - 1);
+    for (std::size_t i = 0; i < n; ++i) order[fill[sectionOf(i)]++] = static_cast<std::uint32_t>(i);
+  }
+
+  // Axis coverage threshold, in points per section.
+  double minPoints = params.minPointsPerMetre * params.sectionLength;
+  if (!(params.minPointsPerMetre > 0.0)) {
+    std::vector<std::size_t> counts;
+    for (std::size_t k = 0; k < sections; ++k) {
+      if (begin[k + 1] > begin[k]) counts.push_back(begin[k + 1] - begin[k]);
+    }
+    std::nth_element(counts.begin(), counts.begin() + counts.size() / 2, counts.end());
+    minPoints = params.minDensityRatio * static_cast<double>(counts[counts.size() / 2]);
+  }
+
+  std::vector<bool> pass(sections, false);
+  std::vector<double> angles;
+  for (std::size_t k = 0; k < sections; ++k) {
+    const std::size_t count = begin[k + 1] - begin[k];
+    if (count == 0 || static_cast<double>(count) < minPoints) continue;
+    angles.clear();
+    for (std::size_t j = begin[k]; j < begin[k + 1]; ++j) angles.push_back(angle[order[j]]);
+    std::sort(angles.begin(), angles.end());
+    pass[k] = spannedDeg(angles) >= params.minArcDeg;
+  }
+  const std::vector<bool> mask = closeThenOpen(pass, params.closingSections, params.openingSections);
+  sectionCount += sections;
+  keptCount += static_cast<std::size_t>(std::count(mask.begin(), mask.end(), true));
+
+  for (const Run& run : runsOf(mask)) {
+    PipeSegment segment;
+    double low = std::numeric_limits<double>::infinity(), high = -low, sum2 = 0.0;
+    for (std::size_t j = begin[run.first]; j < begin[run.last]; ++j) {
+      const std::uint32_t i = order[j];
+      low = std::min(low, along[i]);
+      high = std::max(high, along[i]);
+      sum2 += offset[i] * offset[i];
+      segment.inliers.push_back(cylinder.inliers[i]);
+    }
+    if (segment.inliers.empty() || high - low < params.minLength) continue;
+    std::sort(segment.inliers.begin(), segment.inliers.end());
+    segment.start = cylinder.point + low * axis;
+    segment.end = cylinder.point + high * axis;
+    segment.radius = cylinder.radius;
+    segment.rms = std::sqrt(sum2 / static_cast<double>(segment.inliers.size()));
+    const auto passed = std::count(pass.begin() + static_cast<std::ptrdiff_t>(run.first),
+                                   pass.begin() + static_cast<std::ptrdiff_t>(run.last), true);
+    segment.confidence = static_cast<double>(passed) / static_cast<double>(run.last - run.first);
+    segment.cylinderIndex = cylinderIndex;
+    segments.push_back(std::move(segment));
+  }
+  return segments;
+}
+
+}  // namespace
+
+ExtentsResult computeExtents(const ExtentsInput& input, const ExtentsParams& params, Progress& progress) {
+  const auto started = std::chrono::steady_clock::now();
+  ExtentsResult result;
+  const auto& cylinders = input.placement.cylinders;
+  progress.report("extents", 0.0);
+
+  struct PerCylinder {
+    std::vector<PipeSegment> segments;
+    std::size_t sections = 0, kept = 0;
+  };
+  std::vector<PerCylinder> found(cylinders.size());
+  std::atomic<std::size_t> finished{0};
+  tbb::parallel_for(std::size_t{0}, cylinders.size(), [&](std::size_t c) {
+    progress.checkCancelled();
+    found[c].segments = segmentsOf(input.cloud, cylinders[c], static_cast<int>(c), params, found[c].sections, found[c].kept);
+    progress.report("extents", static_cast<double>(++finished) / static_cast<double>(cylinders.size()));
+  });
+  for (PerCylinder& per : found) {
+    result.diagnostics.sections += per.sections;
+    result.diagnostics.keptSections += per.kept;
+    for (PipeSegment& segment : per.segments) result.segments.push_back(std::move(segment));
+  }
+  result.diagnostics.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  progress.report("extents", 1.0);
+  return result;
+}
+
+}  // namespace piperun

@@ -1,0 +1,799 @@
+// Stage 3 — cylinder placement (paper §5.1).
+//
+// A pipe along a principal direction a collapses, in the plane orthogonal to a, onto its
+// cross-section circle, with every normal pointing radially. So two projected points and their
+// normals fix a circle: the normal lines meet at the centre, and the two distances to it must agree.
+//
+// Pair selection decides what the method can see. Each stripe point draws partners among its
+// projected neighbours at several scales (hash-grid cells stepping ×3 from minRadius to
+// maxRadius, each confined to an axial slab): at the small scale a 1.5 cm pipe finds partners on
+// its own circle even beside a 30 cm one, at the large scale the 30 cm pipe finds partners far
+// enough apart for a well-conditioned intersection. Every point draws at every scale, so the work is
+// linear in the stripe and a small pipe gets candidates in proportion to its points.
+//
+// The candidates' modes in (cx, cy, r) are found by mean-shift with an anisotropic Gaussian kernel,
+// seeded at the peaks of a 3-D histogram whose cells are the kernel's reach. A mode with enough
+// candidates becomes a cylinder: its inliers (near the surface, normal radial) are refined by
+// Gauss-Newton least squares on axis direction, axis point and radius, gathered again and refined
+// again. Cylinders that share most inliers with a better supported one are dropped; every point
+// then goes to the cylinder whose surface is closest; cylinders left with too few inliers, or
+// whose mode holds few candidates for its inliers (a ridge of candidates along a box edge), are dropped.
+//
+// Random draws come from generators seeded by (seed, direction, scale, chunk of cells), and
+// parallel loops write by index, so the result does not depend on the thread count.
+
+#include "piperun/stages/placement.h"
+
+#include "synth/random.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <optional>
+#include <stdexcept>
+#include <tuple>
+#include <utility>
+
+namespace piperun {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDegree = kPi / 180.0;
+
+constexpr double kScaleStep = 3.0;        // ratio between neighbouring pair-selection scales
+constexpr double kMinSlabLength = 0.3;    // axial extent of a pair-selection cell (m): short enough that
+                                          // a direction 1° off smears a circle by only 5 mm
+constexpr double kMinRadiusGap = 0.002;   // radius agreement floor (m), as documented in the params
+constexpr double kKernelReach = 2.5;      // mean-shift kernel cut-off, in bandwidths
+constexpr double kModeMergeDistance = 1.0;  // modes closer than this (in bandwidths) are one
+constexpr double kGatherCell = 0.05;      // 2-D cell of the inlier search grid (m)
+constexpr double kMaxAxisTilt = 10.0 * kDegree;  // a refined axis farther than this from its direction
+                                                 // was fitted to something that is not a pipe along it
+constexpr double kDuplicateShare = 0.5;   // a cylinder sharing this share of its inliers is a copy
+constexpr double kShellReach = 2.5;       // outer edge of the shell tested beyond the inlier band, in inlier distances
+
+// ---------------------------------------------------------------------------------------------
+// A hash grid: items grouped by an integer cell key, a cell's items found in constant time.
+
+constexpr std::int64_t kCellHalfRange = std::int64_t{1} << 20;  // 21 bits per coordinate
+
+std::int64_t cellCoordinate(double value, double cellSize) {
+  const double cell = std::floor(value / cellSize);
+  const double limit = static_cast<double>(kCellHalfRange - 1);
+  return static_cast<std::int64_t>(std::isfinite(cell) ? std::clamp(cell, -limit, limit) : 0.0);
+}
+
+std::uint64_t cellKey(std::int64_t x, std::int64_t y, std::int64_t z) {
+  const auto field = [](std::int64_t c) { return static_cast<std::uint64_t>(c + kCellHalfRange); };
+  return field(x) << 42 | field(y) << 21 | field(z);
+}
+
+std::array<std::int64_t, 3> cellCoordinates(std::uint64_t key) {
+  constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
+  return {static_cast<std::int64_t>((key >> 42) & kMask) - kCellHalfRange,
+          static_cast<std::int64_t>((key >> 21) & kMask) - kCellHalfRange,
+          static_cast<std::int64_t>(key & kMask) - kCellHalfRange};
+}
+
+std::uint64_t hashKey(std::uint64_t z) {
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
+}
+
+class CellIndex {
+ public:
+  struct Range {
+    const std::uint32_t* first = nullptr;
+    const std::uint32_t* last = nullptr;
+    const std::uint32_t* begin() const { return first; }
+    const std::uint32_t* end() const { return last; }
+    std::size_t size() const { return static_cast<std::size_t>(last - first); }
+  };
+
+  /// keys[i] is the cell of item i.
+  explicit CellIndex(const std::vector<std::uint64_t>& keys) {
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> sorted(keys.size());
+    for (std::size_t i = 0; i < keys.size(); ++i) sorted[i] = {keys[i], static_cast<std::uint32_t>(i)};
+    std::sort(sorted.begin(), sorted.end());
+    items_.resize(sorted.size());
+    for (std::size_t i = 0; i < sorted.size(); ++i) {
+      items_[i] = sorted[i].second;
+      if (i == 0 || sorted[i].first != sorted[i - 1].first) {
+        keys_.push_back(sorted[i].first);
+        begins_.push_back(static_cast<std::uint32_t>(i));
+      }
+    }
+    begins_.push_back(static_cast<std::uint32_t>(sorted.size()));
+    std::size_t slots = 16;
+    while (slots < 2 * keys_.size()) slots *= 2;
+    mask_ = slots - 1;
+    table_.assign(slots, kEmpty);
+    for (std::uint32_t c = 0; c < keys_.size(); ++c) {
+      std::size_t slot = hashKey(keys_[c]) & mask_;
+      while (table_[slot] != kEmpty) slot = (slot + 1) & mask_;
+      table_[slot] = c;
+    }
+  }
+
+  std::size_t cellCount() const { return keys_.size(); }
+  std::uint64_t key(std::size_t cell) const { return keys_[cell]; }
+  Range items(std::size_t cell) const { return {items_.data() + begins_[cell], items_.data() + begins_[cell + 1]}; }
+
+  /// The items of the cell with `key` (empty when there is none).
+  Range find(std::uint64_t key) const {
+    for (std::size_t slot = hashKey(key) & mask_;; slot = (slot + 1) & mask_) {
+      const std::uint32_t cell = table_[slot];
+      if (cell == kEmpty) return {};
+      if (keys_[cell] == key) return items(cell);
+    }
+  }
+
+ private:
+  static constexpr std::uint32_t kEmpty = std::numeric_limits<std::uint32_t>::max();
+  std::vector<std::uint32_t> items_;   // item indices, grouped by cell
+  std::vector<std::uint64_t> keys_;    // ascending
+  std::vector<std::uint32_t> begins_;  // cell c holds items_[begins_[c], begins_[c + 1])
+  std::vector<std::uint32_t> table_;   // open addressing: slot → cell
+  std::size_t mask_ = 0;
+};
+
+/// Splits [0, count) into fixed chunks (independent of the thread count) and runs them in parallel.
+template <typename Body>
+void forEachChunk(std::size_t count, std::size_t chunkSize, Body&& body) {
+  const std::size_t chunks = (count + chunkSize - 1) / chunkSize;
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t chunk) {
+    body(chunk, chunk * chunkSize, std::min(count, (chunk + 1) * chunkSize));
+  });
+}
+
+template <typename T>
+std::vector<T> concatenate(std::vector<std::vector<T>>& parts) {
+  std::size_t total = 0;
+  for (const auto& part : parts) total += part.size();
+  std::vector<T> all;
+  all.reserve(total);
+  for (auto& part : parts) all.insert(all.end(), part.begin(), part.end());
+  return all;
+}
+
+double cross2(const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); }
+
+/// A unit vector orthogonal to `axis` (deterministic).
+Eigen::Vector3d anyPerpendicular(const Eigen::Vector3d& axis) {
+  Eigen::Index smallest = 0;
+  axis.cwiseAbs().minCoeff(&smallest);
+  return axis.cross(Eigen::Vector3d::Unit(smallest)).normalized();
+}
+
+// ---------------------------------------------------------------------------------------------
+// The stripe in the direction's plane.
+
+struct StripeProjection {
+  Eigen::Vector3d axis, u, v;
+  std::vector<std::uint32_t> points;       // cloud indices
+  std::vector<Eigen::Vector2f> positions;  // (p·u, p·v)
+  std::vector<float> along;                // p·axis
+  std::vector<Eigen::Vector2f> normals;    // unit projected normal; zero when too tilted to use
+  float alongMin = 0.0f, alongMax = 0.0f;
+};
+
+StripeProjection projectStripe(const PointCloud& cloud, const PrincipalDirection& direction) {
+  StripeProjection stripe;
+  stripe.axis = direction.axis.normalized();
+  stripe.u = anyPerpendicular(stripe.axis);
+  stripe.v = stripe.axis.cross(stripe.u);
+  const Eigen::Vector3f axis = stripe.axis.cast<float>(), u = stripe.u.cast<float>(), v = stripe.v.cast<float>();
+  // A normal within 60° of the axis projects to less than half its length: its direction in the
+  // plane is noise, so such points only serve as inliers.
+  constexpr float kMinProjectedNormal = 0.5f;
+  for (const std::uint32_t index : direction.stripe) {
+    if (index >= cloud.size()) continue;
+    const Eigen::Vector3f& p = cloud.positions[index];
+    const Eigen::Vector3f& n = cloud.normals[index];
+    const Eigen::Vector2f normal(n.dot(u), n.dot(v));
+    const float length = normal.norm();
+    stripe.points.push_back(index);
+    stripe.positions.emplace_back(p.dot(u), p.dot(v));
+    stripe.along.push_back(p.dot(axis));
+    stripe.normals.push_back(length >= kMinProjectedNormal ? Eigen::Vector2f(normal / length) : Eigen::Vector2f::Zero());
+  }
+  if (!stripe.along.empty()) {
+    const auto [low, high] = std::minmax_element(stripe.along.begin(), stripe.along.end());
+    stripe.alongMin = *low;
+    stripe.alongMax = *high;
+  }
+  return stripe;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Circle candidates.
+
+struct Candidate {
+  Eigen::Vector2f center;
+  float radius;
+};
+
+struct CandidateLimits {
+  double minRadius, maxRadius, agreement, minSine;
+};
+
+/// The circle through two projected points whose normals point at its centre, if the pair is usable.
+std::optional<Candidate> circleThrough(const Eigen::Vector2d& pi, const Eigen::Vector2d& ni, const Eigen::Vector2d& pj,
+                                       const Eigen::Vector2d& nj, const CandidateLimits& limits) {
+  const double sine = cross2(ni, nj);
+  if (std::abs(sine) < limits.minSine) return std::nullopt;
+  // pi + ti ni = pj + tj nj; normals have arbitrary sign, so only |ti| and |tj| are distances.
+  const Eigen::Vector2d d = pj - pi;
+  const double ti = cross2(d, nj) / sine;
+  const double tj = cross2(d, ni) / sine;
+  const double radius = 0.5 * (std::abs(ti) + std::abs(tj));
+  if (radius < limits.minRadius || radius > limits.maxRadius) return std::nullopt;
+  if (std::abs(std::abs(ti) - std::abs(tj)) > std::max(kMinRadiusGap, limits.agreement * radius)) return std::nullopt;
+  const Eigen::Vector2d center = pi + ti * ni;
+  return Candidate{center.cast<float>(), static_cast<float>(radius)};
+}
+
+/// Pair-selection cell sizes from minRadius to maxRadius in steps of about kScaleStep: a partner in
+/// the 3×3 cells around a point lies 0.3–2 cell sizes away, the chord range that suits r ≈ cell.
+std::vector<double> pairScales(const PlacementParams& params) {
+  const double ratio = std::max(1.0, params.maxRadius / params.minRadius);
+  const int count = 1 + static_cast<int>(std::lround(std::log(ratio) / std::log(kScaleStep)));
+  std::vector<double> scales;
+  for (int k = 0; k < count; ++k) {
+    scales.push_back(count == 1 ? params.minRadius : params.minRadius * std::pow(ratio, double(k) / (count - 1)));
+  }
+  return scales;
+}
+
+void drawCandidates(const StripeProjection& stripe, double cellSize, const PlacementParams& params,
+                    const CandidateLimits& limits, std::uint64_t seed, std::uint64_t directionIndex, std::uint64_t scaleIndex,
+                    std::vector<Candidate>& out) {
+  const double slab = std::max(kMinSlabLength, 2.0 * cellSize);
+  std::vector<std::uint64_t> keys(stripe.points.size());
+  for (std::size_t i = 0; i < keys.size(); ++i) {
+    keys[i] = cellKey(cellCoordinate(stripe.positions[i].x(), cellSize), cellCoordinate(stripe.positions[i].y(), cellSize),
+                      cellCoordinate(stripe.along[i], slab));
+  }
+  const CellIndex grid(keys);
+  constexpr std::size_t kCellsPerChunk = 256;
+  std::vector<std::vector<Candidate>> parts((grid.cellCount() + kCellsPerChunk - 1) / kCellsPerChunk);
+  forEachChunk(grid.cellCount(), kCellsPerChunk, [&](std::size_t chunk, std::size_t first, std::size_t last) {
+    synth::Rng rng(seed, {directionIndex, scaleIndex, chunk});
+    std::vector<Candidate>& found = parts[chunk];
+    for (std::size_t cell = first; cell < last; ++cell) {
+      // The points of a cell share their 3×3 neighbourhood in the slab.
+      const auto [x, y, z] = cellCoordinates(grid.key(cell));
+      std::array<CellIndex::Range, 9> around;
+      std::size_t total = 0;
+      for (int k = 0; k < 9; ++k) {
+        around[k] = grid.find(cellKey(x + k % 3 - 1, y + k / 3 - 1, z));
+        total += around[k].size();
+      }
+      for (const std::uint32_t i : grid.items(cell)) {
+        if (stripe.normals[i].isZero()) continue;
+        for (int draw = 0; draw < params.pairsPerPoint; ++draw) {
+          std::size_t pick = static_cast<std::size_t>(rng.next() % total);
+          int k = 0;
+          while (pick >= around[k].size()) pick -= around[k++].size();
+          const std::uint32_t j = around[k].first[pick];
+          if (j == i || stripe.normals[j].isZero()) continue;
+          if (const auto candidate = circleThrough(stripe.positions[i].cast<double>(), stripe.normals[i].cast<double>(),
+                                                   stripe.positions[j].cast<double>(), stripe.normals[j].cast<double>(), limits)) {
+            found.push_back(*candidate);
+          }
+        }
+      }
+    }
+  });
+  std::vector<Candidate> all = concatenate(parts);
+  out.insert(out.end(), all.begin(), all.end());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Mean-shift in (cx, cy, r), in units of the bandwidths.
+
+struct Mode {
+  Eigen::Vector3d at;  // scaled
+  double density = 0.0;
+  int support = 0;
+};
+
+struct ModeSearch {
+  std::vector<Mode> circles;      // modes with at least minCandidates candidates
+  std::vector<int> candidateMode; // index into circles, -1 for none
+};
+
+ModeSearch findModes(const std::vector<Candidate>& candidates, const PlacementParams& params) {
+  ModeSearch search;
+  search.candidateMode.assign(candidates.size(), -1);
+  if (candidates.empty()) return search;
+  const Eigen::Vector3d scale(1.0 / params.centerBandwidth, 1.0 / params.centerBandwidth, 1.0 / params.radiusBandwidth);
+  std::vector<Eigen::Vector3d> scaled(candidates.size());
+  std::vector<std::uint64_t> keys(candidates.size());
+  const auto keyOf = [](const Eigen::Vector3d& x) {
+    return cellKey(cellCoordinate(x.x(), kKernelReach), cellCoordinate(x.y(), kKernelReach), cellCoordinate(x.z(), kKernelReach));
+  };
+  for (std::size_t i = 0; i < candidates.size(); ++i) {
+    scaled[i] = Eigen::Vector3d(candidates[i].center.x(), candidates[i].center.y(), candidates[i].radius).cwiseProduct(scale);
+    keys[i] = keyOf(scaled[i]);
+  }
+  const CellIndex grid(keys);
+  // Visits the candidates of the 27 cells around x (all within the kernel's reach of x among them).
+  const auto forNeighbours = [&](const Eigen::Vector3d& x, auto&& visit) {
+    const auto [cx, cy, cz] = cellCoordinates(keyOf(x));
+    for (int k = 0; k < 27; ++k) {
+      for (const std::uint32_t i : grid.find(cellKey(cx + k % 3 - 1, cy + (k / 3) % 3 - 1, cz + k / 9 - 1))) visit(i);
+    }
+  };
+
+  // Seeds: histogram cells holding at least as many candidates as each of their 26 neighbours.
+  const std::size_t seedMin = static_cast<std::size_t>(std::max(3, params.minCandidates / 5));
+  constexpr std::size_t kCellsPerChunk = 1024;
+  std::vector<std::vector<Eigen::Vector3d>> seedParts((grid.cellCount() + kCellsPerChunk - 1) / kCellsPerChunk);
+  forEachChunk(grid.cellCount(), kCellsPerChunk, [&](std::size_t chunk, std::size_t first, std::size_t last) {
+    for (std::size_t cell = first; cell < last; ++cell) {
+      const std::size_t count = grid.items(cell).size();
+      if (count < seedMin) continue;
+      const auto [x, y, z] = cellCoordinates(grid.key(cell));
+      bool peak = true;
+      for (int k = 0; k < 27 && peak; ++k) {
+        const std::uint64_t other = cellKey(x + k % 3 - 1, y + (k / 3) % 3 - 1, z + k / 9 - 1);
+        const std::size_t otherCount = grid.find(other).size();
+        peak = otherCount < count || (otherCount == count && other >= grid.key(cell));
+      }
+      if (!peak) continue;
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      for (const std::uint32_t i : grid.items(cell)) mean += scaled[i];
+      seedParts[chunk].push_back(mean / static_cast<double>(count));
+    }
+  });
+  const std::vector<Eigen::Vector3d> seeds = concatenate(seedParts);
+
+  // Gaussian mean-shift from every seed.
+  constexpr int kMaxShifts = 100;
+  constexpr double kConverged = 1e-3;
+  const double reach2 = kKernelReach * kKernelReach;
+  std::vector<Mode> modes(seeds.size());
+  tbb::parallel_for(std::size_t{0}, seeds.size(), [&](std::size_t s) {
+    Eigen::Vector3d x = seeds[s];
+    double density = 0.0;
+    for (int shift = 0; shift < kMaxShifts; ++shift) {
+      Eigen::Vector3d weighted = Eigen::Vector3d::Zero();
+      density = 0.0;
+      forNeighbours(x, [&](std::uint32_t i) {
+        const double d2 = (scaled[i] - x).squaredNorm();
+        if (d2 >= reach2) return;
+        const double w = std::exp(-0.5 * d2);
+        weighted += w * scaled[i];
+        density += w;
+      });
+      if (density <= 0.0) break;
+      const Eigen::Vector3d next = weighted / density;
+      const double moved = (next - x).norm();
+      x = next;
+      if (moved < kConverged) break;
+    }
+    modes[s] = Mode{x, density, 0};
+  });
+
+  // Merge modes that converged to the same place, densest first.
+  std::vector<std::size_t> order(modes.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return modes[a].density > modes[b].density; });
+  std::vector<Mode> kept;
+  for (const std::size_t m : order) {
+    const bool duplicate = std::any_of(kept.begin(), kept.end(), [&](const Mode& k) {
+      return (k.at - modes[m].at).norm() < kModeMergeDistance;
+    });
+    if (!duplicate && modes[m].density > 0.0) kept.push_back(modes[m]);
+  }
+
+  // Each candidate within the kernel's reach of a mode belongs to the nearest such mode.
+  std::vector<double> nearest(candidates.size(), reach2);
+  std::vector<int> owner(candidates.size(), -1);
+  for (std::size_t m = 0; m < kept.size(); ++m) {
+    forNeighbours(kept[m].at, [&](std::uint32_t i) {
+      const double d2 = (scaled[i] - kept[m].at).squaredNorm();
+      if (d2 < nearest[i]) {
+        nearest[i] = d2;
+        owner[i] = static_cast<int>(m);
+      }
+    });
+  }
+  for (const int m : owner) {
+    if (m >= 0) ++kept[m].support;
+  }
+  std::vector<int> circleOf(kept.size(), -1);
+  for (std::size_t m = 0; m < kept.size(); ++m) {
+    if (kept[m].support < params.minCandidates) continue;
+    circleOf[m] = static_cast<int>(search.circles.size());
+    Mode circle = kept[m];
+    circle.at = circle.at.cwiseQuotient(scale);
+    search.circles.push_back(circle);
+  }
+  for (std::size_t i = 0; i < candidates.size(); ++i) {
+    if (owner[i] >= 0) search.candidateMode[i] = circleOf[owner[i]];
+  }
+  return search;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Inliers and least-squares refinement.
+
+struct CylinderFit {
+  Eigen::Vector3d point, direction;  // relative to the cloud origin; unit direction
+  double radius = 0.0;
+};
+
+/// Signed distance of p to the surface and the unit radial direction at p (zero on the axis).
+std::pair<double, Eigen::Vector3d> surfaceOffset(const CylinderFit& fit, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d q = p - fit.point;
+  const Eigen::Vector3d radial = q - q.dot(fit.direction) * fit.direction;
+  const double distance = radial.norm();
+  if (distance <= 0.0) return {-fit.radius, Eigen::Vector3d::Zero()};
+  return {distance - fit.radius, radial / distance};
+}
+
+class InlierSearch {
+ public:
+  InlierSearch(const PointCloud& cloud, const StripeProjection& stripe, const PlacementParams& params)
+      : cloud_(cloud), stripe_(stripe), params_(params), minNormalCos_(std::cos(params.inlierNormalAngleDeg * kDegree)),
+        grid_(gridKeys(stripe)) {}
+
+  /// Stripe points (indices into the stripe) near the surface with a radial normal, ascending.
+  std::vector<std::uint32_t> gather(const CylinderFit& fit) const {
+    std::vector<std::uint32_t> inliers;
+    visitNear(fit, params_.inlierDistance, [&](std::uint32_t i, double offset, const Eigen::Vector3d& radial) {
+      if (std::abs(offset) < params_.inlierDistance &&
+          std::abs(radial.dot(cloud_.normals[stripe_.points[i]].cast<double>())) >= minNormalCos_) {
+        inliers.push_back(i);
+      }
+    });
+    std::sort(inliers.begin(), inliers.end());
+    return inliers;
+  }
+
+  /// Stripe points just outside the inlier band (up to kShellReach inlier distances off the
+  /// surface) between the inliers' axial extremes: the faces that continue past a box edge.
+  std::size_t countShell(const CylinderFit& fit, const std::vector<std::uint32_t>& inliers) const {
+    double low = std::numeric_limits<double>::infinity(), high = -low;
+    for (const std::uint32_t i : inliers) {
+      const double along = (cloud_.positions[stripe_.points[i]].cast<double>() - fit.point).dot(fit.direction);
+      low = std::min(low, along);
+      high = std::max(high, along);
+    }
+    const double reach = kShellReach * params_.inlierDistance;
+    std::size_t shell = 0;
+    visitNear(fit, reach, [&](std::uint32_t i, double offset, const Eigen::Vector3d&) {
+      if (offset < params_.inlierDistance || offset > reach) return;
+      const double along = (cloud_.positions[stripe_.points[i]].cast<double>() - fit.point).dot(fit.direction);
+      if (along >= low && along <= high) ++shell;
+    });
+    return shell;
+  }
+
+ private:
+  /// Calls visit(stripe index, surface offset, unit radial direction) for the stripe points in the
+  /// grid cells that the cylinder's trace, grown by `reach`, touches.
+  template <typename Visit>
+  void visitNear(const CylinderFit& fit, double reach, Visit&& visit) const {
+    // The trace in the plane: the cross-section slides along the projected axis over the stripe's
+    // axial range (it stays put when the axis is the direction itself).
+    const Eigen::Vector3d& axis = stripe_.axis;
+    const double cosTilt = std::abs(fit.direction.dot(axis));
+    const Eigen::Vector3d direction = fit.direction.dot(axis) >= 0.0 ? fit.direction : Eigen::Vector3d(-fit.direction);
+    const double extent = fit.radius / cosTilt + reach;
+    Eigen::Vector2d low = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+    Eigen::Vector2d high = -low;
+    for (const double along : {double(stripe_.alongMin), double(stripe_.alongMax)}) {
+      const Eigen::Vector3d center = fit.point + (along - fit.point.dot(axis)) / cosTilt * direction;
+      const Eigen::Vector2d projected(center.dot(stripe_.u), center.dot(stripe_.v));
+      low = low.cwiseMin(projected);
+      high = high.cwiseMax(projected);
+    }
+    const std::int64_t x0 = cellCoordinate(low.x() - extent, kGatherCell), x1 = cellCoordinate(high.x() + extent, kGatherCell);
+    const std::int64_t y0 = cellCoordinate(low.y() - extent, kGatherCell), y1 = cellCoordinate(high.y() + extent, kGatherCell);
+    for (std::int64_t x = x0; x <= x1; ++x) {
+      for (std::int64_t y = y0; y <= y1; ++y) {
+        for (const std::uint32_t i : grid_.find(cellKey(x, y, 0))) {
+          const auto [offset, radial] = surfaceOffset(fit, cloud_.positions[stripe_.points[i]].cast<double>());
+          if (std::abs(offset) <= reach) visit(i, offset, radial);
+        }
+      }
+    }
+  }
+
+  static std::vector<std::uint64_t> gridKeys(const StripeProjection& stripe) {
+    std::vector<std::uint64_t> keys(stripe.points.size());
+    for (std::size_t i = 0; i < keys.size(); ++i) {
+      keys[i] = cellKey(cellCoordinate(stripe.positions[i].x(), kGatherCell), cellCoordinate(stripe.positions[i].y(), kGatherCell), 0);
+    }
+    return keys;
+  }
+
+  const PointCloud& cloud_;
+  const StripeProjection& stripe_;
+  const PlacementParams& params_;
+  double minNormalCos_;
+  CellIndex grid_;
+};
+
+/// Gauss-Newton on the surface distances |(p − c) × a| − r, over the axis direction (2 angles),
+/// the axis point (2 offsets across the axis) and the radius. Returns false when it degenerates.
+bool refineFit(CylinderFit& fit, const PointCloud& cloud, const StripeProjection& stripe, const std::vector<std::uint32_t>& inliers,
+               int iterations) {
+  using Vector5d = Eigen::Matrix<double, 5, 1>;
+  using Matrix5d = Eigen::Matrix<double, 5, 5>;
+  std::vector<Eigen::Vector3d> points(inliers.size());
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (std::size_t k = 0; k < inliers.size(); ++k) {
+    points[k] = cloud.positions[stripe.points[inliers[k]]].cast<double>();
+    centroid += points[k];
+  }
+  centroid /= static_cast<double>(points.size());
+  for (int iteration = 0; iteration < iterations; ++iteration) {
+    // Keep the axis point level with the centroid so that tilting the axis barely moves it near the data.
+    fit.point += (centroid - fit.point).dot(fit.direction) * fit.direction;
+    const Eigen::Vector3d b1 = anyPerpendicular(fit.direction);
+    const Eigen::Vector3d b2 = fit.direction.cross(b1);
+    Matrix5d normal = Matrix5d::Zero();
+    Vector5d gradient = Vector5d::Zero();
+    for (const Eigen::Vector3d& p : points) {
+      const Eigen::Vector3d q = p - fit.point;
+      const double along = q.dot(fit.direction);
+      const Eigen::Vector3d radial = q - along * fit.direction;
+      const double distance = radial.norm();
+      if (distance <= 0.0) continue;
+      const Eigen::Vector3d g = radial / distance;
+      const double g1 = g.dot(b1), g2 = g.dot(b2);
+      Vector5d jacobian;
+      jacobian << -along * g1, -along * g2, -g1, -g2, -1.0;
+      normal.noalias() += jacobian * jacobian.transpose();
+      gradient += jacobian * (distance - fit.radius);
+    }
+    // A little Levenberg damping keeps a thin arc (radius and centre nearly degenerate) from jumping.
+    normal.diagonal() += 1e-9 * (normal.diagonal().array() + 1.0).matrix();
+    const Eigen::LDLT<Matrix5d> solver(normal);
+    if (solver.info() != Eigen::Success) return false;
+    const Vector5d step = solver.solve(-gradient);
+    if (!step.allFinite()) return false;
+    fit.direction = (fit.direction + step[0] * b1 + step[1] * b2).normalized();
+    fit.point += step[2] * b1 + step[3] * b2;
+    fit.radius += step[4];
+    if (step.norm() < 1e-8) break;
+  }
+  fit.point += (centroid - fit.point).dot(fit.direction) * fit.direction;
+  return fit.radius > 0.0 && fit.point.allFinite() && fit.direction.allFinite();
+}
+
+// ---------------------------------------------------------------------------------------------
+// One direction.
+
+struct DirectionOutcome {
+  PlacementResult::Projection projection;
+  std::vector<int> candidateMode;  // per candidate: index into fits, -1 for none
+  std::vector<Cylinder> fits;      // refined, inliers as cloud indices (ascending)
+  std::vector<int> modeFit;        // per mode: index into fits, -1 when its fit failed
+  std::size_t projectedPoints = 0;
+  std::size_t circles = 0;
+};
+
+DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDirection& direction, std::size_t directionIndex,
+                                     const PlacementParams& params, std::uint64_t seed, Progress& progress) {
+  DirectionOutcome outcome;
+  const StripeProjection stripe = projectStripe(cloud, direction);
+  outcome.projection.axis = stripe.axis;
+  outcome.projection.u = stripe.u;
+  outcome.projection.v = stripe.v;
+  outcome.projectedPoints = stripe.points.size();
+
+  const CandidateLimits limits{params.minRadius, params.maxRadius, params.radiusAgreement,
+                               std::sin(params.minPairAngleDeg * kDegree)};
+  std::vector<Candidate> candidates;
+  const std::vector<double> scales = pairScales(params);
+  for (std::size_t s = 0; s < scales.size(); ++s) {
+    drawCandidates(stripe, scales[s], params, limits, seed, directionIndex, s, candidates);
+  }
+  progress.checkCancelled();
+
+  const ModeSearch modes = findModes(candidates, params);
+  outcome.circles = modes.circles.size();
+  progress.checkCancelled();
+
+  const InlierSearch search(cloud, stripe, params);
+  std::vector<std::optional<Cylinder>> fitted(modes.circles.size());
+  tbb::parallel_for(std::size_t{0}, modes.circles.size(), [&](std::size_t m) {
+    const Mode& mode = modes.circles[m];
+    CylinderFit fit;
+    fit.direction = stripe.axis;
+    fit.point = mode.at.x() * stripe.u + mode.at.y() * stripe.v + 0.5 * double(stripe.alongMin + stripe.alongMax) * stripe.axis;
+    fit.radius = mode.at.z();
+    std::vector<std::uint32_t> inliers = search.gather(fit);
+    for (int pass = 0; pass < 2; ++pass) {
+      if (static_cast<int>(inliers.size()) < params.minInliers) return;
+      if (!refineFit(fit, cloud, stripe, inliers, params.refineIterations)) return;
+      if (std::abs(fit.direction.dot(stripe.axis)) < std::cos(kMaxAxisTilt)) return;
+      if (fit.radius < params.minRadius - params.inlierDistance || fit.radius > params.maxRadius + params.inlierDistance) return;
+      inliers = search.gather(fit);
+    }
+    if (static_cast<int>(inliers.size()) < params.minInliers) return;
+    const std::size_t shell = search.countShell(fit, inliers);
+    if (static_cast<double>(shell) > params.maxShellShare * static_cast<double>(inliers.size())) return;
+    Cylinder cylinder;
+    cylinder.point = fit.point;
+    cylinder.direction = fit.direction.dot(stripe.axis) >= 0.0 ? fit.direction : Eigen::Vector3d(-fit.direction);
+    cylinder.radius = fit.radius;
+    cylinder.candidates = mode.support;
+    cylinder.directionIndex = static_cast<int>(directionIndex);
+    cylinder.inliers.reserve(inliers.size());
+    for (const std::uint32_t i : inliers) cylinder.inliers.push_back(stripe.points[i]);
+    std::sort(cylinder.inliers.begin(), cylinder.inliers.end());
+    fitted[m] = std::move(cylinder);
+  });
+
+  outcome.modeFit.assign(modes.circles.size(), -1);
+  for (std::size_t m = 0; m < fitted.size(); ++m) {
+    if (!fitted[m]) continue;
+    outcome.modeFit[m] = static_cast<int>(outcome.fits.size());
+    outcome.fits.push_back(std::move(*fitted[m]));
+  }
+  outcome.projection.candidates.resize(candidates.size());
+  for (std::size_t i = 0; i < candidates.size(); ++i) {
+    outcome.projection.candidates[i] = CircleCandidate{candidates[i].center, candidates[i].radius, -1};
+  }
+  outcome.candidateMode = modes.candidateMode;
+  return outcome;
+}
+
+std::size_t sharedCount(const std::vector<std::uint32_t>& a, const std::vector<std::uint32_t>& b) {
+  std::size_t shared = 0;
+  for (auto i = a.begin(), j = b.begin(); i != a.end() && j != b.end();) {
+    if (*i < *j) {
+      ++i;
+    } else if (*j < *i) {
+      ++j;
+    } else {
+      ++shared, ++i, ++j;
+    }
+  }
+  return shared;
+}
+
+double axisDistance(const Cylinder& a, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d q = p - a.point;
+  return (q - q.dot(a.direction) * a.direction).norm();
+}
+
+}  // namespace
+
+PlacementResult placeCylinders(const PlacementInput& input, const PlacementParams& params, Progress& progress) {
+  const auto started = std::chrono::steady_clock::now();
+  PlacementResult result;
+  const PointCloud& cloud = input.cloud;
+  const auto& directions = input.directions.directions;
+  if (!cloud.hasNormals() && !cloud.empty()) throw std::invalid_argument("placeCylinders needs a cloud with normals");
+  progress.report("placement", 0.0);
+
+  std::vector<DirectionOutcome> outcomes(directions.size());
+  std::atomic<std::size_t> finished{0};
+  tbb::parallel_for(std::size_t{0}, directions.size(), [&](std::size_t d) {
+    progress.checkCancelled();
+    outcomes[d] = placeAlongDirection(cloud, directions[d], d, params, input.seed, progress);
+    progress.report("placement", 0.9 * static_cast<double>(++finished) / static_cast<double>(directions.size()));
+  });
+
+  // All fits in a fixed order; `owner` follows where each one's candidates end up.
+  std::vector<Cylinder> fits;
+  std::vector<std::size_t> firstFit(directions.size() + 1, 0);
+  for (std::size_t d = 0; d < outcomes.size(); ++d) {
+    firstFit[d] = fits.size();
+    for (Cylinder& fit : outcomes[d].fits) fits.push_back(std::move(fit));
+    result.diagnostics.projectedPoints += outcomes[d].projectedPoints;
+    result.diagnostics.circles += outcomes[d].circles;
+  }
+  firstFit[outcomes.size()] = fits.size();
+
+  // A real circle gathers the candidates of most pairs of its points; a ridge of candidates (the
+  // two faces of a box edge agree on a circle of any radius) spreads them thin.
+  std::vector<std::size_t> bySupport;
+  for (std::size_t f = 0; f < fits.size(); ++f) {
+    if (fits[f].candidates >= params.minCandidateShare * static_cast<double>(fits[f].inliers.size())) bySupport.push_back(f);
+  }
+  // Copies: a fit sharing most of its inliers with a better supported one.
+  std::stable_sort(bySupport.begin(), bySupport.end(),
+                   [&](std::size_t a, std::size_t b) { return fits[a].candidates > fits[b].candidates; });
+  std::vector<int> owner(fits.size(), -1);
+  std::vector<std::size_t> kept;
+  for (const std::size_t f : bySupport) {
+    for (const std::size_t k : kept) {
+      const Cylinder& better = fits[k];
+      if (std::abs(better.direction.dot(fits[f].direction)) < std::cos(kMaxAxisTilt)) continue;
+      if (axisDistance(better, fits[f].point) > better.radius + fits[f].radius) continue;
+      if (sharedCount(better.inliers, fits[f].inliers) >= kDuplicateShare * fits[f].inliers.size()) {
+        owner[f] = static_cast<int>(k);
+        break;
+      }
+    }
+    if (owner[f] < 0) {
+      owner[f] = static_cast<int>(f);
+      kept.push_back(f);
+    }
+  }
+  for (const std::size_t f : bySupport) {
+    if (owner[f] != static_cast<int>(f)) fits[owner[f]].candidates += fits[f].candidates;
+  }
+  result.diagnostics.duplicates = bySupport.size() - kept.size();
+  progress.checkCancelled();
+
+  // A point belongs to the cylinder whose surface is closest.
+  struct Claim {
+    std::uint32_t point;
+    float offset;
+    std::uint32_t fit;
+  };
+  std::vector<Claim> claims;
+  for (const std::size_t f : kept) {
+    const CylinderFit fit{fits[f].point, fits[f].direction, fits[f].radius};
+    for (const std::uint32_t i : fits[f].inliers) {
+      claims.push_back({i, static_cast<float>(std::abs(surfaceOffset(fit, cloud.positions[i].cast<double>()).first)),
+                        static_cast<std::uint32_t>(f)});
+    }
+  }
+  std::sort(claims.begin(), claims.end(), [](const Claim& a, const Claim& b) {
+    return std::tie(a.point, a.offset, a.fit) < std::tie(b.point, b.offset, b.fit);
+  });
+  std::vector<std::vector<std::uint32_t>> exclusive(fits.size());
+  for (std::size_t c = 0; c < claims.size(); ++c) {
+    if (c == 0 || claims[c].point != claims[c - 1].point) exclusive[claims[c].fit].push_back(claims[c].point);
+  }
+
+  // Final cylinders, ordered by direction and then by support.
+  std::sort(kept.begin(), kept.end(), [&](std::size_t a, std::size_t b) {
+    if (fits[a].directionIndex != fits[b].directionIndex) return fits[a].directionIndex < fits[b].directionIndex;
+    if (exclusive[a].size() != exclusive[b].size()) return exclusive[a].size() > exclusive[b].size();
+    return a < b;
+  });
+  std::vector<int> finalIndex(fits.size(), -1);
+  for (const std::size_t f : kept) {
+    Cylinder& cylinder = fits[f];
+    cylinder.inliers = std::move(exclusive[f]);
+    if (static_cast<int>(cylinder.inliers.size()) < params.minInliers) continue;
+    const CylinderFit fit{cylinder.point, cylinder.direction, cylinder.radius};
+    double sum2 = 0.0;
+    for (const std::uint32_t i : cylinder.inliers) {
+      const double offset = surfaceOffset(fit, cloud.positions[i].cast<double>()).first;
+      sum2 += offset * offset;
+    }
+    cylinder.rms = std::sqrt(sum2 / static_cast<double>(cylinder.inliers.size()));
+    finalIndex[f] = static_cast<int>(result.cylinders.size());
+    result.cylinders.push_back(std::move(cylinder));
+  }
+
+  // Candidates point at the cylinder their mode became (or was merged into).
+  result.projections.resize(outcomes.size());
+  for (std::size_t d = 0; d < outcomes.size(); ++d) {
+    DirectionOutcome& outcome = outcomes[d];
+    for (std::size_t i = 0; i < outcome.candidateMode.size(); ++i) {
+      const int mode = outcome.candidateMode[i];
+      const int fit = mode >= 0 ? outcome.modeFit[mode] : -1;
+      if (fit >= 0) outcome.projection.candidates[i].circle = finalIndex[owner[firstFit[d] + fit]];
+    }
+    result.diagnostics.candidates += outcome.projection.candidates.size();
+    result.projections[d] = std::move(outcome.projection);
+  }
+
+  result.diagnostics.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  progress.report("placement", 1.0);
+  return result;
+}
+
+}  // namespace piperun

@@ -1,0 +1,741 @@
+// Stage 1 — preprocessing (paper §3). The steps and why they are done this way:
+//
+// 1. Voxel grid. Points are bucketed in cubes of edge voxelSize aligned to world multiples of the
+//    edge (cropping a scan does not move the grid) and each occupied cube gives the centroid of its
+//    points. Sorting (cube key, point index) pairs fixes the output order whatever the thread count,
+//    and puts points of neighbouring cubes at nearby indices (cache-friendly queries later).
+// 2. One k-nearest-neighbour query per point (PCL's FLANN k-d tree), k = the larger of the outlier
+//    and normal neighbourhoods, queries in parallel writing by index: steps 3 and 4 share it.
+// 3. Statistical outlier removal as in PCL's StatisticalOutlierRemoval: a point whose mean distance
+//    to its nearest neighbours exceeds the global mean + ratio × std of that measure goes.
+// 4. Normals: PCA of the point and its nearest non-outlier neighbours; the normal is the eigenvector
+//    of the smallest eigenvalue, curvature the surface variation λ0 / (λ0 + λ1 + λ2). The sign of a
+//    normal is arbitrary: the method only uses unoriented normals (n and −n alike).
+// 5. Large planes (floors, walls, equipment faces) would drown the Gaussian sphere, so they go.
+//    Planes are found cell by cell: a cell is planar when its points are thin about their PCA plane,
+//    spread in two directions (not a line), most point normals agree with the plane normal, and a
+//    quadratic height fit shows no bend (thin strips along a large pipe's crest pass the thickness
+//    test but bend by 1/r). Adjacent planar cells whose planes agree in angle and offset are joined
+//    with union-find; regions covering at least planeMinArea are planes. A point is a plane point
+//    when it lies in the band of its cell's plane (region cells) or of an adjacent region cell's
+//    plane (the floor around a pipe standing on it) with a normal parallel to that plane, or in the
+//    bands of two regions at once (the seam where a wall meets the floor, whose PCA normals are
+//    tilted). Points standing off the plane in a planar cell stay: a small pipe lying on a floor
+//    keeps its upper half.
+// 6. Tiles: cubes of tileSize from the low corner of the kept points' bounding box, each grown by
+//    tileOverlap; a point belongs to every tile whose grown box contains it.
+
+#include "piperun/stages/preprocess.h"
+
+#include "piperun/error.h"
+
+#include <pcl/kdtree/kdtree_flann.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace piperun {
+namespace {
+
+constexpr const char* kTask = "preprocess";
+/// Points per parallel chunk; cancellation is checked once per chunk.
+constexpr std::size_t kChunk = 4096;
+
+// Share of the progress bar at the end of each step.
+constexpr double kVoxelDone = 0.15;
+constexpr double kNeighborsDone = 0.60;
+constexpr double kNormalsDone = 0.75;
+constexpr double kPlanesDone = 0.92;
+
+// Plane detection constants that follow from the parameters rather than being tuned per scene.
+constexpr std::uint32_t kMinCellPoints = 20;  ///< Fewer points say too little about a cell's shape.
+constexpr double kMinSpreadShare = 0.08;      ///< Second in-plane std ≥ this × cell size: not a line.
+constexpr double kParallelAngleDeg = 20.0;    ///< A point normal within this of a plane normal agrees with it.
+constexpr double kMinAgreement = 0.75;        ///< Share of a planar cell's normals that must agree.
+constexpr double kJoinAngleDeg = 10.0;        ///< Adjacent planar cells join when their normals differ less...
+constexpr double kJoinOffsetFactor = 2.0;     ///< ...and each centroid is within this × thickness of the other plane.
+constexpr double kCellBandFactor = 3.0;       ///< Plane band of a region cell, × thickness (3 RMS).
+constexpr double kFringeBandFactor = 2.0;     ///< Plane band in cells next to a region, × thickness.
+
+using Clock = std::chrono::steady_clock;
+double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+constexpr double kPi = 3.14159265358979323846;
+double degToRad(double degrees) { return degrees * kPi / 180.0; }
+
+void require(bool condition, const std::string& message) {
+  if (!condition) throw std::invalid_argument("preprocess: " + message);
+}
+
+void validate(const PreprocessParams& params) {
+  const auto finite = [](double v) { return std::isfinite(v); };
+  require(finite(params.voxelSize) && params.voxelSize >= 0.0, "voxelSize must be >= 0 m");
+  require(params.outlierNeighbors >= 0, "outlierNeighbors must be >= 0");
+  require(finite(params.outlierStdRatio) && params.outlierStdRatio >= 0.0, "outlierStdRatio must be >= 0");
+  require(params.normalNeighbors >= 3, "normalNeighbors must be at least 3");
+  require(finite(params.planeCellSize) && params.planeCellSize > 0.0, "planeCellSize must be > 0 m");
+  require(finite(params.planeMaxThickness) && params.planeMaxThickness > 0.0, "planeMaxThickness must be > 0 m");
+  require(finite(params.planeMinArea) && params.planeMinArea >= 0.0, "planeMinArea must be >= 0 m²");
+  require(finite(params.planeMaxCurvature) && params.planeMaxCurvature >= 0.0, "planeMaxCurvature must be >= 0 1/m");
+  require(finite(params.tileSize) && params.tileSize > 0.0, "tileSize must be > 0 m");
+  require(finite(params.tileOverlap) && params.tileOverlap >= 0.0, "tileOverlap must be >= 0 m");
+}
+
+/// Runs body(first, last) over [0, count) in parallel chunks, checking for cancellation before each.
+template <typename Body>
+void parallelChunks(std::size_t count, Progress& progress, const Body& body) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, kChunk),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      progress.checkCancelled();
+                      body(range.begin(), range.end());
+                    });
+}
+
+using Index3 = Eigen::Array<std::int64_t, 3, 1>;
+
+/// Number of cells of a grid with these counts per axis; throws when it would not fit a 63-bit key.
+std::uint64_t checkedCellCount(const Index3& counts, double edge) {
+  const double cells = static_cast<double>(counts.x()) * static_cast<double>(counts.y()) * static_cast<double>(counts.z());
+  require(cells < 0x1p63, "a grid of " + std::to_string(edge) + " m cells over the cloud's extent has too many cells");
+  return static_cast<std::uint64_t>(counts.x()) * static_cast<std::uint64_t>(counts.y()) *
+         static_cast<std::uint64_t>(counts.z());
+}
+
+/// Cubes of a fixed edge aligned to world multiples of the edge, numbered over the cubes spanned by
+/// a box of offsets: key = (x · ny + y) · nz + z, with x, y, z counted from the lowest cube.
+class CubeGrid {
+ public:
+  /// `offsetBounds` bounds the offsets (from `origin`) of every point that will be looked up.
+  CubeGrid(const Eigen::Vector3d& origin, double edge, const BoundingBox& offsetBounds)
+      : origin_(origin), edge_(edge), lowest_(worldCube(offsetBounds.min)) {
+    counts_ = worldCube(offsetBounds.max) - lowest_ + 1;
+    checkedCellCount(counts_, edge);
+  }
+
+  Index3 cubeOf(const Eigen::Vector3f& offset) const { return worldCube(offset.cast<double>()) - lowest_; }
+  bool contains(const Index3& cube) const { return (cube >= 0).all() && (cube < counts_).all(); }
+  std::uint64_t key(const Index3& cube) const {
+    return (static_cast<std::uint64_t>(cube.x()) * static_cast<std::uint64_t>(counts_.y()) +
+            static_cast<std::uint64_t>(cube.y())) *
+               static_cast<std::uint64_t>(counts_.z()) +
+           static_cast<std::uint64_t>(cube.z());
+  }
+
+ private:
+  Index3 worldCube(const Eigen::Vector3d& offset) const {
+    return ((origin_ + offset) / edge_).array().floor().cast<std::int64_t>();
+  }
+
+  Eigen::Vector3d origin_;
+  double edge_;
+  Index3 lowest_;
+  Index3 counts_;
+};
+
+/// A point tagged with the key of its cube; sorting these groups points by cube in a fixed order.
+struct KeyedPoint {
+  std::uint64_t key;
+  std::uint32_t point;
+  bool operator<(const KeyedPoint& other) const {
+    return key != other.key ? key < other.key : point < other.point;
+  }
+};
+
+/// Marks points with no cube (non-finite positions); sorts after every real key.
+constexpr std::uint64_t kNoCube = std::numeric_limits<std::uint64_t>::max();
+
+/// Starts of the runs of equal keys in sorted entries, plus the end.
+std::vector<std::uint32_t> runStarts(const std::vector<KeyedPoint>& sorted) {
+  std::vector<std::uint32_t> starts;
+  for (std::size_t i = 0; i < sorted.size(); ++i) {
+    if (i == 0 || sorted[i].key != sorted[i - 1].key) starts.push_back(static_cast<std::uint32_t>(i));
+  }
+  starts.push_back(static_cast<std::uint32_t>(sorted.size()));
+  return starts;
+}
+
+/// Step 1: one point per occupied voxel, the centroid of its points; non-finite points are dropped.
+PointCloud voxelCentroids(const PointCloud& input, double leaf, Progress& progress) {
+  PointCloud output;
+  output.origin = input.origin;
+  BoundingBox bounds;
+  for (const Eigen::Vector3f& p : input.positions) {
+    if (p.allFinite()) bounds.extend(p.cast<double>());
+  }
+  if (bounds.empty()) return output;
+  if (leaf == 0.0) {
+    output.positions.reserve(input.size());
+    for (const Eigen::Vector3f& p : input.positions) {
+      if (p.allFinite()) output.positions.push_back(p);
+    }
+    return output;
+  }
+
+  const CubeGrid grid(input.origin, leaf, bounds);
+  std::vector<KeyedPoint> entries(input.size());
+  parallelChunks(input.size(), progress, [&](std::size_t first, std::size_t last) {
+    for (std::size_t i = first; i < last; ++i) {
+      const Eigen::Vector3f& p = input.positions[i];
+      entries[i] = {p.allFinite() ? grid.key(grid.cubeOf(p)) : kNoCube, static_cast<std::uint32_t>(i)};
+    }
+  });
+  progress.report(kTask, 0.3 * kVoxelDone);
+  tbb::parallel_sort(entries.begin(), entries.end());  // (key, point) pairs are distinct: a total order
+  progress.checkCancelled();
+  entries.erase(std::lower_bound(entries.begin(), entries.end(), KeyedPoint{kNoCube, 0}), entries.end());
+  progress.report(kTask, 0.8 * kVoxelDone);
+
+  const std::vector<std::uint32_t> starts = runStarts(entries);
+  const std::size_t voxels = starts.size() - 1;
+  output.positions.resize(voxels);
+  parallelChunks(voxels, progress, [&](std::size_t first, std::size_t last) {
+    for (std::size_t v = first; v < last; ++v) {
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      for (std::uint32_t e = starts[v]; e < starts[v + 1]; ++e) sum += input.positions[entries[e].point].cast<double>();
+      output.positions[v] = (sum / static_cast<double>(starts[v + 1] - starts[v])).cast<float>();
+    }
+  });
+  return output;
+}
+
+/// Step 2: the k nearest neighbours of every point (itself excluded), nearest first.
+struct NeighborLists {
+  int k = 0;
+  std::vector<std::uint32_t> indices;  ///< k per point.
+  int outlierK = 0;                    ///< Neighbours of the outlier measure (0: not computed).
+  std::vector<float> meanDistance;     ///< Mean distance to the first outlierK neighbours.
+};
+
+NeighborLists findNeighbors(const PointCloud& cloud, int k, int outlierK, Progress& progress) {
+  const std::size_t n = cloud.size();
+  NeighborLists lists;
+  lists.k = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(k), n - 1));
+  lists.outlierK = std::min(outlierK, lists.k);
+  const auto listSize = static_cast<std::size_t>(lists.k);
+  lists.indices.resize(n * listSize);
+  if (lists.outlierK > 0) lists.meanDistance.resize(n);
+
+  auto points = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  points->resize(n);
+  for (std::size_t i = 0; i < n; ++i) (*points)[i].getVector3fMap() = cloud.positions[i];
+  pcl::KdTreeFLANN<pcl::PointXYZ> tree(/*sorted=*/true);
+  tree.setInputCloud(points);
+  progress.checkCancelled();
+
+  std::atomic<std::size_t> done{0};
+  parallelChunks(n, progress, [&](std::size_t first, std::size_t last) {
+    pcl::Indices found;
+    std::vector<float> squaredDistances;
+    for (std::size_t i = first; i < last; ++i) {
+      tree.nearestKSearch((*points)[i], static_cast<unsigned>(lists.k + 1), found, squaredDistances);
+      // Drop the query point itself (usually first; an exact duplicate may come before it, and when
+      // duplicates crowd it out entirely the farthest found is dropped instead).
+      std::uint32_t* out = &lists.indices[i * listSize];
+      float distanceSum = 0.0f;
+      int written = 0;
+      for (std::size_t j = 0; j < found.size() && written < lists.k; ++j) {
+        if (static_cast<std::size_t>(found[j]) == i) continue;
+        out[written] = static_cast<std::uint32_t>(found[j]);
+        if (written < lists.outlierK) distanceSum += std::sqrt(squaredDistances[j]);
+        ++written;
+      }
+      if (lists.outlierK > 0) lists.meanDistance[i] = distanceSum / static_cast<float>(lists.outlierK);
+    }
+    const std::size_t total = done.fetch_add(last - first) + (last - first);
+    progress.report(kTask, kVoxelDone + (kNeighborsDone - kVoxelDone) * static_cast<double>(total) / static_cast<double>(n));
+  });
+  return lists;
+}
+
+/// Step 3: flags points whose mean neighbour distance exceeds mean + stdRatio × std over all points.
+std::vector<char> statisticalOutliers(const NeighborLists& lists, std::size_t n, double stdRatio) {
+  std::vector<char> outlier(n, 0);
+  if (lists.meanDistance.empty()) return outlier;
+  double sum = 0.0;
+  double squaredSum = 0.0;
+  for (float d : lists.meanDistance) {
+    sum += d;
+    squaredSum += static_cast<double>(d) * d;
+  }
+  const double mean = sum / static_cast<double>(n);
+  const double variance = std::max(0.0, squaredSum / static_cast<double>(n) - mean * mean);
+  const double threshold = mean + stdRatio * std::sqrt(variance);
+  for (std::size_t i = 0; i < n; ++i) outlier[i] = lists.meanDistance[i] > threshold;
+  return outlier;
+}
+
+/// Eigen-decomposition of the covariance of a set of points, smallest eigenvalue first.
+struct PrincipalFrame {
+  Eigen::Vector3d centroid;
+  Eigen::Vector3d eigenvalues;   ///< Ascending, clamped at 0.
+  Eigen::Matrix3d eigenvectors;  ///< Columns matching the eigenvalues.
+};
+
+/// Accumulates points relative to a reference point (keeps float offsets' precision in the sums).
+class MomentSum {
+ public:
+  explicit MomentSum(const Eigen::Vector3d& reference) : reference_(reference) {}
+  void add(const Eigen::Vector3d& p) {
+    const Eigen::Vector3d d = p - reference_;
+    first_ += d;
+    second_.noalias() += d * d.transpose();
+    ++count_;
+  }
+  std::size_t count() const { return count_; }
+  PrincipalFrame frame() const {
+    const double n = static_cast<double>(count_);
+    const Eigen::Vector3d mean = first_ / n;
+    const Eigen::Matrix3d covariance = second_ / n - mean * mean.transpose();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+    solver.computeDirect(covariance);
+    return {reference_ + mean, solver.eigenvalues().cwiseMax(0.0), solver.eigenvectors()};
+  }
+
+ private:
+  Eigen::Vector3d reference_;
+  Eigen::Vector3d first_ = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d second_ = Eigen::Matrix3d::Zero();
+  std::size_t count_ = 0;
+};
+
+/// Step 4: unit normal and curvature of every non-outlier point with at least two non-outlier
+/// neighbours; `valid` flags those points (the others have no defined normal).
+struct SurfaceEstimates {
+  std::vector<Eigen::Vector3f> normals;
+  std::vector<float> curvature;
+  std::vector<char> valid;
+};
+
+SurfaceEstimates estimateNormals(const PointCloud& cloud, const NeighborLists& lists, const std::vector<char>& outlier,
+                                 int normalK, Progress& progress) {
+  const std::size_t n = cloud.size();
+  SurfaceEstimates estimates;
+  estimates.normals.assign(n, Eigen::Vector3f::Zero());
+  estimates.curvature.assign(n, 0.0f);
+  estimates.valid.assign(n, 0);
+  const auto listSize = static_cast<std::size_t>(lists.k);
+  parallelChunks(n, progress, [&](std::size_t first, std::size_t last) {
+    for (std::size_t i = first; i < last; ++i) {
+      if (outlier[i]) continue;
+      const Eigen::Vector3d p = cloud.positions[i].cast<double>();
+      MomentSum moments(p);
+      moments.add(p);
+      int used = 0;
+      for (std::size_t j = 0; j < listSize && used < normalK; ++j) {
+        const std::uint32_t neighbor = lists.indices[i * listSize + j];
+        if (outlier[neighbor]) continue;
+        moments.add(cloud.positions[neighbor].cast<double>());
+        ++used;
+      }
+      if (moments.count() < 3) continue;
+      const PrincipalFrame frame = moments.frame();
+      const double total = frame.eigenvalues.sum();
+      estimates.normals[i] = frame.eigenvectors.col(0).normalized().cast<float>();
+      estimates.curvature[i] = total > 0.0 ? static_cast<float>(frame.eigenvalues[0] / total) : 0.0f;
+      estimates.valid[i] = 1;
+    }
+  });
+  return estimates;
+}
+
+/// Disjoint sets over cell indices; the smallest index of a set is its root (a fixed choice).
+class DisjointSets {
+ public:
+  explicit DisjointSets(std::size_t count) : parent_(count) {
+    for (std::size_t i = 0; i < count; ++i) parent_[i] = static_cast<std::uint32_t>(i);
+  }
+  std::uint32_t find(std::uint32_t i) {
+    while (parent_[i] != i) {
+      parent_[i] = parent_[parent_[i]];
+      i = parent_[i];
+    }
+    return i;
+  }
+  void unite(std::uint32_t a, std::uint32_t b) {
+    a = find(a);
+    b = find(b);
+    if (a != b) parent_[std::max(a, b)] = std::min(a, b);
+  }
+
+ private:
+  std::vector<std::uint32_t> parent_;
+};
+
+/// A cell of the plane grid and the plane fitted to its points.
+struct PlaneCell {
+  Index3 cube;
+  std::uint32_t first = 0;  ///< Range of the cell's entries in the sorted (key, point) list.
+  std::uint32_t last = 0;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();  ///< Offset coordinates.
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+  double area = 0.0;  ///< Area covered by the points, from their in-plane spread.
+  bool planar = false;
+};
+
+/// Largest absolute principal curvature (1/m) of the quadratic height field fitted to a cell's
+/// points over their PCA plane: w = A u² + B uv + C v² + D u + E v + F.
+double heightFieldCurvature(const PlaneCell& cell, const PrincipalFrame& frame, const std::vector<KeyedPoint>& entries,
+                            const PointCloud& cloud, double cellSize) {
+  using Vector6d = Eigen::Matrix<double, 6, 1>;
+  using Matrix6d = Eigen::Matrix<double, 6, 6>;
+  Matrix6d normal = Matrix6d::Zero();
+  Vector6d rhs = Vector6d::Zero();
+  for (std::uint32_t e = cell.first; e < cell.last; ++e) {
+    // Coordinates in cell-size units keep the normal equations well conditioned.
+    const Eigen::Vector3d local =
+        frame.eigenvectors.transpose() * (cloud.positions[entries[e].point].cast<double>() - frame.centroid) / cellSize;
+    const double w = local[0], u = local[1], v = local[2];  // height along the normal, in-plane axes
+    Vector6d basis;
+    basis << u * u, u * v, v * v, u, v, 1.0;
+    normal.selfadjointView<Eigen::Lower>().rankUpdate(basis);
+    rhs += w * basis;
+  }
+  const Vector6d c = normal.selfadjointView<Eigen::Lower>().ldlt().solve(rhs);
+  // Back to metres: A = c0 / cellSize (w and u, v were all divided by cellSize).
+  const double a = c[0] / cellSize, b = c[1] / cellSize, cc = c[2] / cellSize;
+  return std::abs(a + cc) + std::sqrt((a - cc) * (a - cc) + b * b);
+}
+
+/// Fits the cell's plane and decides whether it is a piece of a flat surface.
+void classifyCell(PlaneCell& cell, const std::vector<KeyedPoint>& entries, const PointCloud& cloud,
+                  const std::vector<Eigen::Vector3f>& normals, const PreprocessParams& params) {
+  const std::uint32_t count = cell.last - cell.first;
+  MomentSum moments(cloud.positions[entries[cell.first].point].cast<double>());
+  for (std::uint32_t e = cell.first; e < cell.last; ++e) moments.add(cloud.positions[entries[e].point].cast<double>());
+  const PrincipalFrame frame = moments.frame();
+  cell.centroid = frame.centroid;
+  cell.normal = frame.eigenvectors.col(0).normalized();
+  // A uniformly covered w × h rectangle has in-plane variances w²/12 and h²/12.
+  cell.area = 12.0 * std::sqrt(frame.eigenvalues[1] * frame.eigenvalues[2]);
+  if (count < kMinCellPoints) return;
+  if (std::sqrt(frame.eigenvalues[0]) > params.planeMaxThickness) return;
+  if (std::sqrt(frame.eigenvalues[1]) < kMinSpreadShare * params.planeCellSize) return;
+
+  const double cosParallel = std::cos(degToRad(kParallelAngleDeg));
+  std::uint32_t agreeing = 0;
+  for (std::uint32_t e = cell.first; e < cell.last; ++e) {
+    if (std::abs(normals[entries[e].point].cast<double>().dot(cell.normal)) >= cosParallel) ++agreeing;
+  }
+  if (agreeing < kMinAgreement * count) return;
+  if (heightFieldCurvature(cell, frame, entries, cloud, params.planeCellSize) > params.planeMaxCurvature) return;
+  cell.planar = true;
+}
+
+/// Adjacent planar cells belong to one plane when their normals and offsets agree.
+bool samePlane(const PlaneCell& a, const PlaneCell& b, double thickness) {
+  const double maxOffset = kJoinOffsetFactor * thickness;
+  return std::abs(a.normal.dot(b.normal)) >= std::cos(degToRad(kJoinAngleDeg)) &&
+         std::abs((b.centroid - a.centroid).dot(a.normal)) <= maxOffset &&
+         std::abs((a.centroid - b.centroid).dot(b.normal)) <= maxOffset;
+}
+
+/// The 26 neighbours of a cell, as offsets.
+std::array<Index3, 26> neighborOffsets() {
+  std::array<Index3, 26> offsets;
+  int count = 0;
+  for (int dx = -1; dx <= 1; ++dx) {
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dz = -1; dz <= 1; ++dz) {
+        if (dx != 0 || dy != 0 || dz != 0) offsets[count++] = Index3(dx, dy, dz);
+      }
+    }
+  }
+  return offsets;
+}
+
+/// Step 5: flags the points of large planes among the `usable` points. Returns the plane count.
+int findPlanePoints(const PointCloud& cloud, const SurfaceEstimates& surface, const PreprocessParams& params,
+                    std::vector<char>& planePoint, Progress& progress) {
+  const std::size_t n = cloud.size();
+  BoundingBox bounds;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (surface.valid[i]) bounds.extend(cloud.positions[i].cast<double>());
+  }
+  if (bounds.empty()) return 0;
+  const CubeGrid grid(cloud.origin, params.planeCellSize, bounds);
+  std::vector<KeyedPoint> entries;
+  entries.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (surface.valid[i]) entries.push_back({grid.key(grid.cubeOf(cloud.positions[i])), static_cast<std::uint32_t>(i)});
+  }
+  tbb::parallel_sort(entries.begin(), entries.end());
+  progress.checkCancelled();
+
+  const std::vector<std::uint32_t> starts = runStarts(entries);
+  std::vector<PlaneCell> cells(starts.size() - 1);
+  std::vector<std::uint64_t> cellKeys(cells.size());
+  for (std::size_t c = 0; c < cells.size(); ++c) {
+    cells[c].first = starts[c];
+    cells[c].last = starts[c + 1];
+    cells[c].cube = grid.cubeOf(cloud.positions[entries[starts[c]].point]);
+    cellKeys[c] = entries[starts[c]].key;
+  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 16), [&](const tbb::blocked_range<std::size_t>& range) {
+    progress.checkCancelled();
+    for (std::size_t c = range.begin(); c < range.end(); ++c) classifyCell(cells[c], entries, cloud, surface.normals, params);
+  });
+  progress.report(kTask, kNormalsDone + 0.6 * (kPlanesDone - kNormalsDone));
+
+  const std::array<Index3, 26> offsets = neighborOffsets();
+  // Index of the cell at `cube`, or -1 when no point falls there.
+  const auto cellAt = [&](const Index3& cube) -> std::int64_t {
+    if (!grid.contains(cube)) return -1;
+    const auto found = std::lower_bound(cellKeys.begin(), cellKeys.end(), grid.key(cube));
+    return found != cellKeys.end() && *found == grid.key(cube) ? found - cellKeys.begin() : -1;
+  };
+
+  DisjointSets regions(cells.size());
+  for (std::size_t c = 0; c < cells.size(); ++c) {
+    if (!cells[c].planar) continue;
+    for (const Index3& offset : offsets) {
+      const std::int64_t other = cellAt(cells[c].cube + offset);
+      if (other > static_cast<std::int64_t>(c) && cells[other].planar &&
+          samePlane(cells[c], cells[other], params.planeMaxThickness)) {
+        regions.unite(static_cast<std::uint32_t>(c), static_cast<std::uint32_t>(other));
+      }
+    }
+  }
+  // The region of each planar cell, named by its root (its smallest cell); -1 for other cells.
+  std::vector<std::int64_t> regionOfCell(cells.size(), -1);
+  for (std::size_t c = 0; c < cells.size(); ++c) {
+    if (cells[c].planar) regionOfCell[c] = regions.find(static_cast<std::uint32_t>(c));
+  }
+
+  // Which plane each point lies on: a region cell's points are tested against the cell's plane, the
+  // points of a cell next to region cells against those cells' planes. A point lies on a plane when
+  // it is in the plane's band with a parallel normal, on the seam of two planes when it is in the
+  // bands of two regions. Points away from the regions of `regionOf` are left as they are.
+  const double cosParallel = std::cos(degToRad(kParallelAngleDeg));
+  constexpr std::int64_t kOffPlanes = -1;
+  constexpr std::int64_t kSeam = -2;
+  std::vector<std::int64_t> located(cloud.size(), kOffPlanes);
+  const auto locatePoints = [&](const std::vector<std::int64_t>& regionOf) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 16), [&](const tbb::blocked_range<std::size_t>& range) {
+      progress.checkCancelled();
+      struct BandPlane {
+        const PlaneCell* cell;
+        std::int64_t region;
+        double band;
+      };
+      std::array<BandPlane, 26> bands;
+      for (std::size_t c = range.begin(); c < range.end(); ++c) {
+        int bandCount = 0;
+        if (regionOf[c] >= 0) {
+          bands[bandCount++] = {&cells[c], regionOf[c], kCellBandFactor * params.planeMaxThickness};
+        } else {
+          for (const Index3& offset : offsets) {
+            const std::int64_t other = cellAt(cells[c].cube + offset);
+            if (other >= 0 && regionOf[other] >= 0) {
+              bands[bandCount++] = {&cells[other], regionOf[other], kFringeBandFactor * params.planeMaxThickness};
+            }
+          }
+        }
+        for (std::uint32_t e = cells[c].first; e < cells[c].last; ++e) {
+          const std::uint32_t i = entries[e].point;
+          const Eigen::Vector3d p = cloud.positions[i].cast<double>();
+          const Eigen::Vector3d normal = surface.normals[i].cast<double>();
+          std::int64_t location = kOffPlanes;
+          std::int64_t firstBand = -1;
+          for (int b = 0; b < bandCount; ++b) {
+            const BandPlane& plane = bands[b];
+            if (std::abs((p - plane.cell->centroid).dot(plane.cell->normal)) > plane.band) continue;
+            if (std::abs(normal.dot(plane.cell->normal)) >= cosParallel) {
+              location = plane.region;
+              break;
+            }
+            if (firstBand >= 0 && firstBand != plane.region) {
+              location = kSeam;
+              break;
+            }
+            if (firstBand < 0) firstBand = plane.region;
+          }
+          located[i] = location;
+        }
+      }
+    });
+  };
+  locatePoints(regionOfCell);
+  progress.report(kTask, kNormalsDone + 0.8 * (kPlanesDone - kNormalsDone));
+
+  // A region's area: the points on its plane, in its cells and around them, times the area per
+  // point of its cells. Counting the points around the cells credits the plane for the cells it
+  // shares with other surfaces (a box top's cells along its edges hold the sides too).
+  std::vector<double> cellArea(cells.size(), 0.0);
+  std::vector<double> cellPoints(cells.size(), 0.0);
+  std::vector<double> pointsOnPlane(cells.size(), 0.0);
+  for (std::size_t c = 0; c < cells.size(); ++c) {
+    if (regionOfCell[c] < 0) continue;
+    cellArea[regionOfCell[c]] += cells[c].area;
+    cellPoints[regionOfCell[c]] += cells[c].last - cells[c].first;
+  }
+  for (std::int64_t location : located) {
+    if (location >= 0) pointsOnPlane[location] += 1.0;
+  }
+  int planes = 0;
+  for (std::size_t c = 0; c < cells.size(); ++c) {
+    const std::int64_t root = regionOfCell[c];
+    if (root < 0) continue;
+    if (pointsOnPlane[root] * cellArea[root] / cellPoints[root] < params.planeMinArea) {
+      regionOfCell[c] = -1;
+    } else if (root == static_cast<std::int64_t>(c)) {
+      ++planes;
+    }
+  }
+  if (planes == 0) return 0;
+
+  std::fill(located.begin(), located.end(), kOffPlanes);
+  locatePoints(regionOfCell);
+  for (std::size_t i = 0; i < located.size(); ++i) planePoint[i] = located[i] != kOffPlanes;
+  return planes;
+}
+
+/// Step 6: cubic tiles from the low corner of the cloud's bounding box, grown by the overlap.
+std::vector<Tile> buildTiles(const PointCloud& cloud, double size, double overlap, Progress& progress) {
+  const BoundingBox bounds = cloud.boundingBox();
+  if (bounds.empty()) return {};
+  const Index3 counts = ((bounds.max - bounds.min) / size).array().floor().cast<std::int64_t>() + 1;
+  checkedCellCount(counts, size);
+  // Tile t's box along an axis is [low, high]; the same expressions give the boxes and the membership.
+  const auto low = [&](int axis, std::int64_t t, double margin) {
+    return bounds.min[axis] + (static_cast<double>(t) * size - margin);
+  };
+  const auto high = [&](int axis, std::int64_t t, double margin) {
+    return bounds.min[axis] + (static_cast<double>(t + 1) * size + margin);
+  };
+
+  // (tile key, point) for every tile whose grown box contains the point; the axes are independent,
+  // so the candidates along each axis are checked on their own and combined.
+  std::vector<KeyedPoint> memberships;
+  memberships.reserve(cloud.size());
+  std::array<std::vector<std::int64_t>, 3> along;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (i % kChunk == 0) progress.checkCancelled();
+    const Eigen::Vector3d p = cloud.worldPosition(i);
+    for (int axis = 0; axis < 3; ++axis) {
+      along[axis].clear();
+      const double x = p[axis] - bounds.min[axis];
+      const auto first = std::max<std::int64_t>(0, static_cast<std::int64_t>(std::floor((x - overlap) / size)) - 1);
+      const auto last = std::min<std::int64_t>(counts[axis] - 1, static_cast<std::int64_t>(std::floor((x + overlap) / size)) + 1);
+      for (std::int64_t t = first; t <= last; ++t) {
+        if (p[axis] >= low(axis, t, overlap) && p[axis] <= high(axis, t, overlap)) along[axis].push_back(t);
+      }
+    }
+    for (std::int64_t tx : along[0]) {
+      for (std::int64_t ty : along[1]) {
+        for (std::int64_t tz : along[2]) {
+          const std::uint64_t key = (static_cast<std::uint64_t>(tx) * static_cast<std::uint64_t>(counts.y()) +
+                                     static_cast<std::uint64_t>(ty)) *
+                                        static_cast<std::uint64_t>(counts.z()) +
+                                    static_cast<std::uint64_t>(tz);
+          memberships.push_back({key, static_cast<std::uint32_t>(i)});
+        }
+      }
+    }
+  }
+  tbb::parallel_sort(memberships.begin(), memberships.end());
+
+  std::vector<Tile> tiles;
+  const std::vector<std::uint32_t> starts = runStarts(memberships);
+  for (std::size_t t = 0; t + 1 < starts.size(); ++t) {
+    const std::uint64_t key = memberships[starts[t]].key;
+    const auto perX = static_cast<std::uint64_t>(counts.y() * counts.z());
+    const Index3 index(static_cast<std::int64_t>(key / perX), static_cast<std::int64_t>(key % perX) / counts.z(),
+                       static_cast<std::int64_t>(key % static_cast<std::uint64_t>(counts.z())));
+    Tile tile;
+    tile.id = static_cast<int>(t);
+    for (int axis = 0; axis < 3; ++axis) {
+      tile.core.min[axis] = low(axis, index[axis], 0.0);
+      tile.core.max[axis] = high(axis, index[axis], 0.0);
+      tile.box.min[axis] = low(axis, index[axis], overlap);
+      tile.box.max[axis] = high(axis, index[axis], overlap);
+    }
+    tile.points.reserve(starts[t + 1] - starts[t]);
+    for (std::uint32_t e = starts[t]; e < starts[t + 1]; ++e) tile.points.push_back(memberships[e].point);
+    tiles.push_back(std::move(tile));
+  }
+  return tiles;
+}
+
+}  // namespace
+
+PreprocessResult preprocess(const PointCloud& input, const PreprocessParams& params, Progress& progress) {
+  validate(params);
+  require(input.size() < std::numeric_limits<std::uint32_t>::max(), "clouds of 2^32 points or more are not supported");
+  const Clock::time_point start = Clock::now();
+  PreprocessResult result;
+  auto& diagnostics = result.diagnostics;
+  diagnostics.inputPoints = input.size();
+  progress.report(kTask, 0.0);
+
+  Clock::time_point stepStart = Clock::now();
+  PointCloud sampled = voxelCentroids(input, params.voxelSize, progress);
+  const std::size_t n = sampled.size();
+  diagnostics.afterVoxel = n;
+  diagnostics.voxelSeconds = secondsSince(stepStart);
+  progress.checkCancelled();
+  progress.report(kTask, kVoxelDone);
+
+  stepStart = Clock::now();
+  const bool removeOutliers = params.outlierNeighbors > 0 && params.outlierStdRatio > 0.0;
+  const int outlierK = removeOutliers ? params.outlierNeighbors : 0;
+  const NeighborLists neighbors =
+      n < 2 ? NeighborLists{} : findNeighbors(sampled, std::max(outlierK, params.normalNeighbors), outlierK, progress);
+  diagnostics.neighborSeconds = secondsSince(stepStart);
+  progress.checkCancelled();
+
+  stepStart = Clock::now();
+  const std::vector<char> outlier = statisticalOutliers(neighbors, n, params.outlierStdRatio);
+  const SurfaceEstimates surface = estimateNormals(sampled, neighbors, outlier, params.normalNeighbors, progress);
+  // Points left without a normal (too few non-outlier neighbours) count as outliers.
+  diagnostics.outliersRemoved = static_cast<std::size_t>(std::count(surface.valid.begin(), surface.valid.end(), 0));
+  diagnostics.normalSeconds = secondsSince(stepStart);
+  progress.checkCancelled();
+  progress.report(kTask, kNormalsDone);
+
+  stepStart = Clock::now();
+  std::vector<char> planePoint(n, 0);
+  if (params.removePlanes) {
+    diagnostics.planes = findPlanePoints(sampled, surface, params, planePoint, progress);
+  }
+  diagnostics.planeSeconds = secondsSince(stepStart);
+  progress.checkCancelled();
+  progress.report(kTask, kPlanesDone);
+
+  result.points.origin = input.origin;
+  result.planePoints.origin = input.origin;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!surface.valid[i]) continue;
+    PointCloud& target = planePoint[i] ? result.planePoints : result.points;
+    target.positions.push_back(sampled.positions[i]);
+    target.normals.push_back(surface.normals[i]);
+    if (!planePoint[i]) result.curvature.push_back(surface.curvature[i]);
+  }
+  diagnostics.planePoints = result.planePoints.size();
+  diagnostics.keptPoints = result.points.size();
+
+  stepStart = Clock::now();
+  result.tiles = buildTiles(result.points, params.tileSize, params.tileOverlap, progress);
+  diagnostics.tileSeconds = secondsSince(stepStart);
+  diagnostics.seconds = secondsSince(start);
+  progress.report(kTask, 1.0);
+  return result;
+}
+
+}  // namespace piperun

@@ -1,0 +1,148 @@
+#include "piperun/synth/scene_generator.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "synth/scanner.h"
+#include "synth/scene_layout.h"
+
+namespace piperun {
+namespace {
+
+constexpr double kDegree = 3.14159265358979323846 / 180.0;
+/// Points handed to the sink at a time (about 8 MB of chunk).
+constexpr std::size_t kChunkPoints = std::size_t{1} << 18;
+/// Angular step of the sparse scan that measures how many rays hit something.
+constexpr double kCalibrationStep = 0.5 * kDegree;
+/// Finest angular step allowed, whatever the density scale (about 0.5 mm at 10 m).
+constexpr double kFinestStep = 0.003 * kDegree;
+
+double targetPoints(ScenePreset preset) {
+  switch (preset) {
+    case ScenePreset::Small:
+      return 300e3;
+    case ScenePreset::Medium:
+      return 2e6;
+    case ScenePreset::Large:
+      return 20e6;
+  }
+  throw std::invalid_argument("unknown scene preset");
+}
+
+void checkParams(const SceneParams& params) {
+  if (!(params.noiseSigma >= 0.0 && std::isfinite(params.noiseSigma))) {
+    throw std::invalid_argument("scene noise sigma must be a finite value >= 0, got " +
+                                std::to_string(params.noiseSigma));
+  }
+  if (!(params.outlierFraction >= 0.0 && params.outlierFraction < 1.0)) {
+    throw std::invalid_argument("scene outlier fraction must be in [0, 1), got " +
+                                std::to_string(params.outlierFraction));
+  }
+  if (!(params.densityScale > 0.0 && std::isfinite(params.densityScale))) {
+    throw std::invalid_argument("scene density scale must be a finite value > 0, got " +
+                                std::to_string(params.densityScale));
+  }
+  if (params.stations < 0 || params.stations > 3) {
+    throw std::invalid_argument("scene stations must be 0 (chosen by the seed) to 3, got " +
+                                std::to_string(params.stations));
+  }
+}
+
+}  // namespace
+
+SceneSummary generateScene(const SceneParams& params, PipeNetwork& truth, const PointChunkSink& sink,
+                           Progress& progress) {
+  checkParams(params);
+  progress.report("Laying out the scene", 0.0);
+  synth::SceneLayout layout = synth::buildSceneLayout(params);
+  progress.checkCancelled();
+  const synth::Scanner scanner(std::move(layout.surfaces));
+  const int stationCount = static_cast<int>(layout.stations.size());
+
+  synth::ScanSettings settings;
+  settings.noiseSigma = params.noiseSigma;
+  settings.outlierFraction = params.outlierFraction;
+  settings.outlierBox = layout.room;
+  settings.seed = params.seed;
+  // Hits grow as 1 / step² on an angular grid, so a sparse scan from every station tells which
+  // step gives the preset's point count (outliers come on top of the surface points).
+  settings.angularStep = kCalibrationStep;
+  std::uint64_t sparseHits = 0;
+  for (const Eigen::Vector3d& station : layout.stations) sparseHits += scanner.countHits(station, settings);
+  const double wantedHits = targetPoints(params.preset) * params.densityScale / (1.0 + params.outlierFraction);
+  settings.angularStep =
+      std::max(kFinestStep,
+               kCalibrationStep * std::sqrt(static_cast<double>(std::max<std::uint64_t>(sparseHits, 1)) / wantedHits));
+
+  SceneSummary summary;
+  summary.stations = stationCount;
+  const std::size_t elementCount = layout.truth.pipes.size() + layout.truth.joints.size();
+  std::vector<std::int64_t> pointsPerElement(elementCount + 1, 0);
+  PointChunk chunk;
+  auto flush = [&] {
+    if (chunk.empty()) return;
+    sink(chunk);
+    chunk.clear();
+  };
+  for (int s = 0; s < stationCount; ++s) {
+    const std::string task = "Scanning station " + std::to_string(s + 1) + " of " + std::to_string(stationCount);
+    scanner.scan(layout.stations[s], s, settings, [&](synth::ScanStrip&& strip, double fraction) {
+      for (std::size_t i = 0; i < strip.positions.size(); ++i) {
+        chunk.positions.push_back(strip.positions[i]);
+        chunk.intensities.push_back(strip.intensities[i]);
+        chunk.labels.push_back(strip.labels[i]);
+        summary.bounds.extend(strip.positions[i]);
+        const std::int32_t label = strip.labels[i];
+        if (label > 0) ++pointsPerElement[static_cast<std::size_t>(label)];
+        if (chunk.size() >= kChunkPoints) flush();
+      }
+      summary.points += strip.positions.size();
+      summary.outliers += strip.outliers;
+      progress.report(task, (s + fraction) / stationCount);
+      progress.checkCancelled();
+    });
+  }
+  flush();
+
+  truth = std::move(layout.truth);
+  for (Pipe& pipe : truth.pipes) pipe.inlierCount = pointsPerElement[static_cast<std::size_t>(pipe.id)];
+  summary.pipes = static_cast<int>(truth.pipes.size());
+  for (const Joint& joint : truth.joints) {
+    if (joint.type == JointType::Elbow) ++summary.elbows;
+    if (joint.type == JointType::Tee) ++summary.tees;
+  }
+  summary.runs = static_cast<int>(truth.runs.size());
+  summary.directions = static_cast<int>(synth::distinctPipeDirections(truth, 0.5 * kDegree).size());
+  progress.report("Scene generated", 1.0);
+  return summary;
+}
+
+GeneratedScene generateScene(const SceneParams& params, Progress& progress) {
+  GeneratedScene scene;
+  scene.summary = generateScene(
+      params, scene.truth, [&](const PointChunk& chunk) { scene.cloud.append(chunk); }, progress);
+  return scene;
+}
+
+std::string toString(ScenePreset preset) {
+  switch (preset) {
+    case ScenePreset::Small:
+      return "small";
+    case ScenePreset::Medium:
+      return "medium";
+    case ScenePreset::Large:
+      return "large";
+  }
+  return "unknown";
+}
+
+ScenePreset scenePresetFromString(const std::string& name) {
+  if (name == "small") return ScenePreset::Small;
+  if (name == "medium") return ScenePreset::Medium;
+  if (name == "large") return ScenePreset::Large;
+  throw std::invalid_argument("unknown scene preset '" + name + "', expected small, medium or large");
+}
+
+}  // namespace piperun

@@ -1,0 +1,128 @@
+#!/bin/bash
+# Command-line tests of `piperun`: cli_cases.sh CASE PIPERUN REAL_DATA_DIR
+# Each case runs the tool as a user would and checks its output and exit code.
+set -u
+CASE=$1
+PIPERUN=$2
+DATA=$3
+WORK=$(mktemp -d)
+trap 'rm -rf "$WORK"' EXIT
+
+fail() { echo "FAIL [$CASE]: $*" >&2; exit 1; }
+
+# run EXPECTED_EXIT ARGS...: runs piperun, keeps stdout/stderr in $OUT/$ERR.
+run() {
+  local expected=$1
+  shift
+  "$PIPERUN" "$@" >"$WORK/out" 2>"$WORK/err"
+  local code=$?
+  OUT=$(cat "$WORK/out")
+  ERR=$(cat "$WORK/err")
+  if [ "$code" -ne "$expected" ]; then
+    fail "piperun $* exited $code, expected $expected; stdout: $OUT; stderr: $ERR"
+  fi
+}
+
+expect_out() { grep -qE -- "$1" <<<"$OUT" || fail "stdout lacks /$1/: $OUT"; }
+expect_err() { grep -qE -- "$1" <<<"$ERR" || fail "stderr lacks /$1/: $ERR"; }
+# The error is one line, naming the file.
+expect_one_line_error() {
+  [ "$(wc -l <<<"$ERR")" -eq 1 ] || fail "error is not one line: $ERR"
+  expect_err "^piperun: error: "
+  expect_err "$1"
+}
+
+case "$CASE" in
+  version)
+    run 0 --version
+    expect_out "^piperun [0-9]+\.[0-9]+\.[0-9]+$"
+    for sub in info generate eval convert; do
+      run 0 "$sub" --version
+      expect_out "^piperun [0-9]+\.[0-9]+\.[0-9]+$"
+    done
+    ;;
+  help)
+    run 0 --help
+    for sub in info generate eval convert; do expect_out "$sub"; done
+    expect_out "Exit codes"
+    run 0 generate --help
+    expect_out "--preset"
+    expect_out "--seed"
+    ;;
+  usage-errors)
+    run 1
+    expect_one_line_error "subcommand"
+    run 1 frobnicate
+    run 1 generate --preset huge -o "$WORK/a.ply"
+    run 1 generate
+    expect_one_line_error "output"
+    run 1 eval only-one.json
+    ;;
+  info-e57)
+    run 0 info "$DATA/pumpAVisualReferenceImage.e57"
+    expect_out "^points: 155201$"
+    expect_out "^format: E57"
+    expect_out "colors"
+    expect_out "intensity"
+    expect_out "^size: 4\.6[0-9]* x 4\.5[0-9]* x 3\.7[0-9]* m$"
+    expect_out "^spacing: [0-9]"
+    ;;
+  info-pcd)
+    run 0 info "$DATA/pumpA_pump_station.pcd"
+    expect_out "^points: 155201$"
+    run 0 info --json "$DATA/table_scene_mug_stereo_textured.pcd"
+    expect_out '"points": 209280'
+    expect_out '"non_finite_dropped": 97920'
+    ;;
+  bad-input)
+    run 2 info "$WORK/absent.ply"
+    expect_one_line_error "absent.ply: no such file"
+    printf 'ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 3\n4 5\n' >"$WORK/short.ply"
+    run 2 info "$WORK/short.ply"
+    expect_one_line_error "short.ply: line"
+    printf 'LASF' >"$WORK/scan.laz"
+    run 2 info "$WORK/scan.laz"
+    expect_one_line_error "decompress"
+    head -c 5000 "$DATA/pumpAVisualReferenceImage.e57" >"$WORK/cut.e57"
+    run 2 info "$WORK/cut.e57"
+    expect_one_line_error "cut.e57: "
+    printf '{"format":"piperun-network","version":9,"pipes":[]}' >"$WORK/future.json"
+    run 2 eval "$WORK/future.json" "$WORK/future.json"
+    expect_one_line_error "version 9"
+    ;;
+  convert)
+    run 0 convert "$DATA/pumpAVisualReferenceImage.e57" "$WORK/pump.ply"
+    expect_out "points=155201 "
+    run 0 info "$WORK/pump.ply"
+    expect_out "^points: 155201$"
+    expect_out "colors, intensity"
+    run 0 convert --no-colors "$WORK/pump.ply" "$WORK/pump.xyz"
+    run 0 info "$WORK/pump.xyz"
+    expect_out "^points: 155201$"
+    expect_out "^attributes: intensity$"
+    ;;
+  generate-eval)
+    run 0 generate --preset small --seed 3 --density 0.25 -o "$WORK/scene.ply" --truth "$WORK/truth.json"
+    expect_out "^points=[0-9]+ pipes=[0-9]+ elbows=[0-9]+ tees=[0-9]+ runs=[0-9]+"
+    run 0 info "$WORK/scene.ply"
+    expect_out "^points: [0-9]+$"
+    run 0 info "$WORK/truth.json"
+    expect_out "^pipes: [0-9]+"
+    run 0 eval "$WORK/truth.json" "$WORK/truth.json"
+    expect_out "precision=1.000 recall=1.000 f1=1.000 radius_err_mm=0.0"
+    run 0 eval --json "$WORK/truth.json" "$WORK/truth.json"
+    expect_out '"f1": 1.0'
+    ;;
+  generate-deterministic)
+    run 0 generate --preset small --seed 5 --density 0.2 -o "$WORK/a.ply" --truth "$WORK/a.json"
+    run 0 generate --preset small --seed 5 --density 0.2 -o "$WORK/b.ply" --truth "$WORK/b.json"
+    cmp -s "$WORK/a.ply" "$WORK/b.ply" || fail "same seed gave different points"
+    cmp -s "$WORK/a.json" "$WORK/b.json" || fail "same seed gave different truth"
+    run 0 generate --preset small --seed 6 --density 0.2 -o "$WORK/c.ply"
+    cmp -s "$WORK/a.ply" "$WORK/c.ply" && fail "different seeds gave the same points"
+    ;;
+  *)
+    fail "unknown case"
+    ;;
+esac
+echo "ok [$CASE]"

@@ -1,0 +1,173 @@
+#include "piperun/stages/extents.h"
+
+#include "synth/random.h"
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <vector>
+
+namespace piperun {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+/// A cylinder along +x through (0, 0, 1) scanned from the side (−y): points on the facing half,
+/// evenly across the silhouette, 1 cm apart, 2 mm noise; `keep(x)` says where the pipe is visible.
+struct ScannedPipe {
+  PointCloud cloud;
+  PlacementResult placement;
+  double radius = 0.05;
+
+  explicit ScannedPipe(double length, const std::function<bool(double)>& keep, double pipeRadius = 0.05)
+      : radius(pipeRadius) {
+    synth::Rng rng(3);
+    for (double x = 0.005; x < length; x += 0.01) {
+      if (!keep(x)) continue;
+      for (double s = -radius + 0.005; s < radius; s += 0.01) addSurfacePoint(x, std::asin(s / radius), rng);
+    }
+    Cylinder cylinder;
+    cylinder.point = Eigen::Vector3d(0.7, 0.0, 1.0);  // anywhere on the axis
+    cylinder.direction = Eigen::Vector3d::UnitX();
+    cylinder.radius = radius;
+    placement.cylinders.push_back(cylinder);
+    refreshInliers();
+  }
+
+  /// A point on the surface at axial position x and angle phi from the facing side.
+  void addSurfacePoint(double x, double phi, synth::Rng& rng) {
+    const double r = radius + 0.002 * rng.normal();
+    cloud.positions.emplace_back(static_cast<float>(x), static_cast<float>(-r * std::cos(phi)),
+                                 static_cast<float>(1.0 + r * std::sin(phi)));
+    cloud.normals.emplace_back(0.0f, static_cast<float>(-std::cos(phi)), static_cast<float>(std::sin(phi)));
+  }
+
+  void refreshInliers() {
+    auto& inliers = placement.cylinders[0].inliers;
+    inliers.resize(cloud.size());
+    for (std::uint32_t i = 0; i < inliers.size(); ++i) inliers[i] = i;
+  }
+};
+
+TEST(Extents, ContinuousPipeIsOneSegmentWithItsEnds) {
+  const ScannedPipe pipe(2.0, [](double) { return true; });
+  const ExtentsResult result = computeExtents({pipe.cloud, pipe.placement}, ExtentsParams{});
+  ASSERT_EQ(result.segments.size(), 1u);
+  const PipeSegment& segment = result.segments[0];
+  EXPECT_LT((segment.start - Eigen::Vector3d(0.0, 0.0, 1.0)).norm(), 0.02);
+  EXPECT_LT((segment.end - Eigen::Vector3d(2.0, 0.0, 1.0)).norm(), 0.02);
+  EXPECT_EQ(segment.radius, pipe.radius);
+  EXPECT_EQ(segment.cylinderIndex, 0);
+  EXPECT_EQ(segment.inliers.size(), pipe.cloud.size());
+  EXPECT_DOUBLE_EQ(segment.confidence, 1.0);
+  EXPECT_GT(segment.rms, 0.0012);
+  EXPECT_LT(segment.rms, 0.0028);
+  EXPECT_EQ(result.diagnostics.keptSections, result.diagnostics.sections);
+}
+
+TEST(Extents, ShortOcclusionIsBridged) {
+  // 30 cm hidden behind something in front: shorter than the closing (10 sections of 4 cm).
+  const ScannedPipe pipe(3.0, [](double x) { return x < 1.2 || x > 1.5; });
+  const ExtentsResult result = computeExtents({pipe.cloud, pipe.placement}, ExtentsParams{});
+  ASSERT_EQ(result.segments.size(), 1u);
+  const PipeSegment& segment = result.segments[0];
+  EXPECT_LT(std::abs(segment.start.x() - 0.0), 0.02);
+  EXPECT_LT(std::abs(segment.end.x() - 3.0), 0.02);
+  EXPECT_GT(segment.confidence, 0.85);
+  EXPECT_LT(segment.confidence, 0.95);
+}
+
+TEST(Extents, LongGapSplitsCollinearPipes) {
+  const ScannedPipe pipe(3.0, [](double x) { return x < 1.0 || x > 2.0; });
+  const ExtentsResult result = computeExtents({pipe.cloud, pipe.placement}, ExtentsParams{});
+  ASSERT_EQ(result.segments.size(), 2u);
+  const auto [first, second] = std::minmax(result.segments[0], result.segments[1], [](const PipeSegment& a, const PipeSegment& b) {
+    return a.start.x() < b.start.x();
+  });
+  EXPECT_LT(std::abs(first.start.x() - 0.0), 0.02);
+  EXPECT_LT(std::abs(first.end.x() - 1.0), 0.02);
+  EXPECT_LT(std::abs(second.start.x() - 2.0), 0.02);
+  EXPECT_LT(std::abs(second.end.x() - 3.0), 0.02);
+  EXPECT_EQ(first.inliers.size() + second.inliers.size(), pipe.cloud.size());
+  EXPECT_DOUBLE_EQ(first.confidence, 1.0);
+}
+
+TEST(Extents, NoiseBlobsAndSliversAreDropped) {
+  ScannedPipe pipe(1.5, [](double) { return true; });
+  synth::Rng rng(9);
+  // Beyond the pipe on the same line: two 3 cm blobs of surface points, and a 60 cm sliver where
+  // a neighbouring surface grazes the cylinder along one line of angles.
+  for (const double blob : {2.0, 2.6}) {
+    for (int k = 0; k < 60; ++k) pipe.addSurfacePoint(blob + rng.uniform(0.0, 0.03), rng.uniform(-1.2, 1.2), rng);
+  }
+  for (double x = 3.0; x < 3.6; x += 0.005) pipe.addSurfacePoint(x, 1.3 + rng.uniform(-0.1, 0.1), rng);
+  pipe.refreshInliers();
+
+  const ExtentsResult result = computeExtents({pipe.cloud, pipe.placement}, ExtentsParams{});
+  ASSERT_EQ(result.segments.size(), 1u);
+  EXPECT_LT(std::abs(result.segments[0].start.x() - 0.0), 0.02);
+  EXPECT_LT(std::abs(result.segments[0].end.x() - 1.5), 0.02);
+}
+
+TEST(Extents, SmallPipeFromOneSideAndShortPieces) {
+  // A 1.5 cm pipe shows only three or four points across from one station.
+  const ScannedPipe small(1.0, [](double x) { return x < 0.45 || x > 0.5; }, 0.015);
+  const ExtentsResult result = computeExtents({small.cloud, small.placement}, ExtentsParams{});
+  ASSERT_EQ(result.segments.size(), 1u);
+  EXPECT_LT(std::abs(result.segments[0].end.x() - 1.0), 0.02);
+
+  ExtentsParams longOnly;
+  longOnly.minLength = 1.2;
+  EXPECT_TRUE(computeExtents({small.cloud, small.placement}, longOnly).segments.empty());
+}
+
+TEST(Extents, AxisCoverageThreshold) {
+  // The second half is scanned at a fifth of the density (every fifth ring of points).
+  ScannedPipe pipe(2.0, [](double x) { return x < 1.0 || std::fmod(x, 0.05) < 0.01; });
+  ExtentsParams automatic;
+  automatic.minDensityRatio = 0.5;
+  const ExtentsResult thinDropped = computeExtents({pipe.cloud, pipe.placement}, automatic);
+  ASSERT_EQ(thinDropped.segments.size(), 1u);
+  EXPECT_LT(std::abs(thinDropped.segments[0].end.x() - 1.0), 0.03);
+
+  ExtentsParams fixed;
+  fixed.minPointsPerMetre = 100.0;  // 4 points a section: the thin half passes too
+  const ExtentsResult thinKept = computeExtents({pipe.cloud, pipe.placement}, fixed);
+  ASSERT_EQ(thinKept.segments.size(), 1u);
+  EXPECT_GT(thinKept.segments[0].end.x(), 1.95);
+}
+
+TEST(Extents, SameResultForAnyThreadCount) {
+  ScannedPipe pipe(3.0, [](double x) { return x < 1.0 || x > 2.0; });
+  // A second cylinder, so that the cylinders run in parallel.
+  pipe.placement.cylinders.push_back(pipe.placement.cylinders[0]);
+  pipe.placement.cylinders[1].inliers.resize(pipe.cloud.size() / 2);
+  const auto run = [&](int threads) {
+    const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+    return computeExtents({pipe.cloud, pipe.placement}, ExtentsParams{});
+  };
+  const ExtentsResult one = run(1), two = run(2);
+  ASSERT_EQ(one.segments.size(), 3u);
+  ASSERT_EQ(one.segments.size(), two.segments.size());
+  for (std::size_t k = 0; k < one.segments.size(); ++k) {
+    EXPECT_EQ(one.segments[k].start, two.segments[k].start);
+    EXPECT_EQ(one.segments[k].end, two.segments[k].end);
+    EXPECT_EQ(one.segments[k].inliers, two.segments[k].inliers);
+    EXPECT_EQ(one.segments[k].cylinderIndex, k < 2 ? 0 : 1);
+  }
+}
+
+TEST(Extents, EmptyCylinderGivesNothing) {
+  PointCloud cloud;
+  PlacementResult placement;
+  placement.cylinders.emplace_back();
+  const ExtentsResult result = computeExtents({cloud, placement}, ExtentsParams{});
+  EXPECT_TRUE(result.segments.empty());
+  EXPECT_EQ(result.diagnostics.sections, 0u);
+}
+
+}  // namespace
+}  // namespace piperun

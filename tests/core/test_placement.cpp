@@ -1,0 +1,343 @@
+#include "piperun/stages/placement.h"
+
+#include "piperun/error.h"
+
+#include "synth/random.h"
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <tuple>
+#include <vector>
+
+namespace piperun {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDegree = kPi / 180.0;
+
+struct TrueCylinder {
+  Eigen::Vector3d start;  // relative to the cloud origin
+  Eigen::Vector3d axis;   // unit
+  double length;
+  double radius;
+};
+
+Eigen::Vector3d perpendicular(const Eigen::Vector3d& axis) {
+  Eigen::Index smallest = 0;
+  axis.cwiseAbs().minCoeff(&smallest);
+  return axis.cross(Eigen::Vector3d::Unit(smallest)).normalized();
+}
+
+/// A unit vector at most `degrees` from `n`, in a random direction, with a random sign (estimated
+/// normals are not oriented).
+Eigen::Vector3d perturbed(const Eigen::Vector3d& n, double degrees, synth::Rng& rng) {
+  const Eigen::Vector3d tilt = Eigen::AngleAxisd(rng.uniform(0.0, 2.0 * kPi), n) * perpendicular(n);
+  const Eigen::Vector3d result = Eigen::AngleAxisd(degrees * kDegree * rng.normal(), tilt) * n;
+  return rng.chance(0.5) ? result : Eigen::Vector3d(-result);
+}
+
+void addPoint(PointCloud& cloud, const Eigen::Vector3d& p, const Eigen::Vector3d& n) {
+  cloud.positions.push_back(p.cast<float>());
+  cloud.normals.push_back(n.cast<float>());
+}
+
+/// A cylinder as one scanner far along `view` sees it: the facing half, sampled evenly across its
+/// silhouette (so points thin out towards grazing incidence), with noise along the normal and
+/// normals off by a few degrees.
+void addScannedCylinder(PointCloud& cloud, const TrueCylinder& c, const Eigen::Vector3d& view, synth::Rng& rng,
+                        double spacing = 0.01, double noise = 0.002, double normalNoiseDeg = 4.0) {
+  const Eigen::Vector3d side = c.axis.cross(view).normalized();
+  const Eigen::Vector3d front = side.cross(c.axis);  // towards the scanner
+  for (double along = 0.5 * spacing; along < c.length; along += spacing) {
+    for (double x = -c.radius + 0.5 * spacing; x < c.radius; x += spacing) {
+      const double phi = std::asin(x / c.radius);
+      const Eigen::Vector3d normal = std::cos(phi) * front + std::sin(phi) * side;
+      const Eigen::Vector3d p = c.start + along * c.axis + (c.radius + noise * rng.normal()) * normal;
+      addPoint(cloud, p, perturbed(normal, normalNoiseDeg, rng));
+    }
+  }
+}
+
+DirectionsResult oneDirection(const PointCloud& cloud, const Eigen::Vector3d& axis) {
+  DirectionsResult directions;
+  PrincipalDirection direction;
+  direction.axis = axis.normalized();
+  direction.stripe.resize(cloud.size());
+  for (std::uint32_t i = 0; i < direction.stripe.size(); ++i) direction.stripe[i] = i;
+  directions.directions.push_back(direction);
+  return directions;
+}
+
+double angleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::acos(std::min(1.0, std::abs(a.normalized().dot(b.normalized())))) / kDegree;
+}
+
+double axisOffset(const Cylinder& found, const TrueCylinder& truth) {
+  const Eigen::Vector3d q = found.point - truth.start;
+  return (q - q.dot(truth.axis) * truth.axis).norm();
+}
+
+/// The found cylinder closest to `truth` (by axis offset), or null.
+const Cylinder* match(const PlacementResult& result, const TrueCylinder& truth) {
+  const Cylinder* best = nullptr;
+  for (const Cylinder& c : result.cylinders) {
+    if (angleDeg(c.direction, truth.axis) > 3.0) continue;
+    if (!best || axisOffset(c, truth) < axisOffset(*best, truth)) best = &c;
+  }
+  return best;
+}
+
+TEST(Placement, OneSidedCylinderIsFittedPrecisely) {
+  synth::Rng rng(7);
+  PointCloud cloud;
+  cloud.origin = Eigen::Vector3d(431000.0, 5120000.0, 212.0);  // georeferenced: results stay relative
+  const TrueCylinder truth{{0.3, -0.2, 0.1}, Eigen::Vector3d(0.1, 0.05, 1.0).normalized(), 2.0, 0.05};
+  addScannedCylinder(cloud, truth, Eigen::Vector3d(1.0, 0.3, 0.0).normalized(), rng);
+  // The direction stage's estimate is about a degree off the true axis.
+  const Eigen::Vector3d estimate = Eigen::AngleAxisd(1.0 * kDegree, perpendicular(truth.axis)) * truth.axis;
+
+  const DirectionsResult directions = oneDirection(cloud, estimate);
+  const PlacementResult result = placeCylinders({cloud, directions, 1}, PlacementParams{});
+
+  ASSERT_EQ(result.cylinders.size(), 1u);
+  const Cylinder& found = result.cylinders[0];
+  EXPECT_NEAR(found.radius, truth.radius, 0.0015);
+  EXPECT_LT(angleDeg(found.direction, truth.axis), 0.5);
+  EXPECT_LT(axisOffset(found, truth), 0.002);
+  EXPECT_NEAR(found.direction.norm(), 1.0, 1e-9);
+  EXPECT_GT(found.inliers.size(), cloud.size() * 9 / 10);
+  EXPECT_GT(found.rms, 0.001);
+  EXPECT_LT(found.rms, 0.003);
+  EXPECT_GT(found.candidates, static_cast<int>(found.inliers.size() / 2));
+  EXPECT_EQ(found.directionIndex, 0);
+  EXPECT_TRUE(std::is_sorted(found.inliers.begin(), found.inliers.end()));
+
+  // The projection view: one plane per direction, candidates gathered around the circle.
+  ASSERT_EQ(result.projections.size(), 1u);
+  const auto& projection = result.projections[0];
+  EXPECT_NEAR(projection.u.dot(projection.axis), 0.0, 1e-12);
+  EXPECT_NEAR(projection.v.dot(projection.axis), 0.0, 1e-12);
+  EXPECT_NEAR(projection.u.dot(projection.v), 0.0, 1e-12);
+  const Eigen::Vector2d center(found.point.dot(projection.u), found.point.dot(projection.v));
+  std::size_t onCircle = 0;
+  for (const CircleCandidate& candidate : projection.candidates) {
+    if (candidate.circle != 0) continue;
+    ++onCircle;
+    EXPECT_LT((candidate.center.cast<double>() - center).norm(), 0.05);
+    EXPECT_NEAR(candidate.radius, truth.radius, 0.03);
+  }
+  EXPECT_GE(onCircle, static_cast<std::size_t>(PlacementParams{}.minCandidates));
+  EXPECT_EQ(result.diagnostics.candidates, projection.candidates.size());
+  EXPECT_EQ(result.diagnostics.projectedPoints, cloud.size());
+}
+
+TEST(Placement, SmallPipeBesideLargeOne) {
+  synth::Rng rng(11);
+  PointCloud cloud;
+  const Eigen::Vector3d axis = Eigen::Vector3d::UnitX();
+  const TrueCylinder large{{0.0, 0.0, 0.0}, axis, 2.5, 0.30};
+  const TrueCylinder small{{0.0, 0.0, 0.30 + 0.04 + 0.015}, axis, 2.5, 0.015};  // 4 cm clear above it
+  const Eigen::Vector3d view = Eigen::Vector3d(0.0, -1.0, 0.4).normalized();
+  addScannedCylinder(cloud, large, view, rng);
+  addScannedCylinder(cloud, small, view, rng);
+
+  const DirectionsResult directions = oneDirection(cloud, axis);
+  const PlacementResult result = placeCylinders({cloud, directions, 3}, PlacementParams{});
+
+  ASSERT_EQ(result.cylinders.size(), 2u);
+  for (const TrueCylinder& truth : {large, small}) {
+    const Cylinder* found = match(result, truth);
+    ASSERT_NE(found, nullptr);
+    EXPECT_NEAR(found->radius, truth.radius, 0.003) << "radius " << truth.radius;
+    EXPECT_LT(axisOffset(*found, truth), 0.004) << "radius " << truth.radius;
+    EXPECT_LT(angleDeg(found->direction, truth.axis), 0.5) << "radius " << truth.radius;
+  }
+}
+
+TEST(Placement, RackOfParallelPipes) {
+  synth::Rng rng(5);
+  PointCloud cloud;
+  // Horizontal pipes in a row, 3 cm clear between neighbours, seen from below and in front.
+  const Eigen::Vector3d axis = Eigen::Vector3d(1.0, 1.0, 0.0).normalized();
+  const Eigen::Vector3d across = Eigen::Vector3d(-1.0, 1.0, 0.0).normalized();
+  const std::vector<double> radii = {0.0365, 0.1096, 0.0211, 0.0572};
+  std::vector<TrueCylinder> truths;
+  double offset = 0.0;
+  for (std::size_t k = 0; k < radii.size(); ++k) {
+    if (k > 0) offset += radii[k - 1] + radii[k] + 0.03;
+    truths.push_back({Eigen::Vector3d(0.0, 0.0, 2.5) + offset * across, axis, 3.0, radii[k]});
+  }
+  const Eigen::Vector3d view = Eigen::Vector3d(-0.3, 0.3, -1.0).normalized();
+  for (const TrueCylinder& truth : truths) addScannedCylinder(cloud, truth, view, rng);
+
+  const DirectionsResult directions = oneDirection(cloud, axis);
+  const PlacementResult result = placeCylinders({cloud, directions, 1}, PlacementParams{});
+
+  ASSERT_EQ(result.cylinders.size(), truths.size());
+  for (const TrueCylinder& truth : truths) {
+    const Cylinder* found = match(result, truth);
+    ASSERT_NE(found, nullptr);
+    EXPECT_NEAR(found->radius, truth.radius, 0.003) << "radius " << truth.radius;
+    EXPECT_LT(axisOffset(*found, truth), 0.004) << "radius " << truth.radius;
+  }
+  // No point is an inlier of two cylinders.
+  std::vector<std::uint32_t> all;
+  for (const Cylinder& c : result.cylinders) all.insert(all.end(), c.inliers.begin(), c.inliers.end());
+  std::sort(all.begin(), all.end());
+  EXPECT_EQ(std::adjacent_find(all.begin(), all.end()), all.end());
+  // Ordered by support.
+  for (std::size_t k = 1; k < result.cylinders.size(); ++k) {
+    EXPECT_GE(result.cylinders[k - 1].inliers.size(), result.cylinders[k].inliers.size());
+  }
+}
+
+TEST(Placement, ObliqueSlopedPipeWithOutliers) {
+  synth::Rng rng(13);
+  PointCloud cloud;
+  const TrueCylinder truth{{-1.0, 2.0, 1.0}, Eigen::Vector3d(0.6, -0.75, 0.28).normalized(), 2.5, 0.0842};
+  addScannedCylinder(cloud, truth, Eigen::Vector3d(0.2, 0.5, 0.84).normalized(), rng);
+  // 20 % uniform outliers with random normals in the pipe's box.
+  const std::size_t pipePoints = cloud.size();
+  for (std::size_t k = 0; k < pipePoints / 5; ++k) {
+    const Eigen::Vector3d p = truth.start + rng.uniform(0.0, truth.length) * truth.axis +
+                              Eigen::Vector3d(rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.3));
+    addPoint(cloud, p, Eigen::Vector3d(rng.normal(), rng.normal(), rng.normal()).normalized());
+  }
+
+  const DirectionsResult directions = oneDirection(cloud, truth.axis);
+  const PlacementResult result = placeCylinders({cloud, directions, 2}, PlacementParams{});
+
+  ASSERT_EQ(result.cylinders.size(), 1u);
+  const Cylinder& found = result.cylinders[0];
+  EXPECT_NEAR(found.radius, truth.radius, 0.002);
+  EXPECT_LT(axisOffset(found, truth), 0.003);
+  EXPECT_LT(angleDeg(found.direction, truth.axis), 0.5);
+  // Inliers are mostly the pipe's points.
+  const auto fromPipe = std::count_if(found.inliers.begin(), found.inliers.end(), [&](std::uint32_t i) { return i < pipePoints; });
+  EXPECT_GT(fromPipe, static_cast<long>(found.inliers.size() * 95 / 100));
+}
+
+TEST(Placement, PlaneAndBoxEdgeGiveNoCylinder) {
+  synth::Rng rng(17);
+  PointCloud cloud;
+  const Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
+  // A wall (normal +x) and a 20 cm square post, both along the direction.
+  for (double z = 0.0; z < 2.0; z += 0.01) {
+    for (double y = 0.0; y < 1.5; y += 0.01) {
+      addPoint(cloud, Eigen::Vector3d(0.002 * rng.normal(), y, z), perturbed(Eigen::Vector3d::UnitX(), 3.0, rng));
+    }
+    for (double t = -0.1; t < 0.1; t += 0.01) {  // the two faces seen from (+x, +y)
+      addPoint(cloud, Eigen::Vector3d(1.1 + 0.002 * rng.normal(), 0.5 + t, z), perturbed(Eigen::Vector3d::UnitX(), 3.0, rng));
+      addPoint(cloud, Eigen::Vector3d(1.0 + t, 0.6 + 0.002 * rng.normal(), z), perturbed(Eigen::Vector3d::UnitY(), 3.0, rng));
+    }
+  }
+  const DirectionsResult directions = oneDirection(cloud, axis);
+  const PlacementResult result = placeCylinders({cloud, directions, 1}, PlacementParams{});
+  EXPECT_TRUE(result.cylinders.empty());
+  EXPECT_EQ(result.projections.size(), 1u);
+}
+
+TEST(Placement, DirectionsAreIndependentAndPointsExclusive) {
+  synth::Rng rng(19);
+  PointCloud cloud;
+  const TrueCylinder alongX{{0.0, 0.0, 1.0}, Eigen::Vector3d::UnitX(), 2.0, 0.06};
+  const TrueCylinder alongY{{1.0, -1.0, 1.5}, Eigen::Vector3d::UnitY(), 2.0, 0.04};
+  const Eigen::Vector3d view = Eigen::Vector3d(0.3, 0.2, -1.0).normalized();
+  addScannedCylinder(cloud, alongX, view, rng);
+  const auto firstCount = static_cast<std::uint32_t>(cloud.size());
+  addScannedCylinder(cloud, alongY, view, rng);
+
+  DirectionsResult directions;
+  for (const auto& [axis, first, last] : {std::tuple{alongX.axis, 0u, firstCount},
+                                          std::tuple{alongY.axis, firstCount, static_cast<std::uint32_t>(cloud.size())}}) {
+    PrincipalDirection direction;
+    direction.axis = axis;
+    for (std::uint32_t i = first; i < last; ++i) direction.stripe.push_back(i);
+    directions.directions.push_back(direction);
+  }
+  // Both stripes also hold the other pipe's points whose normal is perpendicular to both axes.
+  for (std::uint32_t i = 0; i < cloud.size(); ++i) {
+    if (std::abs(cloud.normals[i].z()) > 0.99f) directions.directions[i < firstCount ? 1 : 0].stripe.push_back(i);
+  }
+  for (auto& direction : directions.directions) std::sort(direction.stripe.begin(), direction.stripe.end());
+
+  const PlacementResult result = placeCylinders({cloud, directions, 4}, PlacementParams{});
+  ASSERT_EQ(result.cylinders.size(), 2u);
+  EXPECT_EQ(result.cylinders[0].directionIndex, 0);
+  EXPECT_EQ(result.cylinders[1].directionIndex, 1);
+  EXPECT_NEAR(result.cylinders[0].radius, alongX.radius, 0.002);
+  EXPECT_NEAR(result.cylinders[1].radius, alongY.radius, 0.002);
+  std::vector<std::uint32_t> shared;
+  std::set_intersection(result.cylinders[0].inliers.begin(), result.cylinders[0].inliers.end(),
+                        result.cylinders[1].inliers.begin(), result.cylinders[1].inliers.end(), std::back_inserter(shared));
+  EXPECT_TRUE(shared.empty());
+  ASSERT_EQ(result.projections.size(), 2u);
+  EXPECT_LT(angleDeg(result.projections[1].axis, alongY.axis), 1e-9);
+}
+
+TEST(Placement, EmptyInputs) {
+  PointCloud cloud;
+  const DirectionsResult none;
+  const PlacementResult result = placeCylinders({cloud, none, 1}, PlacementParams{});
+  EXPECT_TRUE(result.cylinders.empty());
+  EXPECT_TRUE(result.projections.empty());
+
+  const DirectionsResult empty = oneDirection(cloud, Eigen::Vector3d::UnitZ());
+  const PlacementResult nothing = placeCylinders({cloud, empty, 1}, PlacementParams{});
+  EXPECT_TRUE(nothing.cylinders.empty());
+  EXPECT_EQ(nothing.projections.size(), 1u);
+}
+
+TEST(Placement, CancelledProgressStops) {
+  synth::Rng rng(23);
+  PointCloud cloud;
+  addScannedCylinder(cloud, {{0.0, 0.0, 0.0}, Eigen::Vector3d::UnitZ(), 1.0, 0.05}, Eigen::Vector3d::UnitX(), rng);
+  const DirectionsResult directions = oneDirection(cloud, Eigen::Vector3d::UnitZ());
+  Progress progress;
+  progress.cancel();
+  EXPECT_THROW(placeCylinders({cloud, directions, 1}, PlacementParams{}, progress), Cancelled);
+}
+
+TEST(Placement, SameResultForAnyThreadCount) {
+  synth::Rng rng(29);
+  PointCloud cloud;
+  const Eigen::Vector3d axis = Eigen::Vector3d(0.2, 1.0, 0.05).normalized();
+  const Eigen::Vector3d across = axis.cross(Eigen::Vector3d::UnitZ()).normalized();
+  for (int k = 0; k < 3; ++k) {
+    addScannedCylinder(cloud, {Eigen::Vector3d(0.0, 0.0, 2.0) + 0.25 * k * across, axis, 2.5, 0.03 + 0.03 * k},
+                       Eigen::Vector3d(0.0, 0.0, -1.0), rng);
+  }
+  const DirectionsResult directions = oneDirection(cloud, axis);
+  const auto run = [&](int threads) {
+    const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+    return placeCylinders({cloud, directions, 42}, PlacementParams{});
+  };
+  const PlacementResult one = run(1);
+  const PlacementResult two = run(2);
+  ASSERT_EQ(one.cylinders.size(), 3u);
+  ASSERT_EQ(one.cylinders.size(), two.cylinders.size());
+  for (std::size_t k = 0; k < one.cylinders.size(); ++k) {
+    EXPECT_EQ(one.cylinders[k].point, two.cylinders[k].point);
+    EXPECT_EQ(one.cylinders[k].direction, two.cylinders[k].direction);
+    EXPECT_EQ(one.cylinders[k].radius, two.cylinders[k].radius);
+    EXPECT_EQ(one.cylinders[k].inliers, two.cylinders[k].inliers);
+  }
+  ASSERT_EQ(one.projections[0].candidates.size(), two.projections[0].candidates.size());
+  for (std::size_t i = 0; i < one.projections[0].candidates.size(); ++i) {
+    const CircleCandidate& a = one.projections[0].candidates[i];
+    const CircleCandidate& b = two.projections[0].candidates[i];
+    ASSERT_TRUE(a.center == b.center && a.radius == b.radius && a.circle == b.circle) << "candidate " << i;
+  }
+  // Another seed draws other pairs but finds the same pipes.
+  const PlacementResult reseeded = placeCylinders({cloud, directions, 43}, PlacementParams{});
+  ASSERT_EQ(reseeded.cylinders.size(), 3u);
+  EXPECT_NEAR(reseeded.cylinders[0].radius, one.cylinders[0].radius, 1e-4);
+}
+
+}  // namespace
+}  // namespace piperun
