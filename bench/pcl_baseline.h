@@ -13,7 +13,7 @@ namespace piperun::bench {
 struct PclBaselineParams {
   double voxelSize = 0.01;              ///< pcl::VoxelGrid leaf (m), as PipeRun's preprocess default.
   int normalNeighbors = 16;             ///< k of pcl::NormalEstimationOMP.
-  bool removePlanes = true;             ///< Remove floors and walls by RANSAC before clustering (PCL's cylinder tutorial does).
+  bool removePlanes = true;             ///< Remove floors and walls by RANSAC planes before clustering, as PCL's cylinder tutorial does.
   double planeDistance = 0.015;         ///< Inlier distance of a plane (m)...
   double planeMinShare = 0.05;          ///< ...which is removed while it holds at least this share of the voxelised points...
   int maxPlanes = 10;                   ///< ...up to this many planes.

@@ -356,6 +356,7 @@ json runComparison(const char* argv0, const BenchOptions& options) {
                     {"seeds", ours.size()},
                     {"points", mean(ours, "points")},
                     {"ours_s", mean(ours, "seconds")},
+                    {"ours_cpu_s", mean(ours, "cpu_seconds")},
                     {"ours_f1", mean(ours, "f1")},
                     {"ours_peak_mb", mean(ours, "peak_mb")}};
     char line[512];
@@ -363,6 +364,7 @@ json runComparison(const char* argv0, const BenchOptions& options) {
                                summary["points"].get<double>(), summary["ours_s"].get<double>());
     if (!pcl.empty()) {
       summary["pcl_s"] = mean(pcl, "seconds");
+      summary["pcl_cpu_s"] = mean(pcl, "cpu_seconds");
       summary["pcl_f1"] = mean(pcl, "f1");
       summary["pcl_peak_mb"] = mean(pcl, "peak_mb");
       summary["speedup"] = summary["pcl_s"].get<double>() / summary["ours_s"].get<double>();

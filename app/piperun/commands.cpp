@@ -185,6 +185,7 @@ int runEval(const EvalOptions& options) {
   EvaluationParams params;
   params.fixedTolerance = options.tolerance;
   params.sampleStep = options.step;
+  params.pipesOnly = options.pipesOnly;
   const EvaluationResult figures = evaluateNetwork(truth, result, params);
   if (options.json) {
     const json out = {{"precision", figures.precision},

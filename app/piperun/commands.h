@@ -36,6 +36,7 @@ struct EvalOptions {
   bool json = false;
   double tolerance = 0.0;
   double step = 0.01;
+  bool pipesOnly = false;
 };
 int runEval(const EvalOptions& options);
 

@@ -67,6 +67,8 @@ int main(int argc, char** argv) {
   evalCommand->add_option("truth", eval.truth, "Ground-truth network (.json)")->required();
   evalCommand->add_option("result", eval.result, "Network to evaluate (.json)")->required();
   evalCommand->add_flag("--json", eval.json, "Print the figures as JSON");
+  evalCommand->add_flag("--pipes-only", eval.pipesOnly,
+                        "Compare only the straight pipes of both networks (axis figures before joints)");
   evalCommand->add_option("--tolerance", eval.tolerance,
                           "Match distance in metres (default: max(0.02, half the truth radius))")
       ->check(CLI::PositiveNumber);

@@ -1,10 +1,11 @@
 #!/bin/bash
-# Command-line tests of `piperun`: cli_cases.sh CASE PIPERUN REAL_DATA_DIR
+# Command-line tests of `piperun`: cli_cases.sh CASE PIPERUN REAL_DATA_DIR DOCS_DIR
 # Each case runs the tool as a user would and checks its output and exit code.
 set -u
 CASE=$1
 PIPERUN=$2
 DATA=$3
+DOCS=$4
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
 
@@ -36,14 +37,14 @@ case "$CASE" in
   version)
     run 0 --version
     expect_out "^piperun [0-9]+\.[0-9]+\.[0-9]+$"
-    for sub in info generate eval convert; do
+    for sub in info generate eval convert reconstruct params; do
       run 0 "$sub" --version
       expect_out "^piperun [0-9]+\.[0-9]+\.[0-9]+$"
     done
     ;;
   help)
     run 0 --help
-    for sub in info generate eval convert; do expect_out "$sub"; done
+    for sub in info generate eval convert reconstruct params; do expect_out "$sub"; done
     expect_out "Exit codes"
     run 0 generate --help
     expect_out "--preset"
@@ -120,6 +121,42 @@ case "$CASE" in
     cmp -s "$WORK/a.json" "$WORK/b.json" || fail "same seed gave different truth"
     run 0 generate --preset small --seed 6 --density 0.2 -o "$WORK/c.ply"
     cmp -s "$WORK/a.ply" "$WORK/c.ply" && fail "different seeds gave the same points"
+    ;;
+  params)
+    run 0 params
+    expect_out "^placement.max_radius = "
+    run 0 params --json
+    echo "$OUT" >"$WORK/defaults.json"
+    run 0 params --markdown
+    # docs/PARAMETERS.md carries the same table as the code: keep them in step.
+    diff <(echo "$OUT") <(grep '^|' "$DOCS/PARAMETERS.md") >"$WORK/diff" ||
+      fail "docs/PARAMETERS.md differs from 'piperun params --markdown': $(cat "$WORK/diff")"
+    printf '{"placement": {"max_radios": 1}}' >"$WORK/bad.json"
+    run 2 reconstruct "$DATA/pumpA_pump_station.pcd" -o "$WORK/n.json" --params "$WORK/bad.json"
+    expect_one_line_error "/placement/max_radios: unknown parameter"
+    run 1 reconstruct "$DATA/pumpA_pump_station.pcd" -o "$WORK/n.json" --set placement.nothing=3
+    expect_one_line_error "unknown parameter"
+    ;;
+  reconstruct)
+    run 0 generate --preset small --seed 2 --density 0.5 -o "$WORK/scene.ply" --truth "$WORK/truth.json"
+    run 0 reconstruct "$WORK/scene.ply" -o "$WORK/net.json" --threads 2 --dump-stages "$WORK/stages" \
+      --truth "$WORK/truth.json"
+    expect_out "^preprocess: "
+    expect_out "^directions: "
+    expect_out "^merge: [0-9]+ pipes"
+    expect_out "^points=[0-9]+ kept=[0-9]+ directions=[0-9]+ pipes=[1-9][0-9]* seconds="
+    [ -s "$WORK/stages/preprocessed.ply" ] || fail "no preprocessed.ply"
+    [ -s "$WORK/stages/pipes.ply" ] || fail "no pipes.ply"
+    ls "$WORK"/stages/tile_*/round_0/sphere_samples.ply >/dev/null || fail "no sphere samples"
+    ls "$WORK"/stages/tile_*/round_0/candidates_0.ply >/dev/null || fail "no circle candidates"
+    run 0 info "$WORK/stages/pipes.ply"
+    expect_out "labels"
+    run 0 eval "$WORK/truth.json" "$WORK/net.json"
+    f1=$(sed -E 's/.* f1=([0-9.]+).*/\1/' <<<"$(tail -1 <<<"$OUT")")
+    awk -v f="$f1" 'BEGIN { exit !(f > 0.6) }' || fail "F1 $f1 too low"
+    run 0 reconstruct "$WORK/scene.ply" -o "$WORK/net1.json" --threads 1
+    run 0 reconstruct "$WORK/scene.ply" -o "$WORK/net2.json" --threads 2
+    cmp -s "$WORK/net1.json" "$WORK/net2.json" || fail "1 and 2 threads gave different networks"
     ;;
   *)
     fail "unknown case"

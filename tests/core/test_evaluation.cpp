@@ -118,6 +118,18 @@ TEST(Evaluation, BendRadiusErrorIsRelative) {
   EXPECT_NEAR(evaluateNetwork(truth, predicted).bendRadiusErrorMedian, 0.1, 1e-9);
 }
 
+TEST(Evaluation, PipesOnlyLeavesTheJointsOut) {
+  const PipeNetwork truth = lShapedRun();
+  PipeNetwork pipes = truth;
+  pipes.joints.clear();
+  EvaluationParams params;
+  EXPECT_LT(evaluateNetwork(truth, pipes, params).recall, 0.99);
+  params.pipesOnly = true;
+  const EvaluationResult result = evaluateNetwork(truth, pipes, params);
+  EXPECT_DOUBLE_EQ(result.recall, 1.0);
+  EXPECT_DOUBLE_EQ(result.precision, 1.0);
+}
+
 TEST(Evaluation, FormatLine) {
   const EvaluationResult result = evaluateNetwork(lShapedRun(), lShapedRun());
   EXPECT_EQ(formatEvaluation(result).substr(0, 52), "precision=1.000 recall=1.000 f1=1.000 radius_err_mm=");

@@ -1,6 +1,6 @@
 #include "piperun/stages/extents.h"
 
-#include "synth/random.h"
+#include "random.h"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -24,7 +24,7 @@ struct ScannedPipe {
 
   explicit ScannedPipe(double length, const std::function<bool(double)>& keep, double pipeRadius = 0.05)
       : radius(pipeRadius) {
-    synth::Rng rng(3);
+    Rng rng(3);
     for (double x = 0.005; x < length; x += 0.01) {
       if (!keep(x)) continue;
       for (double s = -radius + 0.005; s < radius; s += 0.01) addSurfacePoint(x, std::asin(s / radius), rng);
@@ -38,7 +38,7 @@ struct ScannedPipe {
   }
 
   /// A point on the surface at axial position x and angle phi from the facing side.
-  void addSurfacePoint(double x, double phi, synth::Rng& rng) {
+  void addSurfacePoint(double x, double phi, Rng& rng) {
     const double r = radius + 0.002 * rng.normal();
     cloud.positions.emplace_back(static_cast<float>(x), static_cast<float>(-r * std::cos(phi)),
                                  static_cast<float>(1.0 + r * std::sin(phi)));
@@ -97,7 +97,7 @@ TEST(Extents, LongGapSplitsCollinearPipes) {
 
 TEST(Extents, NoiseBlobsAndSliversAreDropped) {
   ScannedPipe pipe(1.5, [](double) { return true; });
-  synth::Rng rng(9);
+  Rng rng(9);
   // Beyond the pipe on the same line: two 3 cm blobs of surface points, and a 60 cm sliver where
   // a neighbouring surface grazes the cylinder along one line of angles.
   for (const double blob : {2.0, 2.6}) {
@@ -122,6 +122,21 @@ TEST(Extents, SmallPipeFromOneSideAndShortPieces) {
   ExtentsParams longOnly;
   longOnly.minLength = 1.2;
   EXPECT_TRUE(computeExtents({small.cloud, small.placement}, longOnly).segments.empty());
+}
+
+TEST(Extents, SparseFarPipeIsJudgedOverNeighbouringSections) {
+  // One point per section, as a far scanner leaves on a thin pipe, each at another angle: no single
+  // section spans an arc, a few neighbouring ones do.
+  ScannedPipe pipe(0.0, [](double) { return true; });
+  Rng rng(5);
+  const double angles[] = {-1.0, 0.0, 1.0};
+  int k = 0;
+  for (double x = 0.02; x < 2.0; x += 0.04) pipe.addSurfacePoint(x, angles[k++ % 3], rng);
+  pipe.refreshInliers();
+  const ExtentsResult result = computeExtents({pipe.cloud, pipe.placement}, ExtentsParams{});
+  ASSERT_EQ(result.segments.size(), 1u);
+  EXPECT_LT(std::abs(result.segments[0].start.x() - 0.02), 0.02);
+  EXPECT_LT(std::abs(result.segments[0].end.x() - 1.98), 0.02);
 }
 
 TEST(Extents, AxisCoverageThreshold) {

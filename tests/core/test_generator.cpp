@@ -388,6 +388,25 @@ TEST(GeneratorTest, StationsStandInFreeSpace) {
   }
 }
 
+TEST(GeneratorTest, StationsAreSetUpWhereThePipingIsSeen) {
+  // Scenes where stations put down at random left a rack and its risers without a single point
+  // (up to half the piping). The share of pipe length lying on pipes without points stays small:
+  // one station cannot see behind everything, two or three see nearly all.
+  for (const std::uint64_t seed : {5u, 11u, 12u, 26u, 32u}) {
+    SceneParams params;
+    params.seed = seed;
+    PipeNetwork truth;
+    const SceneSummary summary = generateScene(params, truth, [](const PointChunk&) {});
+    double total = 0.0, unseen = 0.0;
+    for (const Pipe& pipe : truth.pipes) {
+      total += pipe.length();
+      if (pipe.inlierCount == 0) unseen += pipe.length();
+    }
+    EXPECT_LT(unseen / total, summary.stations == 1 ? 0.15 : 0.05)
+        << "seed " << seed << ", " << summary.stations << " station(s)";
+  }
+}
+
 TEST(GeneratorTest, PresetNamesRoundTrip) {
   for (const ScenePreset preset : {ScenePreset::Small, ScenePreset::Medium, ScenePreset::Large}) {
     EXPECT_EQ(scenePresetFromString(toString(preset)), preset);
@@ -492,6 +511,29 @@ TEST(GeneratorScannerTest, AcceleratedScanMatchesBruteForce) {
     }
   }
   EXPECT_GT(points, 20000u);
+}
+
+TEST(GeneratorScannerTest, LineOfSightMatchesBruteForce) {
+  // Rays from a station of a generated scene in many directions, cut short at varied distances:
+  // the hierarchy finds a surface across the ray exactly when testing every surface does.
+  SceneParams params;
+  params.seed = 3;
+  const synth::SceneLayout layout = synth::buildSceneLayout(params);
+  const synth::Scanner scanner(layout.surfaces);
+  const Eigen::Vector3d station = layout.stations.front();
+  int blocked = 0, clear = 0;
+  for (int i = 0; i < 4000; ++i) {
+    const double z = -1.0 + 2.0 * (i + 0.5) / 4000.0;
+    const double azimuth = i * 2.399963;  // golden angle spiral
+    const double ring = std::sqrt(1.0 - z * z);
+    const synth::Ray ray{station, Eigen::Vector3d(ring * std::cos(azimuth), ring * std::sin(azimuth), z)};
+    const double reach = 0.5 + 6.0 * ((i * 37) % 100) / 100.0;
+    const bool expected = scanner.castRay(ray, 0.3, reach).has_value();
+    ASSERT_EQ(scanner.occluded(ray, 0.3, reach), expected) << "ray " << i;
+    (expected ? blocked : clear) += 1;
+  }
+  EXPECT_GT(blocked, 400);
+  EXPECT_GT(clear, 400);
 }
 
 TEST(GeneratorScannerTest, EveryRayInsideAClosedRoomHitsAWall) {

@@ -1,8 +1,10 @@
 #include "piperun/error.h"
 #include "piperun/eval/evaluation.h"
 #include "piperun/io/network_io.h"
+#include "piperun/io/point_reader.h"
 #include "piperun/pipeline.h"
 #include "piperun/synth/scene_generator.h"
+#include "test_util.h"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -134,6 +136,51 @@ TEST(Pipeline, SeedChangesOnlyWhatIsRandom) {
   a.run();
   b.run();
   EXPECT_EQ(networkToJson(a.network()), networkToJson(b.network()));
+}
+
+}  // namespace
+}  // namespace piperun
+
+namespace piperun {
+namespace {
+
+// The pipes of a real scan as SOURCE.md describes them (estimates from RANSAC fits on slices).
+struct ExpectedPipe {
+  const char* name;
+  Eigen::Vector3d direction;
+  Eigen::Vector3d pointOnAxis;
+  double radius;
+};
+
+// The best pipe for an expected one: parallel within 5°, axis within 5 cm of the point.
+const Pipe* findPipe(const PipeNetwork& network, const ExpectedPipe& expected) {
+  const Pipe* best = nullptr;
+  for (const Pipe& pipe : network.pipes) {
+    const Eigen::Vector3d d = pipe.direction();
+    if (std::fabs(d.dot(expected.direction.normalized())) < std::cos(5.0 * 3.14159265 / 180.0)) continue;
+    const Eigen::Vector3d offset = expected.pointOnAxis - pipe.start;
+    if ((offset - offset.dot(d) * d).norm() > 0.05) continue;
+    if (!best || pipe.length() > best->length()) best = &pipe;
+  }
+  return best;
+}
+
+TEST(PipelineRealScan, PumpRoomRisersAndCeilingPipe) {
+  auto cloud = std::make_shared<const PointCloud>(readPointCloud(test::realDataDir() / "pumpA_pump_station.pcd"));
+  Pipeline pipeline(cloud);
+  pipeline.run();
+  const PipeNetwork network = pipeline.network();
+  const ExpectedPipe expected[] = {
+      {"riser 1", {0, 0, 1}, {0.59, -3.25, 0.2}, 0.087},
+      {"riser 2", {0, 0, 1}, {-1.10, -1.95, 0.2}, 0.087},
+      {"ceiling pipe", {-0.62, -0.79, 0}, {-0.76, -3.68, 1.55}, 0.114},
+  };
+  for (const auto& pipe : expected) {
+    const Pipe* found = findPipe(network, pipe);
+    ASSERT_NE(found, nullptr) << pipe.name << " not found";
+    EXPECT_NEAR(found->radius, pipe.radius, 0.010) << pipe.name;
+    EXPECT_GT(found->length(), 1.0) << pipe.name;
+  }
 }
 
 }  // namespace

@@ -119,6 +119,7 @@ TEST(PreprocessVoxel, CentroidsOfKnownLattice) {
   cloud.append(chunk);
   PreprocessParams params = withoutPlanes();
   params.voxelSize = leaf;
+  params.autoVoxel = false;
   params.outlierStdRatio = 0.0;
   params.normalNeighbors = 3;
 
@@ -142,6 +143,22 @@ TEST(PreprocessVoxel, CentroidsOfKnownLattice) {
   // Sorted by voxel: x slowest, z fastest.
   EXPECT_LT(result.points.positions[0].x(), result.points.positions[29].x());
   EXPECT_LT(result.points.positions[0].z(), result.points.positions[1].z());
+}
+
+TEST(PreprocessVoxel, AutomaticLeafFollowsThePointSpacing) {
+  // A 1 mm lattice (a close-range scan) gets the 5 mm floor; a 2 cm lattice the 1 cm ceiling.
+  for (const auto& [spacing, expectedLeaf] : {std::pair{0.001, 0.005}, std::pair{0.02, 0.01}, std::pair{0.004, 0.008}}) {
+    PointChunk chunk;
+    for (int i = 0; i < 120; ++i) {
+      for (int j = 0; j < 120; ++j) chunk.positions.emplace_back(i * spacing, j * spacing, 0.0);
+    }
+    PointCloud cloud;
+    cloud.append(chunk);
+    PreprocessParams params = withoutPlanes();
+    params.outlierStdRatio = 0.0;
+    const PreprocessResult result = preprocess(cloud, params);
+    EXPECT_NEAR(result.diagnostics.voxelSize, expectedLeaf, 1e-6) << "spacing " << spacing;
+  }
 }
 
 TEST(PreprocessVoxel, ZeroLeafKeepsEveryFinitePoint) {
@@ -173,6 +190,27 @@ TEST(PreprocessOutliers, RemovesScatteredPointsAndKeepsTheSurface) {
   EXPECT_GE(result.diagnostics.outliersRemoved, 60u);
   EXPECT_GE(result.points.size(), static_cast<std::size_t>(0.99 * static_cast<double>(surfacePoints)));
   EXPECT_EQ(result.diagnostics.keptPoints + result.diagnostics.outliersRemoved, cloud.size());
+}
+
+TEST(PreprocessOutliers, RobustStatisticsHoldUnderHeavyContamination) {
+  // A fifth of the points scattered through the volume above a floor: they inflate the mean and std
+  // of the neighbour distances enough to hide themselves, but not the median and MAD.
+  SceneBuilder scene(6);
+  scene.plane({0, 0, 0}, {2, 0, 0}, {0, 2, 0}, 0.01, 0.001);
+  const std::size_t surfacePoints = scene.cloud().size();
+  scene.scatter({0, 0, 0.05}, {2, 2, 2}, 10000);
+  const PointCloud cloud = scene.cloud();
+  PreprocessParams params = withoutPlanes();
+  params.voxelSize = 0.0;
+  const auto offSurface = [](const Eigen::Vector3d& p) { return p.z() > 0.03; };
+
+  const PreprocessResult plain = preprocess(cloud, params);
+  EXPECT_GT(countPoints(plain.points, offSurface), 5000u);
+  params.outlierRobust = true;
+  const PreprocessResult robust = preprocess(cloud, params);
+  EXPECT_LT(countPoints(robust.points, offSurface), 500u);
+  EXPECT_GE(countPoints(robust.points, [](const Eigen::Vector3d& p) { return p.z() < 0.01; }),
+            static_cast<std::size_t>(0.99 * static_cast<double>(surfacePoints)));
 }
 
 TEST(PreprocessNormals, PlaneAndCylinderWithinTwoDegrees) {
@@ -249,8 +287,9 @@ struct RoomScene {
   double smallRadius = 0.02;
   PointCloud cloud;
 
-  /// Surfaces sampled at `spacing` (the small pipes four times as densely as that, at most 4 mm).
-  RoomScene(std::uint64_t seed, double spacing) {
+  /// Surfaces sampled at `spacing` (the small pipes four times as densely, at most 4 mm), plus
+  /// `clutter` points scattered through the room.
+  RoomScene(std::uint64_t seed, double spacing, int clutter = 0) {
     SceneBuilder scene(seed);
     const double noise = 0.0015;
     scene.plane({0, 0, 0}, {3, 0, 0}, {0, 3, 0}, spacing, noise);      // floor
@@ -263,6 +302,7 @@ struct RoomScene {
       scene.cylinder(smallPipes.back().first, smallPipes.back().second, smallRadius, {0, 0.3, 1},
                      std::min(0.004, spacing / 4.0), noise);
     }
+    scene.scatter({0, 0, 0}, {3, 3, 1.5}, clutter);
     cloud = scene.cloud();
   }
 
@@ -282,7 +322,7 @@ struct RoomScene {
 };
 
 TEST(PreprocessPlanes, RemovesFloorAndWallsButKeepsPipes) {
-  const RoomScene room(11, 0.008);
+  const RoomScene room(11, 0.01);
   const PreprocessResult result = preprocess(room.cloud, PreprocessParams{});
   EXPECT_EQ(result.diagnostics.planes, 3);
   EXPECT_EQ(result.diagnostics.planePoints, result.planePoints.size());
@@ -396,14 +436,7 @@ TEST(PreprocessTiles, ASceneSmallerThanATileIsOneTile) {
 }
 
 TEST(PreprocessDeterminism, SameResultWithOneAndTwoThreads) {
-  RoomScene room(23, 0.015);
-  SceneBuilder clutter(24);
-  clutter.scatter({0, 0, 0}, {3, 3, 1.5}, 2000);
-  room.cloud.append([&] {
-    PointChunk chunk;
-    clutter.cloud().copyTo(chunk, 0, 2000);
-    return chunk;
-  }());
+  const RoomScene room(23, 0.015, 2000);
   PreprocessParams params;
   params.tileSize = 1.0;
   params.tileOverlap = 0.2;

@@ -18,7 +18,7 @@ struct AxisSample {
   double radius;
 };
 
-std::vector<AxisSample> sampleNetwork(const PipeNetwork& network, double step, bool skipDiscarded) {
+std::vector<AxisSample> sampleNetwork(const PipeNetwork& network, double step, bool skipDiscarded, bool pipesOnly) {
   std::vector<AxisSample> samples;
   const auto add = [&](const std::vector<Eigen::Vector3d>& polyline, double radius) {
     for (const auto& p : samplePolyline(polyline, step)) samples.push_back({p, radius});
@@ -28,6 +28,7 @@ std::vector<AxisSample> sampleNetwork(const PipeNetwork& network, double step, b
     add({pipe.start, pipe.end}, pipe.radius);
   }
   for (const auto& joint : network.joints) {
+    if (pipesOnly) break;
     if (skipDiscarded && joint.status == JointStatus::Rejected) continue;
     add(joint.axis, joint.radius);
   }
@@ -117,8 +118,8 @@ void matchJoints(const PipeNetwork& truth, const std::vector<const Joint*>& pred
 
 EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& predicted, const EvaluationParams& params) {
   if (!(params.sampleStep > 0.0)) throw std::invalid_argument("evaluation sample step must be positive");
-  const auto truthSamples = sampleNetwork(truth, params.sampleStep, false);
-  const auto predictedSamples = sampleNetwork(predicted, params.sampleStep, true);
+  const auto truthSamples = sampleNetwork(truth, params.sampleStep, false, params.pipesOnly);
+  const auto predictedSamples = sampleNetwork(predicted, params.sampleStep, true, params.pipesOnly);
 
   const auto toleranceOf = [&](const AxisSample& sample) {
     if (params.fixedTolerance > 0.0) return params.fixedTolerance;

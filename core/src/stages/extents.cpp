@@ -8,6 +8,15 @@
 // a few stray points do not reach). On the pass mask a 1-D closing bridges short occlusions and an
 // opening then removes isolated passing sections; each remaining run of sections is a pipe that
 // ends at its extreme inliers.
+//
+// The cross-section default (ExtentsParams::minArcDeg = 45°) is set for single-station scans; the
+// paper's 180° needs stations all round a pipe. On generated small scenes scanned from one station
+// (seeds 1–4, 1 cm voxels, 2 mm noise) the 4 cm sections of true pipes, pooled to six points, span
+// a median of 109–129° of the placement inliers; 5 % span less than 50–60° and 2 % less than
+// 28–45°: a station sees at most half a pipe, points thin out towards grazing incidence and the
+// inlier test drops the most grazing ones. With 5 mm noise the 5th percentile is 44–64°. At 45°
+// about 97 % of true sections pass and the closing bridges most of the rest, while a sliver of a
+// surface grazing the cylinder (a band of 10–30°) and isolated stray points fail.
 
 #include "piperun/stages/extents.h"
 
@@ -114,13 +123,23 @@ std::vector<PipeSegment> segmentsOf(const PointCloud& cloud, const Cylinder& cyl
     minPoints = params.minDensityRatio * static_cast<double>(counts[counts.size() / 2]);
   }
 
+  // Cross-section coverage. Far from the scanner a pipe may leave one or two points per section, so
+  // a section is judged together with its neighbours until they hold kMinArcPoints points (reaching
+  // at most half the closing length each way); a sliver of another surface stays narrow however
+  // many sections it is pooled over.
+  constexpr std::size_t kMinArcPoints = 6;
+  const std::size_t maxReach = static_cast<std::size_t>(std::max(0, params.closingSections / 2));
   std::vector<bool> pass(sections, false);
   std::vector<double> angles;
   for (std::size_t k = 0; k < sections; ++k) {
     const std::size_t count = begin[k + 1] - begin[k];
     if (count == 0 || static_cast<double>(count) < minPoints) continue;
+    std::size_t reach = 0;
+    const auto first = [&] { return k - std::min(k, reach); };
+    const auto last = [&] { return std::min(sections, k + reach + 1); };
+    while (begin[last()] - begin[first()] < kMinArcPoints && reach < maxReach) ++reach;
     angles.clear();
-    for (std::size_t j = begin[k]; j < begin[k + 1]; ++j) angles.push_back(angle[order[j]]);
+    for (std::size_t j = begin[first()]; j < begin[last()]; ++j) angles.push_back(angle[order[j]]);
     std::sort(angles.begin(), angles.end());
     pass[k] = spannedDeg(angles) >= params.minArcDeg;
   }

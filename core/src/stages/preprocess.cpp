@@ -1,13 +1,17 @@
 // Stage 1 — preprocessing (paper §3). The steps and why they are done this way:
 //
-// 1. Voxel grid. Points are bucketed in cubes of edge voxelSize aligned to world multiples of the
+// 1. Voxel grid. With autoVoxel the leaf is twice the scan's median spacing within [5 mm, voxelSize]:
+//    terrestrial scans (5–10 mm spacing) get the 1 cm leaf, a 1 mm close-range scan 5 mm, where a
+//    1 cm leaf would leave a 4 cm cylinder a few dozen points. Points are bucketed in cubes of edge voxelSize aligned to world multiples of the
 //    edge (cropping a scan does not move the grid) and each occupied cube gives the centroid of its
 //    points. Sorting (cube key, point index) pairs fixes the output order whatever the thread count,
 //    and puts points of neighbouring cubes at nearby indices (cache-friendly queries later).
 // 2. One k-nearest-neighbour query per point (PCL's FLANN k-d tree), k = the larger of the outlier
 //    and normal neighbourhoods, queries in parallel writing by index: steps 3 and 4 share it.
 // 3. Statistical outlier removal as in PCL's StatisticalOutlierRemoval: a point whose mean distance
-//    to its nearest neighbours exceeds the global mean + ratio × std of that measure goes.
+//    to its nearest neighbours exceeds the global mean + ratio × std of that measure goes. Outliers
+//    beyond ~10 % inflate that std until they hide themselves; outlierRobust then uses the median
+//    and MAD instead, at the price of dropping sparse far-range surfaces on clean scans.
 // 4. Normals: PCA of the point and its nearest non-outlier neighbours; the normal is the eigenvector
 //    of the smallest eigenvalue, curvature the surface variation λ0 / (λ0 + λ1 + λ2). The sign of a
 //    normal is arbitrary: the method only uses unoriented normals (n and −n alike).
@@ -26,6 +30,8 @@
 //    tileOverlap; a point belongs to every tile whose grown box contains it.
 
 #include "piperun/stages/preprocess.h"
+
+#include "piperun/spacing.h"
 
 #include "piperun/error.h"
 
@@ -64,7 +70,7 @@ constexpr double kNeighborsDone = 0.60;
 constexpr double kNormalsDone = 0.75;
 constexpr double kPlanesDone = 0.92;
 
-// Plane detection constants that follow from the parameters rather than being tuned per scene.
+// Fixed constants of the plane detection; the ones that depend on the scene's scale are parameters.
 constexpr std::uint32_t kMinCellPoints = 20;  ///< Fewer points say too little about a cell's shape.
 constexpr double kMinSpreadShare = 0.08;      ///< Second in-plane std ≥ this × cell size: not a line.
 constexpr double kParallelAngleDeg = 20.0;    ///< A point normal within this of a plane normal agrees with it.
@@ -79,6 +85,8 @@ double secondsSince(Clock::time_point start) { return std::chrono::duration<doub
 
 constexpr double kPi = 3.14159265358979323846;
 double degToRad(double degrees) { return degrees * kPi / 180.0; }
+
+constexpr double kMinAutoVoxel = 0.005;
 
 void require(bool condition, const std::string& message) {
   if (!condition) throw std::invalid_argument("preprocess: " + message);
@@ -110,12 +118,10 @@ void parallelChunks(std::size_t count, Progress& progress, const Body& body) {
 
 using Index3 = Eigen::Array<std::int64_t, 3, 1>;
 
-/// Number of cells of a grid with these counts per axis; throws when it would not fit a 63-bit key.
-std::uint64_t checkedCellCount(const Index3& counts, double edge) {
+/// Throws when a grid with these cell counts per axis could not number its cells with 63-bit keys.
+void requireKeysFit(const Index3& counts, double edge) {
   const double cells = static_cast<double>(counts.x()) * static_cast<double>(counts.y()) * static_cast<double>(counts.z());
   require(cells < 0x1p63, "a grid of " + std::to_string(edge) + " m cells over the cloud's extent has too many cells");
-  return static_cast<std::uint64_t>(counts.x()) * static_cast<std::uint64_t>(counts.y()) *
-         static_cast<std::uint64_t>(counts.z());
 }
 
 /// Cubes of a fixed edge aligned to world multiples of the edge, numbered over the cubes spanned by
@@ -126,7 +132,7 @@ class CubeGrid {
   CubeGrid(const Eigen::Vector3d& origin, double edge, const BoundingBox& offsetBounds)
       : origin_(origin), edge_(edge), lowest_(worldCube(offsetBounds.min)) {
     counts_ = worldCube(offsetBounds.max) - lowest_ + 1;
-    checkedCellCount(counts_, edge);
+    requireKeysFit(counts_, edge);
   }
 
   Index3 cubeOf(const Eigen::Vector3f& offset) const { return worldCube(offset.cast<double>()) - lowest_; }
@@ -264,19 +270,37 @@ NeighborLists findNeighbors(const PointCloud& cloud, int k, int outlierK, Progre
   return lists;
 }
 
-/// Step 3: flags points whose mean neighbour distance exceeds mean + stdRatio × std over all points.
-std::vector<char> statisticalOutliers(const NeighborLists& lists, std::size_t n, double stdRatio) {
+/// Middle value of a copy of `values` (the upper one of an even count).
+double median(std::vector<float> values) {
+  const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), middle, values.end());
+  return *middle;
+}
+
+/// Step 3: flags points whose mean neighbour distance exceeds centre + stdRatio × spread over all
+/// points: mean and standard deviation, or with `robust` the median and the scaled median absolute
+/// deviation (which heavy contamination cannot inflate).
+std::vector<char> statisticalOutliers(const NeighborLists& lists, std::size_t n, double stdRatio, bool robust) {
   std::vector<char> outlier(n, 0);
   if (lists.meanDistance.empty()) return outlier;
-  double sum = 0.0;
-  double squaredSum = 0.0;
-  for (float d : lists.meanDistance) {
-    sum += d;
-    squaredSum += static_cast<double>(d) * d;
+  double centre = 0.0;
+  double spread = 0.0;
+  if (robust) {
+    centre = median(lists.meanDistance);
+    std::vector<float> deviations(n);
+    for (std::size_t i = 0; i < n; ++i) deviations[i] = static_cast<float>(std::abs(lists.meanDistance[i] - centre));
+    spread = 1.4826 * median(std::move(deviations));  // the MAD of a normal distribution is 0.6745 σ
+  } else {
+    double sum = 0.0;
+    double squaredSum = 0.0;
+    for (float d : lists.meanDistance) {
+      sum += d;
+      squaredSum += static_cast<double>(d) * d;
+    }
+    centre = sum / static_cast<double>(n);
+    spread = std::sqrt(std::max(0.0, squaredSum / static_cast<double>(n) - centre * centre));
   }
-  const double mean = sum / static_cast<double>(n);
-  const double variance = std::max(0.0, squaredSum / static_cast<double>(n) - mean * mean);
-  const double threshold = mean + stdRatio * std::sqrt(variance);
+  const double threshold = centre + stdRatio * spread;
   for (std::size_t i = 0; i < n; ++i) outlier[i] = lists.meanDistance[i] > threshold;
   return outlier;
 }
@@ -460,148 +484,168 @@ std::array<Index3, 26> neighborOffsets() {
   return offsets;
 }
 
-/// Step 5: flags the points of large planes among the `usable` points. Returns the plane count.
-int findPlanePoints(const PointCloud& cloud, const SurfaceEstimates& surface, const PreprocessParams& params,
-                    std::vector<char>& planePoint, Progress& progress) {
-  const std::size_t n = cloud.size();
-  BoundingBox bounds;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (surface.valid[i]) bounds.extend(cloud.positions[i].cast<double>());
-  }
-  if (bounds.empty()) return 0;
-  const CubeGrid grid(cloud.origin, params.planeCellSize, bounds);
+/// The points with normals grouped by the cells of the plane grid, sorted by cell key.
+struct CellGrid {
+  CubeGrid grid;
   std::vector<KeyedPoint> entries;
-  entries.reserve(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    if (surface.valid[i]) entries.push_back({grid.key(grid.cubeOf(cloud.positions[i])), static_cast<std::uint32_t>(i)});
-  }
-  tbb::parallel_sort(entries.begin(), entries.end());
-  progress.checkCancelled();
+  std::vector<PlaneCell> cells;
+  std::vector<std::uint64_t> keys;  ///< Key of each cell, ascending.
 
-  const std::vector<std::uint32_t> starts = runStarts(entries);
-  std::vector<PlaneCell> cells(starts.size() - 1);
-  std::vector<std::uint64_t> cellKeys(cells.size());
-  for (std::size_t c = 0; c < cells.size(); ++c) {
-    cells[c].first = starts[c];
-    cells[c].last = starts[c + 1];
-    cells[c].cube = grid.cubeOf(cloud.positions[entries[starts[c]].point]);
-    cellKeys[c] = entries[starts[c]].key;
-  }
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 16), [&](const tbb::blocked_range<std::size_t>& range) {
-    progress.checkCancelled();
-    for (std::size_t c = range.begin(); c < range.end(); ++c) classifyCell(cells[c], entries, cloud, surface.normals, params);
-  });
-  progress.report(kTask, kNormalsDone + 0.6 * (kPlanesDone - kNormalsDone));
-
-  const std::array<Index3, 26> offsets = neighborOffsets();
-  // Index of the cell at `cube`, or -1 when no point falls there.
-  const auto cellAt = [&](const Index3& cube) -> std::int64_t {
+  /// Index of the cell at `cube`, or -1 when no point falls there.
+  std::int64_t cellAt(const Index3& cube) const {
     if (!grid.contains(cube)) return -1;
-    const auto found = std::lower_bound(cellKeys.begin(), cellKeys.end(), grid.key(cube));
-    return found != cellKeys.end() && *found == grid.key(cube) ? found - cellKeys.begin() : -1;
-  };
+    const std::uint64_t key = grid.key(cube);
+    const auto found = std::lower_bound(keys.begin(), keys.end(), key);
+    return found != keys.end() && *found == key ? found - keys.begin() : -1;
+  }
+};
 
+CellGrid groupIntoCells(const PointCloud& cloud, const std::vector<char>& valid, double cellSize, const BoundingBox& bounds) {
+  CellGrid cells{CubeGrid(cloud.origin, cellSize, bounds), {}, {}, {}};
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (valid[i]) cells.entries.push_back({cells.grid.key(cells.grid.cubeOf(cloud.positions[i])), static_cast<std::uint32_t>(i)});
+  }
+  tbb::parallel_sort(cells.entries.begin(), cells.entries.end());
+  const std::vector<std::uint32_t> starts = runStarts(cells.entries);
+  cells.cells.resize(starts.size() - 1);
+  cells.keys.resize(cells.cells.size());
+  for (std::size_t c = 0; c < cells.cells.size(); ++c) {
+    cells.cells[c].first = starts[c];
+    cells.cells[c].last = starts[c + 1];
+    cells.cells[c].cube = cells.grid.cubeOf(cloud.positions[cells.entries[starts[c]].point]);
+    cells.keys[c] = cells.entries[starts[c]].key;
+  }
+  return cells;
+}
+
+/// Joins adjacent planar cells whose planes agree. Returns the region of each planar cell, named by
+/// its root (its smallest cell), and -1 for the other cells.
+std::vector<std::int64_t> coplanarRegions(const CellGrid& grid, double thickness) {
+  const std::vector<PlaneCell>& cells = grid.cells;
+  const std::array<Index3, 26> offsets = neighborOffsets();
   DisjointSets regions(cells.size());
   for (std::size_t c = 0; c < cells.size(); ++c) {
     if (!cells[c].planar) continue;
     for (const Index3& offset : offsets) {
-      const std::int64_t other = cellAt(cells[c].cube + offset);
-      if (other > static_cast<std::int64_t>(c) && cells[other].planar &&
-          samePlane(cells[c], cells[other], params.planeMaxThickness)) {
+      const std::int64_t other = grid.cellAt(cells[c].cube + offset);
+      if (other > static_cast<std::int64_t>(c) && cells[other].planar && samePlane(cells[c], cells[other], thickness)) {
         regions.unite(static_cast<std::uint32_t>(c), static_cast<std::uint32_t>(other));
       }
     }
   }
-  // The region of each planar cell, named by its root (its smallest cell); -1 for other cells.
-  std::vector<std::int64_t> regionOfCell(cells.size(), -1);
+  std::vector<std::int64_t> regionOf(cells.size(), -1);
   for (std::size_t c = 0; c < cells.size(); ++c) {
-    if (cells[c].planar) regionOfCell[c] = regions.find(static_cast<std::uint32_t>(c));
+    if (cells[c].planar) regionOf[c] = regions.find(static_cast<std::uint32_t>(c));
   }
+  return regionOf;
+}
 
-  // Which plane each point lies on: a region cell's points are tested against the cell's plane, the
-  // points of a cell next to region cells against those cells' planes. A point lies on a plane when
-  // it is in the plane's band with a parallel normal, on the seam of two planes when it is in the
-  // bands of two regions. Points away from the regions of `regionOf` are left as they are.
+constexpr std::int64_t kOffPlanes = -1;
+constexpr std::int64_t kOnSeam = -2;
+
+/// Which plane each point lies on, for the regions of `regionOf` (-1 for cells in none): a region
+/// cell's points are tested against the cell's plane, the points of a cell next to region cells
+/// against those cells' planes. A point lies on a plane (`located` = its region) when it is in the
+/// plane's band with a parallel normal, on a seam (kOnSeam) when it is in the bands of two regions,
+/// else off the planes (kOffPlanes).
+std::vector<std::int64_t> locateOnPlanes(const CellGrid& grid, const std::vector<std::int64_t>& regionOf,
+                                         const PointCloud& cloud, const std::vector<Eigen::Vector3f>& normals,
+                                         double thickness, Progress& progress) {
+  struct BandPlane {
+    const PlaneCell* cell;
+    std::int64_t region;
+    double band;
+  };
+  const std::vector<PlaneCell>& cells = grid.cells;
+  const std::array<Index3, 26> offsets = neighborOffsets();
   const double cosParallel = std::cos(degToRad(kParallelAngleDeg));
-  constexpr std::int64_t kOffPlanes = -1;
-  constexpr std::int64_t kSeam = -2;
   std::vector<std::int64_t> located(cloud.size(), kOffPlanes);
-  const auto locatePoints = [&](const std::vector<std::int64_t>& regionOf) {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 16), [&](const tbb::blocked_range<std::size_t>& range) {
-      progress.checkCancelled();
-      struct BandPlane {
-        const PlaneCell* cell;
-        std::int64_t region;
-        double band;
-      };
-      std::array<BandPlane, 26> bands;
-      for (std::size_t c = range.begin(); c < range.end(); ++c) {
-        int bandCount = 0;
-        if (regionOf[c] >= 0) {
-          bands[bandCount++] = {&cells[c], regionOf[c], kCellBandFactor * params.planeMaxThickness};
-        } else {
-          for (const Index3& offset : offsets) {
-            const std::int64_t other = cellAt(cells[c].cube + offset);
-            if (other >= 0 && regionOf[other] >= 0) {
-              bands[bandCount++] = {&cells[other], regionOf[other], kFringeBandFactor * params.planeMaxThickness};
-            }
-          }
-        }
-        for (std::uint32_t e = cells[c].first; e < cells[c].last; ++e) {
-          const std::uint32_t i = entries[e].point;
-          const Eigen::Vector3d p = cloud.positions[i].cast<double>();
-          const Eigen::Vector3d normal = surface.normals[i].cast<double>();
-          std::int64_t location = kOffPlanes;
-          std::int64_t firstBand = -1;
-          for (int b = 0; b < bandCount; ++b) {
-            const BandPlane& plane = bands[b];
-            if (std::abs((p - plane.cell->centroid).dot(plane.cell->normal)) > plane.band) continue;
-            if (std::abs(normal.dot(plane.cell->normal)) >= cosParallel) {
-              location = plane.region;
-              break;
-            }
-            if (firstBand >= 0 && firstBand != plane.region) {
-              location = kSeam;
-              break;
-            }
-            if (firstBand < 0) firstBand = plane.region;
-          }
-          located[i] = location;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 16), [&](const tbb::blocked_range<std::size_t>& range) {
+    progress.checkCancelled();
+    std::array<BandPlane, 26> bands;
+    for (std::size_t c = range.begin(); c < range.end(); ++c) {
+      int bandCount = 0;
+      if (regionOf[c] >= 0) {
+        bands[bandCount++] = {&cells[c], regionOf[c], kCellBandFactor * thickness};
+      } else {
+        for (const Index3& offset : offsets) {
+          const std::int64_t other = grid.cellAt(cells[c].cube + offset);
+          if (other >= 0 && regionOf[other] >= 0) bands[bandCount++] = {&cells[other], regionOf[other], kFringeBandFactor * thickness};
         }
       }
-    });
-  };
-  locatePoints(regionOfCell);
+      for (std::uint32_t e = cells[c].first; e < cells[c].last; ++e) {
+        const std::uint32_t i = grid.entries[e].point;
+        const Eigen::Vector3d p = cloud.positions[i].cast<double>();
+        const Eigen::Vector3d normal = normals[i].cast<double>();
+        std::int64_t firstBand = -1;
+        for (int b = 0; b < bandCount; ++b) {
+          const BandPlane& plane = bands[b];
+          if (std::abs((p - plane.cell->centroid).dot(plane.cell->normal)) > plane.band) continue;
+          if (std::abs(normal.dot(plane.cell->normal)) >= cosParallel) {
+            located[i] = plane.region;
+            break;
+          }
+          if (firstBand >= 0 && firstBand != plane.region) {
+            located[i] = kOnSeam;
+            break;
+          }
+          if (firstBand < 0) firstBand = plane.region;
+        }
+      }
+    }
+  });
+  return located;
+}
+
+/// Step 5: flags the points of large planes among the points with normals. Returns the plane count.
+int findPlanePoints(const PointCloud& cloud, const SurfaceEstimates& surface, const PreprocessParams& params,
+                    std::vector<char>& planePoint, Progress& progress) {
+  BoundingBox bounds;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (surface.valid[i]) bounds.extend(cloud.positions[i].cast<double>());
+  }
+  if (bounds.empty()) return 0;
+  CellGrid grid = groupIntoCells(cloud, surface.valid, params.planeCellSize, bounds);
+  progress.checkCancelled();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grid.cells.size(), 16), [&](const tbb::blocked_range<std::size_t>& range) {
+    progress.checkCancelled();
+    for (std::size_t c = range.begin(); c < range.end(); ++c) {
+      classifyCell(grid.cells[c], grid.entries, cloud, surface.normals, params);
+    }
+  });
+  progress.report(kTask, kNormalsDone + 0.5 * (kPlanesDone - kNormalsDone));
+
+  std::vector<std::int64_t> regionOf = coplanarRegions(grid, params.planeMaxThickness);
+  std::vector<std::int64_t> located =
+      locateOnPlanes(grid, regionOf, cloud, surface.normals, params.planeMaxThickness, progress);
   progress.report(kTask, kNormalsDone + 0.8 * (kPlanesDone - kNormalsDone));
 
   // A region's area: the points on its plane, in its cells and around them, times the area per
   // point of its cells. Counting the points around the cells credits the plane for the cells it
   // shares with other surfaces (a box top's cells along its edges hold the sides too).
-  std::vector<double> cellArea(cells.size(), 0.0);
-  std::vector<double> cellPoints(cells.size(), 0.0);
-  std::vector<double> pointsOnPlane(cells.size(), 0.0);
-  for (std::size_t c = 0; c < cells.size(); ++c) {
-    if (regionOfCell[c] < 0) continue;
-    cellArea[regionOfCell[c]] += cells[c].area;
-    cellPoints[regionOfCell[c]] += cells[c].last - cells[c].first;
+  const std::size_t cellCount = grid.cells.size();
+  std::vector<double> cellArea(cellCount, 0.0), cellPoints(cellCount, 0.0), pointsOnPlane(cellCount, 0.0);
+  for (std::size_t c = 0; c < cellCount; ++c) {
+    if (regionOf[c] < 0) continue;
+    cellArea[regionOf[c]] += grid.cells[c].area;
+    cellPoints[regionOf[c]] += grid.cells[c].last - grid.cells[c].first;
   }
-  for (std::int64_t location : located) {
-    if (location >= 0) pointsOnPlane[location] += 1.0;
+  for (std::int64_t region : located) {
+    if (region >= 0) pointsOnPlane[region] += 1.0;
   }
   int planes = 0;
-  for (std::size_t c = 0; c < cells.size(); ++c) {
-    const std::int64_t root = regionOfCell[c];
+  for (std::size_t c = 0; c < cellCount; ++c) {
+    const std::int64_t root = regionOf[c];  // roots come first in their region, so are seen unchanged
     if (root < 0) continue;
     if (pointsOnPlane[root] * cellArea[root] / cellPoints[root] < params.planeMinArea) {
-      regionOfCell[c] = -1;
+      regionOf[c] = -1;
     } else if (root == static_cast<std::int64_t>(c)) {
       ++planes;
     }
   }
   if (planes == 0) return 0;
 
-  std::fill(located.begin(), located.end(), kOffPlanes);
-  locatePoints(regionOfCell);
+  located = locateOnPlanes(grid, regionOf, cloud, surface.normals, params.planeMaxThickness, progress);
   for (std::size_t i = 0; i < located.size(); ++i) planePoint[i] = located[i] != kOffPlanes;
   return planes;
 }
@@ -611,7 +655,7 @@ std::vector<Tile> buildTiles(const PointCloud& cloud, double size, double overla
   const BoundingBox bounds = cloud.boundingBox();
   if (bounds.empty()) return {};
   const Index3 counts = ((bounds.max - bounds.min) / size).array().floor().cast<std::int64_t>() + 1;
-  checkedCellCount(counts, size);
+  requireKeysFit(counts, size);
   // Tile t's box along an axis is [low, high]; the same expressions give the boxes and the membership.
   const auto low = [&](int axis, std::int64_t t, double margin) {
     return bounds.min[axis] + (static_cast<double>(t) * size - margin);
@@ -685,7 +729,11 @@ PreprocessResult preprocess(const PointCloud& input, const PreprocessParams& par
   progress.report(kTask, 0.0);
 
   Clock::time_point stepStart = Clock::now();
-  PointCloud sampled = voxelCentroids(input, params.voxelSize, progress);
+  const double leaf = params.autoVoxel
+                          ? std::min(params.voxelSize, std::max(kMinAutoVoxel, 2.0 * estimatePointSpacing(input)))
+                          : params.voxelSize;
+  diagnostics.voxelSize = leaf;
+  PointCloud sampled = voxelCentroids(input, leaf, progress);
   const std::size_t n = sampled.size();
   diagnostics.afterVoxel = n;
   diagnostics.voxelSeconds = secondsSince(stepStart);
@@ -701,7 +749,7 @@ PreprocessResult preprocess(const PointCloud& input, const PreprocessParams& par
   progress.checkCancelled();
 
   stepStart = Clock::now();
-  const std::vector<char> outlier = statisticalOutliers(neighbors, n, params.outlierStdRatio);
+  const std::vector<char> outlier = statisticalOutliers(neighbors, n, params.outlierStdRatio, params.outlierRobust);
   const SurfaceEstimates surface = estimateNormals(sampled, neighbors, outlier, params.normalNeighbors, progress);
   // Points left without a normal (too few non-outlier neighbours) count as outliers.
   diagnostics.outliersRemoved = static_cast<std::size_t>(std::count(surface.valid.begin(), surface.valid.end(), 0));

@@ -10,9 +10,10 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <utility>
 
-#include "synth/random.h"
+#include "random.h"
 
 namespace piperun::synth {
 namespace {
@@ -24,6 +25,9 @@ constexpr double kDegree = kPi / 180.0;
 constexpr double kMaxCylinderPiece = 1.0;  // m
 constexpr double kMaxBoxPiece = 2.0;       // m
 constexpr double kMaxTorusPiece = 30.0 * kDegree;
+
+// Leaves of the bounding-box hierarchy hold at most this many pieces.
+constexpr int kLeafPieces = 4;
 
 // A strip holds about this many rays, and is at most this wide in azimuth.
 constexpr int kRaysPerStrip = 16384;
@@ -236,6 +240,24 @@ Bound boundOf(const Shape& shape) {
   return {disc.center, disc.radius};
 }
 
+/// The centre and half-widths of a shape's axis-aligned bounds.
+std::pair<Eigen::Vector3d, Eigen::Vector3d> axisAlignedBoundsOf(const Shape& shape) {
+  // A circle of radius r in the plane with unit normal n reaches r sqrt(1 - n_k²) along axis k.
+  auto circleReach = [](const Eigen::Vector3d& normal, double radius) -> Eigen::Vector3d {
+    return radius * (Eigen::Vector3d::Ones() - normal.cwiseAbs2()).cwiseMax(0.0).cwiseSqrt();
+  };
+  if (const auto* cylinder = std::get_if<Cylinder>(&shape)) {
+    const Eigen::Vector3d half = 0.5 * cylinder->length * cylinder->axis;
+    return {cylinder->start + half, half.cwiseAbs() + circleReach(cylinder->axis, cylinder->radius)};
+  }
+  if (const auto* box = std::get_if<OrientedBox>(&shape)) {
+    return {box->center, box->axes.cwiseAbs() * box->halfExtents};
+  }
+  if (const auto* disc = std::get_if<Disc>(&shape)) return {disc->center, circleReach(disc->normal, disc->radius)};
+  const Bound bound = boundOf(shape);
+  return {bound.center, Eigen::Vector3d::Constant(bound.radius)};
+}
+
 std::vector<Shape> cutIntoPieces(const Shape& shape) {
   std::vector<Shape> pieces;
   if (const auto* cylinder = std::get_if<Cylinder>(&shape)) {
@@ -332,9 +354,47 @@ Scanner::Scanner(std::vector<Surface> surfaces) : surfaces_(std::move(surfaces))
   for (int s = 0; s < static_cast<int>(surfaces_.size()); ++s) {
     for (Shape& shape : cutIntoPieces(surfaces_[s].shape)) {
       const Bound bound = boundOf(shape);
-      pieces_.push_back(Piece{std::move(shape), s, bound.center, bound.radius});
+      const auto [boxCenter, boxHalf] = axisAlignedBoundsOf(shape);
+      pieces_.push_back(
+          Piece{std::move(shape), s, bound.center, bound.radius, boxCenter - boxHalf, boxCenter + boxHalf});
     }
   }
+  pieceOrder_.resize(pieces_.size());
+  std::iota(pieceOrder_.begin(), pieceOrder_.end(), 0);
+  nodes_.emplace_back();
+  buildHierarchy(0, 0, static_cast<int>(pieces_.size()));
+}
+
+void Scanner::buildHierarchy(int node, int first, int count) {
+  // The pieces' bounds, split at the median centre along the widest spread of centres.
+  Eigen::Vector3d min = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d max = -min, centerMin = min, centerMax = -min;
+  for (int i = first; i < first + count; ++i) {
+    const Piece& piece = pieces_[pieceOrder_[i]];
+    min = min.cwiseMin(piece.boxMin);
+    max = max.cwiseMax(piece.boxMax);
+    centerMin = centerMin.cwiseMin(piece.boundCenter);
+    centerMax = centerMax.cwiseMax(piece.boundCenter);
+  }
+  nodes_[node].min = min;
+  nodes_[node].max = max;
+  nodes_[node].first = first;
+  nodes_[node].count = count;
+  if (count <= kLeafPieces) return;
+  int axis = 0;
+  (centerMax - centerMin).maxCoeff(&axis);
+  const int half = count / 2;
+  std::nth_element(pieceOrder_.begin() + first, pieceOrder_.begin() + first + half, pieceOrder_.begin() + first + count,
+                   [&](int a, int b) {
+                     const double ca = pieces_[a].boundCenter[axis], cb = pieces_[b].boundCenter[axis];
+                     return ca < cb || (ca == cb && a < b);
+                   });
+  const int children = static_cast<int>(nodes_.size());
+  nodes_[node].children = children;
+  nodes_.emplace_back();
+  nodes_.emplace_back();
+  buildHierarchy(children, first, half);
+  buildHierarchy(children + 1, first + half, count - half);
 }
 
 Scanner::StationGrid Scanner::prepare(const Eigen::Vector3d& station, int stationIndex,
@@ -552,6 +612,40 @@ std::uint64_t Scanner::countHits(const Eigen::Vector3d& station, const ScanSetti
         return count;
       },
       [](std::uint64_t a, std::uint64_t b) { return a + b; });
+}
+
+bool Scanner::occluded(const Ray& ray, double minDistance, double maxDistance) const {
+  if (pieces_.empty()) return false;
+  // A huge finite inverse for zero components keeps the slab products free of 0 × ∞.
+  Eigen::Vector3d inverse;
+  for (int k = 0; k < 3; ++k) {
+    inverse[k] = ray.direction[k] != 0.0 ? 1.0 / ray.direction[k] : std::numeric_limits<double>::max();
+  }
+  // The hierarchy is balanced, so its depth (and the stack) stays below log2(pieces) + 2.
+  std::array<int, 64> stack{};
+  int size = 0;
+  stack[size++] = 0;
+  while (size > 0) {
+    const HierarchyNode& node = nodes_[stack[--size]];
+    double enter = minDistance, leave = maxDistance;
+    for (int k = 0; k < 3; ++k) {
+      double t0 = (node.min[k] - ray.origin[k]) * inverse[k];
+      double t1 = (node.max[k] - ray.origin[k]) * inverse[k];
+      if (t0 > t1) std::swap(t0, t1);
+      enter = std::max(enter, t0);
+      leave = std::min(leave, t1);
+    }
+    if (enter > leave) continue;
+    if (node.children >= 0) {
+      stack[size++] = node.children;
+      stack[size++] = node.children + 1;
+      continue;
+    }
+    for (int i = node.first; i < node.first + node.count; ++i) {
+      if (intersect(pieces_[pieceOrder_[i]].shape, ray, minDistance, maxDistance)) return true;
+    }
+  }
+  return false;
 }
 
 std::optional<std::pair<RayHit, int>> Scanner::castRay(const Ray& ray, double minDistance, double maxDistance) const {

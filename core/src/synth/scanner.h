@@ -65,6 +65,10 @@ class Scanner {
   /// a brute-force reference. Returns the hit and the surface index.
   std::optional<std::pair<RayHit, int>> castRay(const Ray& ray, double minDistance, double maxDistance) const;
 
+  /// Whether any surface crosses `ray` within (minDistance, maxDistance): a line-of-sight test
+  /// through a bounding-box hierarchy over the surfaces' pieces.
+  bool occluded(const Ray& ray, double minDistance, double maxDistance) const;
+
   const std::vector<Surface>& surfaces() const { return surfaces_; }
 
  private:
@@ -75,15 +79,30 @@ class Scanner {
     int surface = 0;
     Eigen::Vector3d boundCenter = Eigen::Vector3d::Zero();
     double boundRadius = 0.0;
+    Eigen::Vector3d boxMin = Eigen::Vector3d::Zero();  ///< Axis-aligned bounds.
+    Eigen::Vector3d boxMax = Eigen::Vector3d::Zero();
   };
   struct StationGrid;
+  /// A box of the hierarchy over the pieces: a leaf holds pieceOrder_[first .. first + count),
+  /// an inner node has its two halves at nodes_[children] and nodes_[children + 1].
+  struct HierarchyNode {
+    Eigen::Vector3d min = Eigen::Vector3d::Zero();
+    Eigen::Vector3d max = Eigen::Vector3d::Zero();
+    int first = 0;
+    int count = 0;
+    int children = -1;
+  };
 
   StationGrid prepare(const Eigen::Vector3d& station, int stationIndex, const ScanSettings& settings) const;
   template <typename OnHit>
   void traceStrip(const StationGrid& grid, int strip, const ScanSettings& settings, OnHit&& onHit) const;
+  /// Fills nodes_[node] with pieceOrder_[first .. first + count), halving it until leaves are small.
+  void buildHierarchy(int node, int first, int count);
 
   std::vector<Surface> surfaces_;
   std::vector<Piece> pieces_;
+  std::vector<int> pieceOrder_;
+  std::vector<HierarchyNode> nodes_;
 };
 
 }  // namespace piperun::synth

@@ -1,16 +1,19 @@
 #include "synth/scene_layout.h"
 
+#include <tbb/parallel_for.h>
+
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
 
-#include "synth/random.h"
+#include "random.h"
 #include "synth/scanner.h"
 
 namespace piperun::synth {
@@ -311,6 +314,109 @@ std::vector<Piece> solidPieces(const RealizedRoute& realized, double radius) {
     }
   }
   return pieces;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Station placement: which stretches of pipe a scanner station has in sight.
+
+constexpr int kStationCandidates = 48;      // free positions weighed up for the stations
+constexpr int kStationDraws = 2000;         // random positions tried to find them
+constexpr double kStationClearance = 0.4;   // from every surface but the floor (m)
+constexpr double kCrowdedClearance = 0.35;  // when too few positions have kStationClearance
+constexpr int kMaxPipeSamples = 1500;       // line-of-sight rays per candidate, at most
+constexpr double kMinSampleSpacing = 0.2;   // between samples along a pipe (m)
+// What a station is worth, per metre: of a pipe it brings into sight (the pipe receives points),
+// of a stretch of pipe it brings into sight, and of a stretch seen again from another side.
+constexpr double kNewPipeWeight = 1.0;
+constexpr double kNewStretchWeight = 0.3;
+constexpr double kRevisitWeight = 0.03;
+
+/// A stretch of a pipe, represented by the middle of its axis.
+struct PipeSample {
+  Eigen::Vector3d axisPoint, axis;
+  double radius = 0.0;
+  double length = 0.0;  ///< Of the stretch.
+  int pipe = 0;
+};
+
+std::vector<PipeSample> samplePipes(const PipeNetwork& network) {
+  double total = 0.0;
+  for (const Pipe& pipe : network.pipes) total += pipe.length();
+  const double spacing = std::max(kMinSampleSpacing, total / kMaxPipeSamples);
+  std::vector<PipeSample> samples;
+  for (int p = 0; p < static_cast<int>(network.pipes.size()); ++p) {
+    const Pipe& pipe = network.pipes[p];
+    const int count = std::max(1, static_cast<int>(std::ceil(pipe.length() / spacing)));
+    for (int i = 0; i < count; ++i) {
+      samples.push_back({pipe.start + ((i + 0.5) / count) * (pipe.end - pipe.start), pipe.direction(), pipe.radius,
+                         pipe.length() / count, p});
+    }
+  }
+  return samples;
+}
+
+/// Whether the scanner at `station` records the side of the sample facing it: in range, above
+/// the blind cone and with nothing in between.
+bool inSight(const Scanner& scanner, const Eigen::Vector3d& station, const PipeSample& sample) {
+  const ScanSettings limits;  // the scanner's range and blind cone
+  Eigen::Vector3d across = station - sample.axisPoint;
+  across -= across.dot(sample.axis) * sample.axis;
+  const double offAxis = across.norm();
+  if (offAxis <= sample.radius) return false;  // looking along the pipe
+  // The nearest point of the pipe's surface in the sample's cross-section: the ray meets the
+  // pipe there first, so only other surfaces can lie in between.
+  const Eigen::Vector3d offset = sample.axisPoint + (sample.radius / offAxis) * across - station;
+  const double distance = offset.norm();
+  if (distance <= limits.minRange || distance >= limits.maxRange) return false;
+  const Ray ray{station, offset / distance};
+  if (ray.direction.z() < std::sin(limits.minElevation)) return false;
+  return !scanner.occluded(ray, limits.minRange, distance * (1.0 - 1e-9));
+}
+
+/// sight[c][k]: whether candidate station c has sample k in sight.
+std::vector<std::vector<bool>> lineOfSight(const Scanner& scanner, const std::vector<Eigen::Vector3d>& candidates,
+                                           const std::vector<PipeSample>& samples) {
+  std::vector<std::vector<bool>> sight(candidates.size(), std::vector<bool>(samples.size()));
+  tbb::parallel_for(std::size_t{0}, candidates.size(), [&](std::size_t c) {
+    for (std::size_t k = 0; k < samples.size(); ++k) sight[c][k] = inSight(scanner, candidates[c], samples[k]);
+  });
+  return sight;
+}
+
+/// Picks `count` distinct candidates one after the other, each the one that adds the most to
+/// what the stations before it see (see the weights above); ties go to the earlier candidate.
+std::vector<int> chooseStations(const std::vector<std::vector<bool>>& sight, const std::vector<PipeSample>& samples,
+                                const PipeNetwork& network, int count) {
+  std::vector<bool> sampleSeen(samples.size(), false), pipeSeen(network.pipes.size(), false);
+  std::vector<bool> taken(sight.size(), false);
+  std::vector<int> chosen;
+  for (int s = 0; s < count; ++s) {
+    int best = -1;
+    double bestGain = -1.0;
+    for (std::size_t c = 0; c < sight.size(); ++c) {
+      if (taken[c]) continue;
+      std::vector<bool> pipeCounted = pipeSeen;
+      double gain = 0.0;
+      for (std::size_t k = 0; k < samples.size(); ++k) {
+        if (!sight[c][k]) continue;
+        gain += (sampleSeen[k] ? kRevisitWeight : kNewStretchWeight) * samples[k].length;
+        if (!pipeCounted[samples[k].pipe]) {
+          pipeCounted[samples[k].pipe] = true;
+          gain += kNewPipeWeight * network.pipes[samples[k].pipe].length();
+        }
+      }
+      if (gain > bestGain) {
+        bestGain = gain;
+        best = static_cast<int>(c);
+      }
+    }
+    taken[best] = true;
+    for (std::size_t k = 0; k < samples.size(); ++k) {
+      if (sight[best][k]) sampleSeen[k] = pipeSeen[samples[k].pipe] = true;
+    }
+    chosen.push_back(best);
+  }
+  return chosen;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1110,8 +1216,9 @@ bool LayoutBuilder::meetsRequirements() const {
 }
 
 std::optional<std::vector<Eigen::Vector3d>> LayoutBuilder::placeStations(int count) {
-  // Scanner heads 1.5–1.8 m above the floor, clear of everything; later stations as far as
-  // possible from earlier ones among a few free candidates, as a surveyor spreads them.
+  // A surveyor sets up where the piping is seen: among free positions for a scanner head
+  // (1.5–1.8 m above the floor, clear of everything), each station is the one that brings the
+  // most pipe into sight that the stations before it do not see.
   auto clearance = [&](const Eigen::Vector3d& p) {
     double nearest = std::numeric_limits<double>::infinity();
     for (std::size_t b = kFloor + 1; b < blockers_.size(); ++b) {
@@ -1122,30 +1229,23 @@ std::optional<std::vector<Eigen::Vector3d>> LayoutBuilder::placeStations(int cou
     }
     return nearest;
   };
-  std::vector<Eigen::Vector3d> stations;
-  for (const double required : {0.6, 0.35}) {
-    stations.clear();
-    for (int s = 0; s < count; ++s) {
-      std::optional<Eigen::Vector3d> chosen;
-      double chosenSpread = -1.0;
-      for (int candidate = 0, found = 0; candidate < 400 && found < (s == 0 ? 1 : 24); ++candidate) {
-        const Eigen::Vector3d p(rng_.uniform(0.8, width_ - 0.8), rng_.uniform(0.8, depth_ - 0.8),
-                                rng_.uniform(1.5, 1.8));
-        if (clearance(p) < required) continue;
-        ++found;
-        double spread = std::numeric_limits<double>::infinity();
-        for (const Eigen::Vector3d& other : stations) spread = std::min(spread, (p - other).head<2>().norm());
-        if (spread > chosenSpread) {
-          chosenSpread = spread;
-          chosen = p;
-        }
-      }
-      if (!chosen) break;
-      stations.push_back(*chosen);
+  std::vector<Eigen::Vector3d> candidates;
+  for (const double required : {kStationClearance, kCrowdedClearance}) {
+    candidates.clear();
+    for (int draw = 0; draw < kStationDraws && static_cast<int>(candidates.size()) < kStationCandidates; ++draw) {
+      const Eigen::Vector3d p(rng_.uniform(0.8, width_ - 0.8), rng_.uniform(0.8, depth_ - 0.8),
+                              rng_.uniform(1.5, 1.8));
+      if (clearance(p) >= required) candidates.push_back(p);
     }
-    if (static_cast<int>(stations.size()) == count) return stations;
+    if (static_cast<int>(candidates.size()) >= count) break;
   }
-  return std::nullopt;
+  if (static_cast<int>(candidates.size()) < count) return std::nullopt;
+
+  const std::vector<PipeSample> samples = samplePipes(truth_);
+  const auto sight = lineOfSight(Scanner(surfaces_), candidates, samples);
+  std::vector<Eigen::Vector3d> stations;
+  for (const int c : chooseStations(sight, samples, truth_, count)) stations.push_back(candidates[c]);
+  return stations;
 }
 
 SceneLayout LayoutBuilder::finish(std::vector<Eigen::Vector3d> stations) {

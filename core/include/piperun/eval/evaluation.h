@@ -15,6 +15,7 @@ struct EvaluationParams {
   double fixedTolerance = 0.0;       ///< When > 0, this tolerance (m) replaces the rule above.
   double jointMinDistance = 0.05;    ///< Joints match when their positions are within
   double jointRadiusFactor = 1.0;    ///< max(jointMinDistance, jointRadiusFactor × truth radius), same type.
+  bool pipesOnly = false;            ///< Sample only the straight pipes of both networks (figures "before joints").
 };
 
 struct EvaluationResult {

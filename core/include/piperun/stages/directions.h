@@ -17,22 +17,24 @@ struct DirectionsParams {
   double bandwidthDeg = 3.0;      ///< Gaussian kernel width of the mean-shift on the sphere.
   double mergeAngleDeg = 4.0;     ///< Modes (and refined directions) closer than this are one direction.
   double minSupport = 0.02;       ///< A mode must attract at least this share of the round's drawn pairs,
-  double minSignificance = 6.0;   ///< stand this many standard deviations above its surroundings on the sphere, hold
-                                  ///< this many more of the round's points than the band beside the stripe...
-  int minStripePoints = 150;      ///< ...and its stripe must hold at least this many of the round's points.
-  double stripeAngleDeg = 8.0;    ///< A point is in direction d's stripe when |n·d| < sin(this); at most 30.
+  double minSignificance = 6.0;   ///< stand this many standard deviations above its surroundings on the sphere, and
+                                  ///< its stripe must hold this many more held-out points than the band beside it...
+  int minStripePoints = 150;      ///< ...and at least this many of the round's points.
+  double stripeAngleDeg = 8.0;    ///< A point is in direction d's stripe when |n·d| < sin(this); at most 30...
+  double stripeNoiseSigmas = 3.5; ///< ...widened to this many robust standard deviations of the direction's normal noise.
   double minSpreadRatio = 4.0;    ///< A stripe's normals must spread around the axis this many times more than they
-                                  ///< stray from perpendicular (ratio of the two smallest eigenvalues of Σ n nᵀ),
-                                  ///< else the axis is not determined: a plane alone fits any axis in it.
-  int maxRounds = 3;              ///< Repeat on the points in no stripe until no direction is found.
+                                  ///< stray from perpendicular (in Σ n nᵀ), else the axis is not determined: a plane
+                                  ///< alone fits any axis lying in it.
+  int maxRounds = 3;              ///< Repeat on the points in no stripe until a round finds nothing.
 };
 
 struct PrincipalDirection {
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  ///< Unit vector, folded to the upper hemisphere.
   double support = 0.0;                              ///< Share of the round's drawn pairs that converged to it.
   int round = 0;                                     ///< Round of the stage in which it was found (0 = first).
-  double rmsAngleDeg = 0.0;                          ///< RMS angle between the stripe's normals and perpendicular.
-  std::vector<std::uint32_t> stripe;                 ///< Points whose normal is perpendicular to it, ascending.
+  double noiseDeg = 0.0;                             ///< Robust std. deviation of its normals' angle from perpendicular.
+  double stripeAngleDeg = 0.0;                       ///< Half-width of its stripe (|n·axis| < sin(this)).
+  std::vector<std::uint32_t> stripe;                 ///< Points whose normal is perpendicular to it (input order).
 };
 
 struct DirectionsInput {
@@ -49,9 +51,9 @@ struct DirectionsResult {
   struct Diagnostics {
     std::size_t inputPoints = 0;
     std::size_t ignoredPoints = 0;      ///< Input points without a usable normal (not finite or zero).
-    std::size_t pairsDrawn = 0;         ///< Pairs with a partner in reach, parallel ones included.
+    std::size_t pairsDrawn = 0;         ///< Distinct pairs with a partner in reach, parallel ones included.
     std::size_t unexplainedPoints = 0;  ///< Usable points in no stripe at the end.
-    int modes = 0;                      ///< Mean-shift modes that passed minSupport and minSignificance, over all rounds.
+    int modes = 0;                      ///< Modes that passed minSupport and the peak test, over all rounds.
     int rounds = 0;
     double seconds = 0.0;
   } diagnostics;

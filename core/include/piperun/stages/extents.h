@@ -18,9 +18,10 @@ struct ExtentsParams {
   double minPointsPerMetre = 0.0;    ///< Axis coverage: a section needs this many points per metre; 0 = automatic
                                      ///< (a fraction `minDensityRatio` of the cylinder's median section density).
   double minDensityRatio = 0.2;      ///< Used when minPointsPerMetre is 0.
-  double minArcDeg = 70.0;           ///< Cross-section coverage: a section's points must span this angle around the
-                                     ///< axis (360° minus their largest gap). The paper's 180° needs several stations;
-                                     ///< one station sees at most ~180° of a pipe (see extents.cpp for measurements).
+  double minArcDeg = 45.0;           ///< Cross-section coverage: a section's points (pooled with its neighbours' up to
+                                     ///< six points) must span this angle around the axis (360° minus their largest
+                                     ///< gap). The paper's 180° needs several stations; one station sees at most half a
+                                     ///< pipe (measurements in extents.cpp).
   int closingSections = 10;          ///< 1-D closing fills gaps up to this many sections (occlusions behind other pipes)...
   int openingSections = 2;           ///< ...then opening drops pieces shorter than this many sections.
   double minLength = 0.1;            ///< Pipes shorter than this (m) are dropped.

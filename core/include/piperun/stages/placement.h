@@ -1,7 +1,8 @@
 #pragma once
 // Stage 3 — cylinder placement (paper §5.1): per principal direction, project its stripe onto the
 // orthogonal plane, turn pairs of nearby points with their normals into circle candidates, find
-// the candidates' modes by mean-shift in (cx, cy, r), gather inliers and refine by least squares.
+// the candidates' modes by mean-shift in (cx, cy, r), gather inliers, refine by least squares and
+// keep the fits that look like pipes.
 //
 // Coordinates are relative to the cloud's origin (PointCloud::positions), like the cloud's own.
 
@@ -16,24 +17,27 @@ namespace piperun {
 
 struct PlacementParams {
   double minRadius = 0.012;         ///< Smallest pipe radius searched (m).
-  double maxRadius = 0.35;          ///< Largest pipe radius searched (m); also bounds the pair distance.
+  double maxRadius = 0.35;          ///< Largest pipe radius searched (m); the pair-selection scales run up to it.
   int pairsPerPoint = 1;            ///< Partners each stripe point draws at each neighbourhood scale (scales step
                                     ///< ×3 from minRadius to maxRadius), so the work is linear in the stripe.
-  int candidatePairs = 0;           ///< TEMPORARY (kept until params.cpp drops it): unused.
   double minPairAngleDeg = 15.0;    ///< Pairs whose projected normals are closer than this to parallel are skipped.
   double radiusAgreement = 0.1;     ///< A pair gives a candidate when its two distances to the centre differ by
                                     ///< less than max(2 mm, this × radius).
   double centerBandwidth = 0.01;    ///< Mean-shift kernel width for the centre (m)...
   double radiusBandwidth = 0.006;   ///< ...and for the radius (m).
   int minCandidates = 25;           ///< A circle needs at least this many candidates in its mode.
-  double inlierDistance = 0.008;    ///< A point is an inlier when within this of the cylinder surface (m)...
-  double inlierNormalAngleDeg = 30; ///< ...and its normal within this angle of the surface normal.
+  double inlierDistance = 0.012;    ///< A point is an inlier when within this of the cylinder surface (m)...
+  double inlierNormalAngleDeg = 30; ///< ...and its normal in the plane (re-estimated there from its neighbours) within
+                                    ///< this angle of the radial direction.
   int minInliers = 40;              ///< Cylinders with fewer inliers are dropped.
   double minCandidateShare = 0.1;   ///< A cylinder's mode must hold this many candidates per inlier: pairs of a real
                                     ///< pipe's points agree on its circle, the faces of a box edge on a ridge of circles.
   double maxShellShare = 0.15;      ///< Dropped when the stripe points just outside the inlier band (up to 2.5 ×
                                     ///< inlierDistance off the surface, along the inliers) exceed this share of the
                                     ///< inliers: the faces beyond a box edge do, a pipe's surroundings do not.
+  double maxOutOfRound = 0.02;      ///< Dropped when the inliers' mean surface offset varies around the axis by more
+                                    ///< than this share of the radius (at least 1 mm; RMS over 10° sectors, noise
+                                    ///< discounted): square posts and beams do, pipes do not.
   int refineIterations = 8;         ///< Gauss-Newton iterations of each least-squares refinement (two are run).
 };
 

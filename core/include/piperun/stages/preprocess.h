@@ -12,8 +12,11 @@ namespace piperun {
 
 struct PreprocessParams {
   double voxelSize = 0.01;          ///< Voxel-grid leaf (m): one point (the centroid) per occupied voxel; 0 keeps all.
+  bool autoVoxel = true;            ///< Leaf from the scan instead: twice its median point spacing, at least 5 mm and
+                                    ///< at most voxelSize (dense close-range scans keep enough points on small pipes).
   int outlierNeighbors = 8;         ///< Statistical outlier removal: a point whose mean distance to its k
   double outlierStdRatio = 3.0;     ///< neighbours exceeds mean + ratio × std of all points goes; ratio 0 disables.
+  bool outlierRobust = false;       ///< Median and MAD instead of mean and std: copes with 20 % outliers, but also drops sparse far-range surfaces.
   int normalNeighbors = 16;         ///< k of the k-nearest-neighbour PCA normal estimation (at least 3).
   bool removePlanes = true;         ///< Remove large planar regions (floors, walls, equipment faces).
   double planeCellSize = 0.3;       ///< Planes are detected cell by cell at this edge length (m)...
@@ -24,9 +27,10 @@ struct PreprocessParams {
   double tileOverlap = 0.5;         ///< Margin each tile reaches into its neighbours (m).
 };
 
-/// A cubic sub-volume. `core` tiles the scene without overlap; `box` is core grown by the overlap.
+/// A cubic sub-volume. `core` tiles the scene without overlap (cubes from the low corner of the kept
+/// points' bounding box); `box` is core grown by the overlap.
 struct Tile {
-  int id = 0;
+  int id = 0;                         ///< Number of the tile among the non-empty ones, in grid order (x slowest, z fastest).
   BoundingBox core;
   BoundingBox box;
   std::vector<std::uint32_t> points;  ///< Indices into PreprocessResult::points of the points inside `box`.
@@ -40,6 +44,7 @@ struct PreprocessResult {
 
   struct Diagnostics {
     std::size_t inputPoints = 0;
+    double voxelSize = 0.0;           ///< Leaf used (m), after autoVoxel.
     std::size_t afterVoxel = 0;       ///< Occupied voxels (finite input points when voxelSize is 0).
     std::size_t outliersRemoved = 0;  ///< Statistical outliers, and points left without a normal.
     std::size_t planePoints = 0;

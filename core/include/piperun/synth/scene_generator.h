@@ -21,7 +21,7 @@ struct SceneParams {
   ScenePreset preset = ScenePreset::Small;
   std::uint64_t seed = 1;
   double noiseSigma = 0.002;       ///< Gaussian noise along the surface normal (m).
-  double outlierFraction = 0.01;   ///< Uniform outliers in the scene box, as a share of the points.
+  double outlierFraction = 0.01;   ///< Uniform outliers in the scene box, per surface point (expected count).
   int stations = 0;                ///< Scanner stations (1-3); 0 lets the seed choose.
   double densityScale = 1.0;       ///< Multiplies the preset's angular sampling density (points ~ scale).
 };

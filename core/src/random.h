@@ -1,5 +1,5 @@
 #pragma once
-// A small portable random generator for the synthetic scenes: xoshiro256** seeded by SplitMix64.
+// A small portable random generator for the synthetic scenes and the stages: xoshiro256** seeded by SplitMix64.
 // The standard distributions are implementation-defined, so the same seed would give different
 // scenes with another standard library; these are defined here, bit for bit.
 
@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <initializer_list>
 
-namespace piperun::synth {
+namespace piperun {
 
 class Rng {
  public:
@@ -73,4 +73,4 @@ class Rng {
   bool hasSpare_ = false;
 };
 
-}  // namespace piperun::synth
+}  // namespace piperun

@@ -1,0 +1,50 @@
+#!/bin/bash
+# Reconstructs generated scenes over several seeds and prints the accuracy of each and the mean.
+#   scripts/evaluate.sh [--preset small] [--seeds "1 2 3"] [--noise M] [--outliers F]
+#                       [--stations K] [--pipes-only] [--set key=value]...
+# --pipes-only compares only straight pipes (the pipe-axis figures before joints).
+# Needs a build (scripts/build.sh). Prints one line per seed, then
+#   mean: precision=… recall=… f1=… radius_err_mm=… (median of the seeds' medians)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+PIPERUN=${PIPERUN:-build/app/piperun}
+preset=small
+seeds="1 2 3 4 5 6 7 8 9 10"
+noise=0.002
+outliers=0.01
+stations=0
+sets=()
+eval_flags=()
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --preset) preset=$2; shift 2 ;;
+    --seeds) seeds=$2; shift 2 ;;
+    --noise) noise=$2; shift 2 ;;
+    --outliers) outliers=$2; shift 2 ;;
+    --stations) stations=$2; shift 2 ;;
+    --set) sets+=(--set "$2"); shift 2 ;;
+    --pipes-only) eval_flags+=(--pipes-only); shift ;;
+    *) echo "evaluate.sh: unknown option $1" >&2; exit 1 ;;
+  esac
+done
+
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+results="$work/results.txt"
+: >"$results"
+for seed in $seeds; do
+  "$PIPERUN" -q generate --preset "$preset" --seed "$seed" --noise "$noise" --outliers "$outliers" \
+    --stations "$stations" -o "$work/scene.ply" --truth "$work/truth.json" >/dev/null
+  start=$(date +%s.%N)
+  "$PIPERUN" -q reconstruct "$work/scene.ply" -o "$work/net.json" --seed "$seed" "${sets[@]}" >/dev/null
+  end=$(date +%s.%N)
+  line=$("$PIPERUN" eval "${eval_flags[@]}" "$work/truth.json" "$work/net.json" | tail -1)
+  seconds=$(awk -v a="$start" -v b="$end" 'BEGIN { printf "%.2f", b - a }')
+  echo "seed=$seed $line seconds=$seconds"
+  echo "$line seconds=$seconds" >>"$results"
+done
+field() { sed -E "s/.*[[:space:]]$1=([-0-9.]+).*/\1/;s/^$1=([-0-9.]+).*/\1/" "$results"; }
+mean() { field "$1" | awk '{ sum += $1 } END { printf "%.3f", sum / NR }'; }
+# Median of the seeds' median radius errors (mawk has no sort, so sort(1) orders them).
+median_radius=$(field radius_err_mm | sort -n | awk '{ v[NR] = $1 } END { printf "%.1f", NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }')
+echo "mean: precision=$(mean precision) recall=$(mean recall) f1=$(mean f1) radius_err_mm=$median_radius seconds=$(mean seconds) seeds=$(wc -l <"$results")"
