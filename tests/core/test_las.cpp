@@ -195,6 +195,11 @@ struct VersionAndFormat {
   unsigned format;
 };
 
+// Names the parameter in test listings ("LAS 1.4 format 6") instead of its raw bytes.
+void PrintTo(const VersionAndFormat& value, std::ostream* out) {
+  *out << "LAS 1." << value.minor << " format " << value.format;
+}
+
 class LasRoundTrip : public ::testing::TestWithParam<VersionAndFormat> {};
 
 TEST_P(LasRoundTrip, ReadsScaledPositionsIntensityClassificationAndColor) {
