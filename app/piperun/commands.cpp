@@ -288,9 +288,9 @@ int runReconstruct(const ReconstructOptions& options) {
   }
   std::printf("input: %zu points from %s, %d thread(s)  [read %.2f s]\n", cloud->size(), options.input.c_str(), threads,
               readSeconds);
-  std::printf("preprocess: %zu after voxel grid, %zu outliers removed, %zu plane points in %d planes, %zu kept, "
-              "%zu tiles  [%.2f s]\n",
-              d.afterVoxel, d.outliersRemoved, d.planePoints, d.planes, d.keptPoints, prepared.tiles.size(),
+  std::printf("preprocess: %zu after voxel grid (leaf %.1f mm), %zu outliers removed, %zu plane points in %d planes, "
+              "%zu kept, %zu tiles  [%.2f s]\n",
+              d.afterVoxel, d.voxelSize * 1000.0, d.outliersRemoved, d.planePoints, d.planes, d.keptPoints, prepared.tiles.size(),
               pipeline.stageSeconds(Stage::Preprocess));
   std::printf("directions: %zu over all tiles and rounds  [%.2f s]\n", directions,
               pipeline.stageSeconds(Stage::Directions));

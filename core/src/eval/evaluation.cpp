@@ -27,8 +27,8 @@ std::vector<AxisSample> sampleNetwork(const PipeNetwork& network, double step, b
     if (skipDiscarded && pipe.status == PipeStatus::Deleted) continue;
     add({pipe.start, pipe.end}, pipe.radius);
   }
+  if (pipesOnly) return samples;
   for (const auto& joint : network.joints) {
-    if (pipesOnly) break;
     if (skipDiscarded && joint.status == JointStatus::Rejected) continue;
     add(joint.axis, joint.radius);
   }

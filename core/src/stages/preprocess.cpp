@@ -2,9 +2,9 @@
 //
 // 1. Voxel grid. With autoVoxel the leaf is twice the scan's median spacing within [5 mm, voxelSize]:
 //    terrestrial scans (5–10 mm spacing) get the 1 cm leaf, a 1 mm close-range scan 5 mm, where a
-//    1 cm leaf would leave a 4 cm cylinder a few dozen points. Points are bucketed in cubes of edge voxelSize aligned to world multiples of the
-//    edge (cropping a scan does not move the grid) and each occupied cube gives the centroid of its
-//    points. Sorting (cube key, point index) pairs fixes the output order whatever the thread count,
+//    1 cm leaf would leave a 4 cm cylinder a few dozen points. Points are bucketed in cubes of the
+//    leaf's edge aligned to world multiples of it (cropping a scan does not move the grid) and each
+//    occupied cube gives the centroid of its points. Sorting (cube key, point index) pairs fixes the output order whatever the thread count,
 //    and puts points of neighbouring cubes at nearby indices (cache-friendly queries later).
 // 2. One k-nearest-neighbour query per point (PCL's FLANN k-d tree), k = the larger of the outlier
 //    and normal neighbourhoods, queries in parallel writing by index: steps 3 and 4 share it.
