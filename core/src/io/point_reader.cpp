@@ -1,24 +1,19 @@
 #include "piperun/io/point_reader.h"
 
+#include "io/file_extension.h"
 #include "io/readers.h"
 #include "piperun/error.h"
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <fstream>
 
 namespace piperun {
 
-namespace {
+using io::lowerExtension;
 
-std::string lowerExtension(const std::filesystem::path& path) {
-  std::string extension = path.extension().string();
-  std::transform(extension.begin(), extension.end(), extension.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return extension;
-}
+namespace {
 
 [[noreturn]] void failLaz(const std::filesystem::path& path) {
   throw InputError(path, "",

@@ -1,9 +1,9 @@
 #include "piperun/io/point_writer.h"
 
+#include "io/file_extension.h"
 #include "piperun/error.h"
 
 #include <algorithm>
-#include <cctype>
 #include <cerrno>
 #include <charconv>
 #include <cstdio>
@@ -13,14 +13,9 @@
 
 namespace piperun {
 
-namespace {
+using io::lowerExtension;
 
-std::string lowerExtension(const std::filesystem::path& path) {
-  std::string extension = path.extension().string();
-  std::transform(extension.begin(), extension.end(), extension.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return extension;
-}
+namespace {
 
 // Text output: one point per line, shortest round-trip representation of every number.
 class TextPointWriter final : public PointWriter {
