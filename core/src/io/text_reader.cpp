@@ -284,6 +284,25 @@ CloudInfo textInfo(const char* format, const ColumnLayout& layout) {
   return info;
 }
 
+/// Fills `chunk` with up to maxPoints points: first the point line kept back while the layout was
+/// detected (when `firstPending`), then the lines `nextPointLine` yields.
+template <class NextPointLine>
+std::size_t readPointLines(PointChunk& chunk, std::size_t maxPoints, const std::string& firstPoint, bool& firstPending,
+                           const TextLines& lines, PointLineParser& parser, NextPointLine&& nextPointLine) {
+  chunk.clear();
+  while (chunk.size() < maxPoints) {
+    std::string_view line;
+    if (firstPending) {
+      line = firstPoint;
+      firstPending = false;
+    } else if (!nextPointLine(line)) {
+      break;
+    }
+    parser.append(line, lines, chunk);
+  }
+  return chunk.size();
+}
+
 class XyzReader final : public PointReader {
  public:
   explicit XyzReader(const std::filesystem::path& path) : lines_(path), parser_(detectLayout()) {
@@ -294,18 +313,8 @@ class XyzReader final : public PointReader {
   double progress() const override { return fractionConsumed(lines_); }
 
   std::size_t read(PointChunk& chunk, std::size_t maxPoints) override {
-    chunk.clear();
-    while (chunk.size() < maxPoints) {
-      std::string_view line;
-      if (firstPointPending_) {
-        line = firstPoint_;
-        firstPointPending_ = false;
-      } else if (!nextPointLine(line)) {
-        break;
-      }
-      parser_.append(line, lines_, chunk);
-    }
-    return chunk.size();
+    return readPointLines(chunk, maxPoints, firstPoint_, firstPointPending_, lines_, parser_,
+                          [this](std::string_view& line) { return nextPointLine(line); });
   }
 
  private:
@@ -362,18 +371,8 @@ class PtsReader final : public PointReader {
   double progress() const override { return fractionConsumed(lines_); }
 
   std::size_t read(PointChunk& chunk, std::size_t maxPoints) override {
-    chunk.clear();
-    while (chunk.size() < maxPoints) {
-      std::string_view line;
-      if (firstPointPending_) {
-        line = firstPoint_;
-        firstPointPending_ = false;
-      } else if (!nextPointLine(line)) {
-        break;
-      }
-      parser_.append(line, lines_, chunk);
-    }
-    return chunk.size();
+    return readPointLines(chunk, maxPoints, firstPoint_, firstPointPending_, lines_, parser_,
+                          [this](std::string_view& line) { return nextPointLine(line); });
   }
 
  private:
