@@ -1,8 +1,9 @@
 #!/bin/bash
 # Reconstructs generated scenes over several seeds and prints the accuracy of each and the mean.
 #   scripts/evaluate.sh [--preset small] [--seeds "1 2 3"] [--noise M] [--outliers F]
-#                       [--stations K] [--pipes-only] [--set key=value]...
-# --pipes-only compares only straight pipes (the pipe-axis figures before joints).
+#                       [--stations K] [--pipes-only] [--until merge|joints] [--set key=value]...
+# --pipes-only compares only straight pipes (the pipe-axis figures before joints); --until merge
+# stops the reconstruction before the joints stage (the same pipes, no joints).
 # Needs a build (scripts/build.sh). Prints one line per seed, then
 #   mean: precision=… recall=… f1=… radius_err_mm=… (median of the seeds' medians)
 set -euo pipefail
@@ -23,6 +24,7 @@ while [ $# -gt 0 ]; do
     --outliers) outliers=$2; shift 2 ;;
     --stations) stations=$2; shift 2 ;;
     --set) sets+=(--set "$2"); shift 2 ;;
+    --until) sets+=(--until "$2"); shift 2 ;;
     --pipes-only) eval_flags+=(--pipes-only); shift ;;
     *) echo "evaluate.sh: unknown option $1" >&2; exit 1 ;;
   esac
@@ -48,3 +50,11 @@ mean() { field "$1" | awk '{ sum += $1 } END { printf "%.3f", sum / NR }'; }
 # Median of the seeds' median radius errors (mawk has no sort, so sort(1) orders them).
 median_radius=$(field radius_err_mm | sort -n | awk '{ v[NR] = $1 } END { printf "%.1f", NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }')
 echo "mean: precision=$(mean precision) recall=$(mean recall) f1=$(mean f1) radius_err_mm=$median_radius seconds=$(mean seconds) seeds=$(wc -l <"$results")"
+# Joint totals over the seeds ("found/truth"), and the median of the seeds' bend-radius errors
+# (seeds without a matched elbow left out).
+total() { sed -E "s/.*[[:space:]]$1=([0-9]+)\/([0-9]+).*/\1 \2/" "$results" | awk '{ a += $1; b += $2 } END { printf "%d/%d", a, b }'; }
+median_bend=$(paste -d' ' <(field bend_radius_err) <(sed -E 's/.*elbows=([0-9]+)\/.*/\1/' "$results") |
+  awk '$2 > 0 { print $1 }' | sort -n | awk '{ v[NR] = $1 } END { if (NR == 0) print "n/a"; else printf "%.3f", NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }')
+if [ ${#eval_flags[@]} -eq 0 ]; then
+  echo "joints: elbows=$(total elbows) tees=$(total tees) spurious_joints=$(total spurious_joints) bend_radius_err=$median_bend"
+fi

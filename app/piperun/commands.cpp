@@ -266,7 +266,7 @@ int runReconstruct(const ReconstructOptions& options) {
   for (const auto& warning : report.warnings) warn(warning);
 
   Pipeline pipeline(cloud, params);
-  pipeline.run(bar.progress());
+  pipeline.run(bar.progress(), stageFromName(options.until).value_or(Stage::Joints));
   const PipeNetwork network = pipeline.network();
   writeNetwork(options.output, network,
                {{"generator", std::string("piperun reconstruct ") + PIPERUN_VERSION},
@@ -297,6 +297,16 @@ int runReconstruct(const ReconstructOptions& options) {
   std::printf("placement: %zu cylinders  [%.2f s]\n", cylinders, pipeline.stageSeconds(Stage::Placement));
   std::printf("extents: %zu pipe pieces  [%.2f s]\n", segments, pipeline.stageSeconds(Stage::Extents));
   std::printf("merge: %zu pipes  [%.2f s]\n", network.pipes.size(), pipeline.stageSeconds(Stage::Merge));
+  const auto countJoints = [&](JointType type) {
+    return std::count_if(network.joints.begin(), network.joints.end(), [&](const Joint& j) { return j.type == type; });
+  };
+  const auto accepted = std::count_if(network.joints.begin(), network.joints.end(),
+                                      [](const Joint& j) { return j.status == JointStatus::Accepted; });
+  if (pipeline.isFresh(Stage::Joints)) std::printf("joints: %zu elbows, %zu tees, %zu boundary joints (%zu accepted, %zu proposed), %zu runs  [%.2f s]\n",
+              static_cast<std::size_t>(countJoints(JointType::Elbow)), static_cast<std::size_t>(countJoints(JointType::Tee)),
+              static_cast<std::size_t>(countJoints(JointType::Boundary)), static_cast<std::size_t>(accepted),
+              network.joints.size() - static_cast<std::size_t>(accepted), network.runs.size(),
+              pipeline.stageSeconds(Stage::Joints));
   std::printf("(per-tile stage times are summed over tiles, which run in parallel)\n");
   std::printf("network: %s\n", options.output.c_str());
   if (dumped > 0) std::printf("stages: %d files in %s\n", dumped, options.dumpDirectory.c_str());
@@ -304,8 +314,9 @@ int runReconstruct(const ReconstructOptions& options) {
     const EvaluationResult figures = evaluateNetwork(readNetwork(options.truth), network);
     std::printf("evaluation against %s: %s\n", options.truth.c_str(), formatEvaluation(figures).c_str());
   }
-  std::printf("points=%zu kept=%zu directions=%zu pipes=%zu seconds=%.2f\n", cloud->size(), d.keptPoints, directions,
-              network.pipes.size(), secondsSince(start));
+  std::printf("points=%zu kept=%zu directions=%zu pipes=%zu joints=%zu runs=%zu seconds=%.2f\n", cloud->size(),
+              d.keptPoints, directions, network.pipes.size(), network.joints.size(), network.runs.size(),
+              secondsSince(start));
   return kExitOk;
 }
 

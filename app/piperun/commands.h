@@ -60,6 +60,7 @@ struct ReconstructOptions {
   std::int64_t seed = -1;                ///< -1: from the parameters
   std::string dumpDirectory;
   std::string truth;                     ///< Optional: evaluate against this network.
+  std::string until = "joints";          ///< Last stage to run: "merge" or "joints".
   bool quiet = false;
 };
 int runReconstruct(const ReconstructOptions& options);

@@ -103,6 +103,9 @@ int main(int argc, char** argv) {
   reconstructCommand->add_option("--dump-stages", reconstruct.dumpDirectory,
                                  "Write every stage's output (labelled PLY clouds) into this folder");
   reconstructCommand->add_option("--truth", reconstruct.truth, "Ground-truth network: print the evaluation too");
+  reconstructCommand->add_option("--until", reconstruct.until,
+                                 "Last stage to run: merge (pipes only, no joints or runs) or joints (default)")
+      ->check(CLI::IsMember({"merge", "joints"}));
 
   ParamsOptions paramsOptions;
   auto* paramsCommand = app.add_subcommand("params", "Print every reconstruction parameter with its default");

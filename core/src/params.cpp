@@ -91,6 +91,23 @@ const std::vector<Field>& fields() {
       PIPERUN_FIELD("merge", "max_axis_distance", "", Stage::Merge, merge.maxAxisDistance, "...their axes at most this x the smaller radius apart (min 1 cm)"),
       PIPERUN_FIELD("merge", "max_radius_difference", "", Stage::Merge, merge.maxRadiusDifference, "...their radii within this share of the larger (min 3 mm)"),
       PIPERUN_FIELD("merge", "max_gap", "m", Stage::Merge, merge.maxGap, "...and they overlap or leave at most this gap"),
+
+      PIPERUN_FIELD("joints", "search_diameters", "", Stage::Joints, joints.searchDiameters, "An end looks for partners within this many diameters of the larger pipe"),
+      PIPERUN_FIELD("joints", "min_search_distance", "m", Stage::Joints, joints.minSearchDistance, "...and at least this far"),
+      PIPERUN_FIELD("joints", "max_skew_radii", "", Stage::Joints, joints.maxSkewRadii, "Centre lines may miss each other (co-planarity, collinearity) by this many radii"),
+      PIPERUN_FIELD("joints", "min_skew_distance", "m", Stage::Joints, joints.minSkewDistance, "...and at least this distance"),
+      PIPERUN_FIELD("joints", "min_radius_ratio", "", Stage::Joints, joints.minRadiusRatio, "Elbows and boundary joints need radii (smaller / larger) at least this close"),
+      PIPERUN_FIELD("joints", "max_branch_ratio", "", Stage::Joints, joints.maxBranchRatio, "A tee's branch radius is at most this x its main pipe's"),
+      PIPERUN_FIELD("joints", "max_boundary_angle_deg", "deg", Stage::Joints, joints.maxBoundaryAngleDeg, "Ends continuing each other within this angle make a boundary joint"),
+      PIPERUN_FIELD("joints", "max_boundary_gap_diameters", "", Stage::Joints, joints.maxBoundaryGapDiameters, "A boundary joint bridges at most this many diameters (at least min_search_distance)"),
+      PIPERUN_FIELD("joints", "min_elbow_angle_deg", "deg", Stage::Joints, joints.minElbowAngleDeg, "Smallest bend angle of an elbow"),
+      PIPERUN_FIELD("joints", "max_elbow_angle_deg", "deg", Stage::Joints, joints.maxElbowAngleDeg, "Largest bend angle of an elbow"),
+      PIPERUN_FIELD("joints", "min_tee_angle_deg", "deg", Stage::Joints, joints.minTeeAngleDeg, "A branch meets its main pipe at least this far from parallel"),
+      PIPERUN_FIELD("joints", "min_bend_radii", "", Stage::Joints, joints.minBendRadii, "Elbow major radius voted from this many pipe radii..."),
+      PIPERUN_FIELD("joints", "max_bend_radii", "", Stage::Joints, joints.maxBendRadii, "...up to this many"),
+      PIPERUN_FIELD("joints", "min_pipe_diameters", "", Stage::Joints, joints.minPipeDiameters, "Shorter pipes are fragments: no joints, absorbed when they lie on an elbow"),
+      PIPERUN_FIELD("joints", "support_distance", "m", Stage::Joints, joints.supportDistance, "Points within this of a joint's surface support it"),
+      PIPERUN_FIELD("joints", "accept_confidence", "", Stage::Joints, joints.acceptConfidence, "Joints with at least this confidence are accepted, the others proposed"),
   };
   return table;
 }

@@ -53,6 +53,7 @@ const char* stageName(Stage stage) {
     case Stage::Placement: return "placement";
     case Stage::Extents: return "extents";
     case Stage::Merge: return "merge";
+    case Stage::Joints: return "joints";
   }
   return "?";
 }
@@ -97,9 +98,13 @@ void Pipeline::run(Progress& progress, Stage last) {
     progress.checkCancelled();
     runTiles(firstStale, std::min(last, Stage::Extents), progress);
   }
-  if (last == Stage::Merge && !fresh_[index(Stage::Merge)]) {
+  if (index(last) >= index(Stage::Merge) && !fresh_[index(Stage::Merge)]) {
     progress.checkCancelled();
     runMerge(progress);
+  }
+  if (last == Stage::Joints && !fresh_[index(Stage::Joints)]) {
+    progress.checkCancelled();
+    runJoints(progress);
   }
 }
 
@@ -188,14 +193,26 @@ void Pipeline::runMerge(Progress& progress) {
   merge_ = std::make_shared<const MergeResult>(mergeSegments(segments, params_.merge, progress));
   seconds_[index(Stage::Merge)] = secondsSince(started);
   fresh_[index(Stage::Merge)] = true;
+  fresh_[index(Stage::Joints)] = false;
+}
+
+void Pipeline::runJoints(Progress& progress) {
+  const auto started = std::chrono::steady_clock::now();
+  joints_ = std::make_shared<const JointsResult>(
+      connectPipes({preprocess_->points, merge_->segments}, params_.joints, progress));
+  seconds_[index(Stage::Joints)] = secondsSince(started);
+  fresh_[index(Stage::Joints)] = true;
 }
 
 PipeNetwork Pipeline::network() const {
   PipeNetwork network;
   if (!merge_ || !preprocess_) return network;
   const Eigen::Vector3d origin = preprocess_->points.origin;
+  // Stale joints belong to an older merge or older parameters: the merged pipes alone then.
+  const bool joined = joints_ && fresh_[index(Stage::Joints)];
+  const std::vector<PipeSegment>& segments = joined ? joints_->pipes : merge_->segments;
   int id = 1;
-  for (const auto& segment : merge_->segments) {
+  for (const auto& segment : segments) {
     Pipe pipe;
     pipe.id = id++;
     pipe.radius = segment.radius;
@@ -206,6 +223,15 @@ PipeNetwork Pipeline::network() const {
     pipe.confidence = segment.confidence;
     pipe.status = segment.confidence >= 0.5 ? PipeStatus::Accepted : PipeStatus::Proposed;
     network.pipes.push_back(pipe);
+  }
+  if (!joined) return network;
+  for (Joint joint : joints_->joints) {
+    for (Eigen::Vector3d& point : joint.axis) point += origin;
+    network.joints.push_back(std::move(joint));
+  }
+  network.runs = joints_->runs;
+  for (const Run& run : network.runs) {
+    for (int pipeId : run.pipeIds) network.pipes[static_cast<std::size_t>(pipeId - 1)].runId = run.id;
   }
   return network;
 }

@@ -144,7 +144,10 @@ case "$CASE" in
     expect_out "^preprocess: "
     expect_out "^directions: "
     expect_out "^merge: [0-9]+ pipes"
-    expect_out "^points=[0-9]+ kept=[0-9]+ directions=[0-9]+ pipes=[1-9][0-9]* seconds="
+    expect_out "^joints: [0-9]+ elbows, [0-9]+ tees, [0-9]+ boundary joints \([0-9]+ accepted, [0-9]+ proposed\), [1-9][0-9]* runs"
+    expect_out "^points=[0-9]+ kept=[0-9]+ directions=[0-9]+ pipes=[1-9][0-9]* joints=[1-9][0-9]* runs=[1-9][0-9]* seconds="
+    grep -q '"type": "elbow"' "$WORK/net.json" || fail "no elbow in the network"
+    grep -q '"runs": \[' "$WORK/net.json" || fail "no runs in the network"
     [ -s "$WORK/stages/preprocessed.ply" ] || fail "no preprocessed.ply"
     [ -s "$WORK/stages/pipes.ply" ] || fail "no pipes.ply"
     ls "$WORK"/stages/tile_*/round_0/sphere_samples.ply >/dev/null || fail "no sphere samples"
@@ -152,6 +155,7 @@ case "$CASE" in
     run 0 info "$WORK/stages/pipes.ply"
     expect_out "labels"
     run 0 eval "$WORK/truth.json" "$WORK/net.json"
+    expect_out "elbows=[1-9][0-9]*/[0-9]+ tees=[0-9]+/[0-9]+ spurious_joints="
     f1=$(sed -E 's/.* f1=([0-9.]+).*/\1/' <<<"$(tail -1 <<<"$OUT")")
     awk -v f="$f1" 'BEGIN { exit !(f > 0.6) }' || fail "F1 $f1 too low"
     run 0 reconstruct "$WORK/scene.ply" -o "$WORK/net1.json" --threads 1

@@ -67,6 +67,32 @@ TEST(Pipeline, ChangingAStageMarksItAndLaterStagesStale) {
   EXPECT_NE(pipeline.mergeResult(), nullptr);
 }
 
+TEST(Pipeline, JointsStageConnectsThePipesIntoRunsAndRerunsAlone) {
+  Pipeline pipeline(sceneCloud());
+  pipeline.run();
+  const PipeNetwork network = pipeline.network();
+  EXPECT_FALSE(network.joints.empty());
+  ASSERT_FALSE(network.runs.empty());
+  EXPECT_LT(network.runs.size(), network.pipes.size());  // Some pipes are joined.
+  for (const Pipe& pipe : network.pipes) EXPECT_GT(pipe.runId, 0) << "pipe " << pipe.id;
+  // Joint ids follow the pipe ids.
+  EXPECT_EQ(network.joints.front().id, static_cast<int>(network.pipes.size()) + 1);
+
+  const auto merged = pipeline.mergeResult();
+  PipelineParams params = pipeline.params();
+  params.joints.acceptConfidence = 1.01;  // Nothing accepted: every pipe its own run.
+  pipeline.setParams(params);
+  EXPECT_TRUE(pipeline.isFresh(Stage::Merge));
+  EXPECT_FALSE(pipeline.isFresh(Stage::Joints));
+  // Stale joints are not mixed into the network of a newer result.
+  EXPECT_TRUE(pipeline.network().joints.empty());
+  pipeline.run();
+  EXPECT_EQ(pipeline.mergeResult(), merged);  // not recomputed
+  const PipeNetwork proposed = pipeline.network();
+  EXPECT_EQ(proposed.joints.size(), network.joints.size());
+  EXPECT_EQ(proposed.runs.size(), proposed.pipes.size());
+}
+
 TEST(Pipeline, RunUntilAStageLeavesTheRestStale) {
   Pipeline pipeline(sceneCloud());
   pipeline.run(Progress::none(), Stage::Directions);

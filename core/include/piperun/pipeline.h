@@ -7,6 +7,7 @@
 #include "piperun/progress.h"
 #include "piperun/stages/directions.h"
 #include "piperun/stages/extents.h"
+#include "piperun/stages/joints.h"
 #include "piperun/stages/merge.h"
 #include "piperun/stages/placement.h"
 #include "piperun/stages/preprocess.h"
@@ -20,12 +21,12 @@
 
 namespace piperun {
 
-enum class Stage { Preprocess, Directions, Placement, Extents, Merge };
-constexpr int kStageCount = 5;
+enum class Stage { Preprocess, Directions, Placement, Extents, Merge, Joints };
+constexpr int kStageCount = 6;
 constexpr std::array<Stage, kStageCount> kAllStages = {Stage::Preprocess, Stage::Directions, Stage::Placement,
-                                                      Stage::Extents, Stage::Merge};
+                                                      Stage::Extents,    Stage::Merge,      Stage::Joints};
 
-/// "preprocess", "directions", "placement", "extents", "merge".
+/// "preprocess", "directions", "placement", "extents", "merge", "joints".
 const char* stageName(Stage stage);
 std::optional<Stage> stageFromName(const std::string& name);
 
@@ -37,6 +38,7 @@ struct PipelineParams {
   PlacementParams placement;
   ExtentsParams extents;
   MergeParams merge;
+  JointsParams joints;
 };
 
 /// One round of the per-tile stages. Like every stage output, coordinates are in the preprocessed
@@ -74,7 +76,7 @@ class Pipeline {
   /// does not depend on the thread count. progress.cancel() from another thread stops at the next
   /// safe point and throws Cancelled; results of the stages that had finished are kept, the rest
   /// stay stale.
-  void run(Progress& progress = Progress::none(), Stage last = Stage::Merge);
+  void run(Progress& progress = Progress::none(), Stage last = Stage::Joints);
 
   std::shared_ptr<const PointCloud> input() const { return input_; }
   /// Latest results (null before the stage first ran). A stale stage keeps its previous result
@@ -82,15 +84,19 @@ class Pipeline {
   std::shared_ptr<const PreprocessResult> preprocessResult() const { return preprocess_; }
   std::shared_ptr<const std::vector<TileReconstruction>> tileResults() const { return tiles_; }
   std::shared_ptr<const MergeResult> mergeResult() const { return merge_; }
+  std::shared_ptr<const JointsResult> jointsResult() const { return joints_; }
   double stageSeconds(Stage stage) const { return seconds_[static_cast<int>(stage)]; }
 
-  /// The network of the merged pipes (ids from 1, longest first); empty before the merge ran.
+  /// The network in world coordinates: the joined pipes, joints and runs once the joints stage has
+  /// run (pipe ids from 1, longest first; joint ids after them), else the merged pipes alone;
+  /// empty before the merge ran.
   PipeNetwork network() const;
 
  private:
   void runPreprocess(Progress& progress);
   void runTiles(Stage first, Stage last, Progress& progress);
   void runMerge(Progress& progress);
+  void runJoints(Progress& progress);
 
   std::shared_ptr<const PointCloud> input_;
   PipelineParams params_;
@@ -99,6 +105,7 @@ class Pipeline {
   std::shared_ptr<const PreprocessResult> preprocess_;
   std::shared_ptr<const std::vector<TileReconstruction>> tiles_;
   std::shared_ptr<const MergeResult> merge_;
+  std::shared_ptr<const JointsResult> joints_;
 };
 
 }  // namespace piperun

@@ -190,6 +190,20 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
               bendErrors);
   matchJoints(truth, predictedJoints, JointType::Boundary, params, predictedMatched, ignoredTruth, ignoredFound,
               bendErrors);
+  // A boundary joint that bridges a gap along the truth (an occlusion of a continuous pipe) is
+  // right even though the truth, having no gaps, lists no such joint.
+  for (std::size_t p = 0; p < predictedJoints.size(); ++p) {
+    if (predictedMatched[p] || predictedJoints[p]->type != JointType::Boundary) continue;
+    bool alongTruth = true;
+    for (const auto& sample : samplePolyline(predictedJoints[p]->axis, params.sampleStep)) {
+      bool matched = false;
+      truthGrid.forEachNear(sample, maxTolerance, [&](std::size_t t) {
+        if ((truthSamples[t].position - sample).norm() <= toleranceOf(truthSamples[t])) matched = true;
+      });
+      alongTruth = alongTruth && matched;
+    }
+    predictedMatched[p] = alongTruth ? 1 : 0;
+  }
   result.predictedJoints = static_cast<int>(predictedJoints.size());
   result.spuriousJoints =
       static_cast<int>(std::count(predictedMatched.begin(), predictedMatched.end(), static_cast<char>(0)));

@@ -1,0 +1,85 @@
+#pragma once
+// Stage 6 — joints and pipe-runs (paper §6): hypotheses between pipe ends found through a spatial
+// index (never all pairs), typed by how the ends' extensions meet (elbow, T-junction, boundary
+// joint), reconstructed (elbows by major-radius voting, tees by extending the branch to the main
+// axis, boundary joints by bridging the gap), resolved so that an end takes at most one joint, and
+// grouped with the pipes into runs.
+//
+// Coordinates are relative to the cloud's origin, like every stage's.
+
+#include "piperun/pipe_network.h"
+#include "piperun/point_cloud.h"
+#include "piperun/progress.h"
+#include "piperun/stages/extents.h"
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace piperun {
+
+/// Every distance limit scales with the pipes' radii so that one set of defaults serves 1" conduits
+/// and 24" headers; each has an absolute floor for the thinnest pipes.
+struct JointsParams {
+  double searchDiameters = 4.0;        ///< An end looks for partners within this many diameters of the larger pipe
+                                       ///< (at least minSearchDistance): elbow tangents run 1–1.5 diameters, the rest
+                                       ///< is for ends cut short by occlusion.
+  double minSearchDistance = 0.15;     ///< Floor of the search distance (m).
+  double maxSkewRadii = 0.5;           ///< Centre lines may pass this many (smaller) radii apart, at least
+                                       ///< minSkewDistance: how far from co-planar (elbow, tee) or collinear (boundary).
+  double minSkewDistance = 0.01;       ///< Floor of the skew limit (m).
+  double minRadiusRatio = 0.7;         ///< Elbows and boundary joints join pipes whose radii (smaller / larger) agree
+                                       ///< at least this well (reducing elbows exist: 6" risers on an 8" header).
+  double maxBranchRatio = 1.1;         ///< A tee's branch radius is at most this × its main pipe's radius.
+  double maxBoundaryAngleDeg = 5.0;    ///< Ends whose axes continue each other within this angle are a boundary joint.
+  double maxBoundaryGapDiameters = 8.0;  ///< A boundary joint bridges at most this many diameters (at least
+                                       ///< minSearchDistance): gaps behind beams, valves, flanges.
+  double minElbowAngleDeg = 20.0;      ///< Bend angles (between one pipe's direction and the next) from this...
+  double maxElbowAngleDeg = 135.0;     ///< ...to this make an elbow.
+  double minTeeAngleDeg = 60.0;        ///< A branch meets its main pipe at least this far from parallel.
+  double minBendRadii = 1.0;           ///< An elbow's major radius R is voted between this...
+  double maxBendRadii = 5.0;           ///< ...and this many pipe radii (short elbows R = 2r, long R = 3r).
+  double minPipeDiameters = 1.0;       ///< Pipes shorter than this many diameters are fragments (a bit of an elbow
+                                       ///< or flange fitted as a cylinder): they take no joint, and those lying on a
+                                       ///< found elbow's arc are absorbed by it.
+  double supportDistance = 0.01;       ///< Points within this of a joint's surface support it (m).
+  double acceptConfidence = 0.5;       ///< Joints with at least this confidence are accepted, others proposed.
+};
+
+struct JointsInput {
+  const PointCloud& cloud;                 ///< The preprocessed cloud (positions and normals).
+  const std::vector<PipeSegment>& pipes;   ///< The merged pipes.
+};
+
+/// The joined network in the cloud's frame. The pipes keep their input order, less the fragments
+/// an elbow absorbed, with ids from 1 in that order (elbows move their ends to the tangent points);
+/// joint ids continue after the last pipe id.
+/// Runs are the connected components of the pipes over accepted joints, every pipe in exactly one
+/// run, numbered from 1 in the order of their first pipe.
+struct JointsResult {
+  std::vector<PipeSegment> pipes;
+  std::vector<Joint> joints;
+  std::vector<Run> runs;
+  std::vector<std::vector<std::uint32_t>> jointSupport;  ///< Per joint, the points on its surface.
+
+  struct Diagnostics {
+    std::size_t candidatePairs = 0;        ///< End–pipe pairs the spatial index proposed.
+    std::array<std::size_t, 3> hypotheses{};  ///< Valid hypotheses by JointType (elbow, tee, boundary).
+    std::size_t conflicts = 0;             ///< Hypotheses dropped: an end already taken, or a pipe left too short.
+    std::size_t absorbedFragments = 0;     ///< Fragment pipes removed because they lie on an elbow.
+    double seconds = 0.0;
+  } diagnostics;
+};
+
+JointsResult connectPipes(const JointsInput& input, const JointsParams& params, Progress& progress = Progress::none());
+
+/// The paper's major-radius vote (its equations 3–4): the radii R for which `point` lies on the
+/// surface of an elbow of minor radius `radius` whose arms leave `corner` (the intersection of the
+/// two pipe axes) at ±halfAngle around the unit `bisector`, in the plane with unit normal
+/// `planeNormal`. The torus centre is corner + R / sin(halfAngle) × bisector, so each side of the
+/// tube gives a quadratic in R; returns its positive roots (up to four).
+std::vector<double> elbowRadiusVotes(const Eigen::Vector3d& point, const Eigen::Vector3d& corner,
+                                     const Eigen::Vector3d& bisector, const Eigen::Vector3d& planeNormal,
+                                     double halfAngle, double radius);
+
+}  // namespace piperun

@@ -1,0 +1,677 @@
+// Joints and pipe-runs (paper §6).
+//
+// 1. Hypotheses. A hash grid over the pipes' axis samples gives, for each pipe end, the pipes
+//    near it. Each end–end pair whose axes continue each other is a boundary-joint hypothesis;
+//    each end–end pair whose axes meet ahead of both ends at a bend angle is an elbow hypothesis;
+//    each end whose extension meets another pipe's body is a T-junction hypothesis. Every limit
+//    scales with the radii.
+// 2. Reconstruction. Elbows: the two axes are forced onto their common mid-plane and intersected
+//    at the corner P_I; the bend centre lies on the bisector, and each point near the corner votes
+//    for the major radii R that put it on the torus (paper eqs. 3–4); the most voted R wins and the
+//    pipes are trimmed or extended to the tangent points. Tees: the branch's end is extended to
+//    the main pipe's axis. Boundary joints bridge the gap between collinear ends.
+// 3. Confidence = how well the criteria hold, blended with the point support on the joint's
+//    surface; the best-supported hypothesis takes an end first, an end takes at most one joint.
+// 4. Runs: connected components of the pipes over accepted joints.
+
+#include "piperun/stages/joints.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <optional>
+#include <tuple>
+#include <unordered_map>
+
+namespace piperun {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kSectionLength = 0.04;  // Sections of a gap or stub tested for point support (m).
+constexpr double kSupportNormalAngleDeg = 30.0;
+
+double radians(double degrees) { return degrees * kPi / 180.0; }
+
+struct PipeEnd {
+  int pipe = 0;
+  int side = 0;                      // 0: start, 1: end
+  Eigen::Vector3d point;
+  Eigen::Vector3d outward;           // Unit, pointing away from the pipe's body.
+  double radius = 0.0;
+  int key() const { return 2 * pipe + side; }
+};
+
+Eigen::Vector3d unitAxis(const PipeSegment& pipe) {
+  const Eigen::Vector3d d = pipe.end - pipe.start;
+  const double length = d.norm();
+  return length > 0.0 ? Eigen::Vector3d(d / length) : Eigen::Vector3d::UnitZ();
+}
+
+PipeEnd endOf(const std::vector<PipeSegment>& pipes, int pipe, int side) {
+  const PipeSegment& segment = pipes[static_cast<std::size_t>(pipe)];
+  const Eigen::Vector3d axis = unitAxis(segment);
+  return {pipe, side, side == 0 ? segment.start : segment.end, side == 0 ? Eigen::Vector3d(-axis) : axis, segment.radius};
+}
+
+/// Parameters (along each line) of the closest points of two lines p + s·u and q + t·v (unit
+/// directions); nullopt when they are parallel.
+std::optional<std::pair<double, double>> closestLineParameters(const Eigen::Vector3d& p, const Eigen::Vector3d& u,
+                                                               const Eigen::Vector3d& q, const Eigen::Vector3d& v) {
+  const double b = u.dot(v);
+  const double denominator = 1.0 - b * b;
+  if (denominator < 1e-9) return std::nullopt;
+  const Eigen::Vector3d w = p - q;
+  const double d = u.dot(w);
+  const double e = v.dot(w);
+  return std::make_pair((b * e - d) / denominator, (e - b * d) / denominator);
+}
+
+/// Uniform hash grid of integer payloads (pipes by axis samples, points by position).
+class HashGrid {
+ public:
+  explicit HashGrid(double cellSize) : cell_(cellSize) {}
+
+  Eigen::Vector3i cellOf(const Eigen::Vector3d& p) const { return (p / cell_).array().floor().cast<int>(); }
+  void insert(const Eigen::Vector3i& cell, std::uint32_t value) {
+    auto& bucket = cells_[key(cell)];
+    if (bucket.empty() || bucket.back() != value) bucket.push_back(value);
+  }
+  const std::vector<std::uint32_t>* find(const Eigen::Vector3i& cell) const {
+    const auto found = cells_.find(key(cell));
+    return found == cells_.end() ? nullptr : &found->second;
+  }
+  /// Calls visit(value) for the payloads of every cell overlapping the cube of half-size `reach`
+  /// around `p` (a value may come several times).
+  template <class Visit>
+  void forEachInCube(const Eigen::Vector3d& p, double reach, Visit&& visit) const {
+    const Eigen::Vector3i low = cellOf(p - Eigen::Vector3d::Constant(reach));
+    const Eigen::Vector3i high = cellOf(p + Eigen::Vector3d::Constant(reach));
+    for (int x = low.x(); x <= high.x(); ++x) {
+      for (int y = low.y(); y <= high.y(); ++y) {
+        for (int z = low.z(); z <= high.z(); ++z) {
+          if (const auto* bucket = find({x, y, z})) {
+            for (std::uint32_t value : *bucket) visit(value);
+          }
+        }
+      }
+    }
+  }
+
+ private:
+  static std::uint64_t key(const Eigen::Vector3i& c) {
+    const auto part = [](int v) { return static_cast<std::uint64_t>(static_cast<std::uint32_t>(v) & 0x1FFFFFu); };
+    return part(c.x()) | (part(c.y()) << 21) | (part(c.z()) << 42);
+  }
+
+  double cell_;
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells_;
+};
+
+/// A joint hypothesis: geometry fixed from the pipes alone, then completed with the points.
+struct Hypothesis {
+  JointType type = JointType::Elbow;
+  PipeEnd a;                // Elbow/boundary: the first end; tee: the branch end.
+  PipeEnd b;                // Elbow/boundary: the second end.
+  int mainPipe = -1;        // Tee: the pipe whose body the branch meets.
+  double skew = 0.0;        // How far the centre lines miss each other (m).
+  double skewLimit = 0.0;
+  Eigen::Vector3d corner;   // Elbow: P_I; tee: the point on the main axis.
+  double bendAngle = 0.0;   // Elbow: angle between the two pipes' directions (rad).
+  double gap = 0.0;         // Boundary: gap length; tee: stub from the main surface to the branch end.
+  double gapLimit = 0.0;
+  double reach = 0.0;       // Points within this of `center` are gathered for the hypothesis.
+  Eigen::Vector3d center;
+
+  // Completed by reconstruct():
+  double geometric = 0.0;   // How well the criteria hold, in [0, 1].
+  double support = 0.0;     // Point support on the joint's surface, in [0, 1].
+  double confidence = 0.0;
+  double bendRadius = 0.0;
+  Eigen::Vector3d newA, newB;  // Elbow: the tangent points the two pipes are trimmed or extended to.
+  std::vector<Eigen::Vector3d> axis;
+  std::vector<std::uint32_t> supportPoints;
+  bool valid = false;
+};
+
+class JointBuilder {
+ public:
+  JointBuilder(const JointsInput& input, const JointsParams& params) : input_(input), params_(params) {}
+
+  double searchDistance(double radius) const {
+    return std::max(params_.minSearchDistance, params_.searchDiameters * 2.0 * radius);
+  }
+  double boundaryGapLimit(double radius) const {
+    return std::max(params_.minSearchDistance, params_.maxBoundaryGapDiameters * 2.0 * radius);
+  }
+  double skewLimit(double radius) const { return std::max(params_.minSkewDistance, params_.maxSkewRadii * radius); }
+
+  /// Hypotheses from an end and an end of another pipe (elbow or boundary joint).
+  void tryEndPair(const PipeEnd& a, const PipeEnd& b, std::vector<Hypothesis>& out) const {
+    const double smaller = std::min(a.radius, b.radius);
+    const double larger = std::max(a.radius, b.radius);
+    if (smaller < params_.minRadiusRatio * larger) return;
+    const double bendAngle = std::acos(std::clamp(-a.outward.dot(b.outward), -1.0, 1.0));
+
+    if (bendAngle <= radians(params_.maxBoundaryAngleDeg)) {
+      Hypothesis h;
+      h.type = JointType::Boundary;
+      h.a = a;
+      h.b = b;
+      h.gap = (b.point - a.point).dot(a.outward);
+      h.gapLimit = boundaryGapLimit(larger);
+      if (h.gap < -smaller || h.gap > h.gapLimit) return;
+      const auto offsetFromLine = [](const PipeEnd& from, const PipeEnd& line) {
+        const Eigen::Vector3d d = from.point - line.point;
+        return (d - d.dot(line.outward) * line.outward).norm();
+      };
+      h.skew = std::max(offsetFromLine(a, b), offsetFromLine(b, a));
+      h.skewLimit = skewLimit(smaller);
+      if (h.skew > h.skewLimit) return;
+      h.bendAngle = bendAngle;
+      h.center = 0.5 * (a.point + b.point);
+      h.reach = 0.5 * std::max(h.gap, 0.0) + larger + params_.supportDistance;
+      out.push_back(std::move(h));
+      return;
+    }
+    if (bendAngle < radians(params_.minElbowAngleDeg) || bendAngle > radians(params_.maxElbowAngleDeg)) return;
+    const auto parameters = closestLineParameters(a.point, a.outward, b.point, b.outward);
+    if (!parameters) return;
+    const auto [alongA, alongB] = *parameters;
+    const double search = searchDistance(larger);
+    // The corner lies ahead of both ends (an end may overshoot the tangent point by a radius).
+    if (alongA < -larger || alongB < -larger || alongA > search || alongB > search) return;
+    const Eigen::Vector3d onA = a.point + alongA * a.outward;
+    const Eigen::Vector3d onB = b.point + alongB * b.outward;
+    Hypothesis h;
+    h.type = JointType::Elbow;
+    h.a = a;
+    h.b = b;
+    h.skew = (onA - onB).norm();
+    h.skewLimit = skewLimit(smaller);
+    if (h.skew > h.skewLimit) return;
+    h.bendAngle = bendAngle;
+    h.corner = 0.5 * (onA + onB);
+    h.center = h.corner;
+    const double longestTangent = params_.maxBendRadii * larger / std::tan(0.5 * (kPi - bendAngle));
+    h.reach = std::max({alongA, alongB, longestTangent}) + 2.0 * larger + params_.supportDistance;
+    out.push_back(std::move(h));
+  }
+
+  /// A T-junction hypothesis: `branch`'s extension meets the body of pipe `main`.
+  void tryTee(const PipeEnd& branch, int main, std::vector<Hypothesis>& out) const {
+    const PipeSegment& mainPipe = input_.pipes[static_cast<std::size_t>(main)];
+    if (branch.radius > params_.maxBranchRatio * mainPipe.radius) return;
+    const Eigen::Vector3d mainAxis = unitAxis(mainPipe);
+    if (std::fabs(branch.outward.dot(mainAxis)) > std::cos(radians(params_.minTeeAngleDeg))) return;
+    const auto parameters = closestLineParameters(branch.point, branch.outward, mainPipe.start, mainAxis);
+    if (!parameters) return;
+    const auto [alongBranch, alongMain] = *parameters;
+    const double mainLength = (mainPipe.end - mainPipe.start).norm();
+    // Well inside the main pipe's body: a branch meeting the main near its end is an elbow whose
+    // pipe overshot the tangent point, or a corner of which nothing says it is a tee.
+    const double margin = 2.0 * branch.radius;
+    if (alongMain < margin || alongMain > mainLength - margin) return;
+    Hypothesis h;
+    h.type = JointType::Tee;
+    h.a = branch;
+    h.mainPipe = main;
+    h.gap = alongBranch - mainPipe.radius;  // Stub from the main pipe's surface to the branch end.
+    h.gapLimit = searchDistance(branch.radius);
+    // The branch end sits outside the main pipe (half a radius of slack for the fitted ends).
+    if (alongBranch < 0.5 * mainPipe.radius || h.gap > h.gapLimit) return;
+    h.skew = (branch.point + alongBranch * branch.outward - (mainPipe.start + alongMain * mainAxis)).norm();
+    h.skewLimit = skewLimit(branch.radius);
+    if (h.skew > h.skewLimit) return;
+    h.corner = mainPipe.start + alongMain * mainAxis;
+    h.center = 0.5 * (h.corner + branch.point);
+    h.reach = 0.5 * alongBranch + mainPipe.radius + params_.supportDistance;
+    out.push_back(std::move(h));
+  }
+
+  /// Completes a hypothesis with its points (indices into the cloud within its reach).
+  void reconstruct(Hypothesis& h, const std::vector<std::uint32_t>& nearby) const {
+    switch (h.type) {
+      case JointType::Elbow: reconstructElbow(h, nearby); break;
+      case JointType::Tee: reconstructTee(h, nearby); break;
+      case JointType::Boundary: reconstructBoundary(h, nearby); break;
+    }
+  }
+
+ private:
+  Eigen::Vector3d position(std::uint32_t i) const { return input_.cloud.positions[i].cast<double>(); }
+
+  /// Whether point i's normal is within the support angle of `radial` (normals are unoriented).
+  bool normalAgrees(std::uint32_t i, const Eigen::Vector3d& radial) const {
+    if (input_.cloud.normals.empty()) return true;
+    return std::fabs(input_.cloud.normals[i].cast<double>().dot(radial)) >= std::cos(radians(kSupportNormalAngleDeg));
+  }
+
+  /// Inliers per metre of axis of a pipe: the density a joint of the same size should show.
+  double linearDensity(int pipe) const {
+    const PipeSegment& segment = input_.pipes[static_cast<std::size_t>(pipe)];
+    const double length = (segment.end - segment.start).norm();
+    return length > 0.0 ? static_cast<double>(segment.inliers.size()) / length : 0.0;
+  }
+
+  /// Share of the straight piece from `from` to `to` (radius r) whose sections hold a point on its
+  /// surface; collects those points.
+  double straightCoverage(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double r,
+                          const std::vector<std::uint32_t>& nearby, std::vector<std::uint32_t>& supportPoints) const {
+    const double length = (to - from).norm();
+    if (length < kSectionLength) return 1.0;
+    const Eigen::Vector3d axis = (to - from) / length;
+    const auto sections = static_cast<std::size_t>(std::ceil(length / kSectionLength));
+    std::vector<char> covered(sections, 0);
+    for (std::uint32_t i : nearby) {
+      const Eigen::Vector3d d = position(i) - from;
+      const double along = d.dot(axis);
+      if (along < 0.0 || along >= length) continue;
+      const Eigen::Vector3d radial = d - along * axis;
+      const double distance = radial.norm();
+      if (std::fabs(distance - r) > params_.supportDistance || !normalAgrees(i, radial / std::max(distance, 1e-12))) {
+        continue;
+      }
+      covered[std::min(sections - 1, static_cast<std::size_t>(along / kSectionLength))] = 1;
+      supportPoints.push_back(i);
+    }
+    return static_cast<double>(std::count(covered.begin(), covered.end(), 1)) / static_cast<double>(sections);
+  }
+
+  void reconstructElbow(Hypothesis& h, const std::vector<std::uint32_t>& nearby) const {
+    const double r = 0.5 * (h.a.radius + h.b.radius);
+    // Arms from the corner towards each pipe, in the common plane (the outward directions are
+    // already orthogonal to its normal u_a × u_b).
+    const Eigen::Vector3d armA = -h.a.outward;
+    const Eigen::Vector3d armB = -h.b.outward;
+    const Eigen::Vector3d normal = h.a.outward.cross(h.b.outward).normalized();
+    const Eigen::Vector3d bisector = (armA + armB).normalized();
+    const double halfAngle = 0.5 * (kPi - h.bendAngle);  // Half the angle between the arms.
+    const double tangentPerRadius = 1.0 / std::tan(halfAngle);
+    const double toEndA = (h.a.point - h.corner).dot(armA);
+    const double toEndB = (h.b.point - h.corner).dot(armB);
+    const double larger = std::max(h.a.radius, h.b.radius);
+    // Not bounded by the ends: they stop short of the tangent points where occlusion cut them, and
+    // overshoot into the elbow where its surface stays within the cylinder's inlier band.
+    const double minBend = params_.minBendRadii * r;
+    const double maxBend = params_.maxBendRadii * r;
+
+    const auto onElbow = [&](const Eigen::Vector3d& p, double bendRadius, Eigen::Vector3d& radial) {
+      const Eigen::Vector3d center = h.corner + bendRadius / std::sin(halfAngle) * bisector;
+      const Eigen::Vector3d tangentA = h.corner + bendRadius * tangentPerRadius * armA;
+      const Eigen::Vector3d tangentB = h.corner + bendRadius * tangentPerRadius * armB;
+      if ((p - tangentA).dot(armA) > 0.0 || (p - tangentB).dot(armB) > 0.0 || (p - center).dot(bisector) > 0.0) {
+        return false;  // Beyond a tangent plane, or on the far side of the torus.
+      }
+      Eigen::Vector3d inPlane = p - center;
+      inPlane -= inPlane.dot(normal) * normal;
+      const double length = inPlane.norm();
+      if (length < 1e-12) return false;
+      const Eigen::Vector3d tubeCenter = center + bendRadius * inPlane / length;
+      radial = p - tubeCenter;
+      return true;
+    };
+
+    // Votes for R (paper eqs. 3–4), accumulated in a histogram smoothed by a triangular kernel.
+    const double binWidth = std::max(0.001, 0.02 * r);
+    const auto bins = static_cast<std::size_t>(std::ceil((maxBend - minBend) / binWidth)) + 1;
+    std::vector<double> histogram(bins, 0.0);
+    std::vector<std::pair<double, std::uint32_t>> votes;
+    for (std::uint32_t i : nearby) {
+      const Eigen::Vector3d p = position(i);
+      for (double bendRadius : elbowRadiusVotes(p, h.corner, bisector, normal, halfAngle, r)) {
+        if (bendRadius < minBend || bendRadius > maxBend) continue;
+        Eigen::Vector3d radial;
+        if (!onElbow(p, bendRadius, radial) || !normalAgrees(i, radial.normalized())) continue;
+        votes.emplace_back(bendRadius, i);
+        const double position = (bendRadius - minBend) / binWidth;
+        const auto bin = static_cast<std::size_t>(position);
+        const double fraction = position - static_cast<double>(bin);
+        histogram[bin] += 1.0 - fraction;
+        if (bin + 1 < bins) histogram[bin + 1] += fraction;
+      }
+    }
+    double bendRadius = std::clamp(std::min(toEndA, toEndB) / tangentPerRadius, minBend, maxBend);
+    if (!votes.empty()) {
+      std::vector<double> smoothed(bins, 0.0);
+      for (std::size_t k = 0; k < bins; ++k) {
+        smoothed[k] = 2.0 * histogram[k] + (k > 0 ? histogram[k - 1] : 0.0) + (k + 1 < bins ? histogram[k + 1] : 0.0);
+      }
+      const auto peak = static_cast<std::size_t>(std::max_element(smoothed.begin(), smoothed.end()) - smoothed.begin());
+      const double peakRadius = minBend + static_cast<double>(peak) * binWidth;
+      // Refine: the mean of the votes within two bins of the peak.
+      double sum = 0.0;
+      std::size_t count = 0;
+      for (const auto& [vote, point] : votes) {
+        if (std::fabs(vote - peakRadius) <= 2.0 * binWidth) {
+          sum += vote;
+          ++count;
+        }
+      }
+      bendRadius = count > 0 ? sum / static_cast<double>(count) : peakRadius;
+    }
+
+    // Support: points within the support distance of the chosen torus.
+    for (std::uint32_t i : nearby) {
+      const Eigen::Vector3d p = position(i);
+      Eigen::Vector3d radial;
+      if (!onElbow(p, bendRadius, radial)) continue;
+      const double distance = radial.norm();
+      if (std::fabs(distance - r) <= params_.supportDistance && normalAgrees(i, radial / std::max(distance, 1e-12))) {
+        h.supportPoints.push_back(i);
+      }
+    }
+    const double arcLength = bendRadius * h.bendAngle;
+    const double expected = 0.5 * (linearDensity(h.a.pipe) + linearDensity(h.b.pipe)) * arcLength;
+    h.support = expected > 0.0 ? std::min(1.0, static_cast<double>(h.supportPoints.size()) / expected) : 0.0;
+
+    const double tangent = bendRadius * tangentPerRadius;
+    h.newA = h.corner + tangent * armA;
+    h.newB = h.corner + tangent * armB;
+    const double search = searchDistance(larger);
+    const double endMismatch = std::max(std::fabs(toEndA - tangent), std::fabs(toEndB - tangent));
+    h.geometric = (1.0 - h.skew / h.skewLimit) * std::clamp(1.0 - endMismatch / search, 0.0, 1.0);
+    h.confidence = 0.4 * h.geometric + 0.6 * h.support;
+    h.bendRadius = bendRadius;
+    const Eigen::Vector3d center = h.corner + bendRadius / std::sin(halfAngle) * bisector;
+    h.axis = sampleArc(center, h.newA, h.newB, 0.01);
+    h.valid = true;
+  }
+
+  void reconstructTee(Hypothesis& h, const std::vector<std::uint32_t>& nearby) const {
+    const PipeSegment& main = input_.pipes[static_cast<std::size_t>(h.mainPipe)];
+    // The stub from the main pipe's surface to the branch end; a branch that already reaches the
+    // main pipe is direct evidence.
+    const Eigen::Vector3d toBranch = (h.a.point - h.corner).normalized();
+    const Eigen::Vector3d surface = h.corner + main.radius * toBranch;
+    const double stub = std::max(0.0, h.gap);
+    h.support = stub <= std::max(kSectionLength, 0.5 * h.a.radius)
+                    ? 1.0
+                    : straightCoverage(surface, h.a.point, h.a.radius, nearby, h.supportPoints);
+    h.geometric = (1.0 - h.skew / h.skewLimit) * (1.0 - stub / h.gapLimit);
+    h.confidence = 0.5 * h.geometric + 0.5 * h.support;
+    h.axis = {h.corner, h.a.point};
+    h.valid = true;
+  }
+
+  void reconstructBoundary(Hypothesis& h, const std::vector<std::uint32_t>& nearby) const {
+    const double r = 0.5 * (h.a.radius + h.b.radius);
+    h.support = straightCoverage(h.a.point, h.b.point, r, nearby, h.supportPoints);
+    const double gap = std::max(0.0, h.gap);
+    h.geometric = (1.0 - h.skew / h.skewLimit) * (1.0 - h.bendAngle / radians(params_.maxBoundaryAngleDeg)) *
+                  std::sqrt(1.0 - gap / h.gapLimit);
+    // Gaps are mostly occlusions with no points in them: the geometry carries most of the weight.
+    h.confidence = 0.7 * h.geometric + 0.3 * h.support;
+    h.axis = {h.a.point, h.b.point};
+    h.valid = true;
+  }
+
+  const JointsInput& input_;
+  const JointsParams& params_;
+};
+
+class UnionFind {
+ public:
+  explicit UnionFind(std::size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0); }
+  std::size_t find(std::size_t i) {
+    while (parent_[i] != i) i = parent_[i] = parent_[parent_[i]];
+    return i;
+  }
+  void unite(std::size_t a, std::size_t b) {
+    a = find(a);
+    b = find(b);
+    if (a != b) parent_[std::max(a, b)] = std::min(a, b);
+  }
+
+ private:
+  std::vector<std::size_t> parent_;
+};
+
+}  // namespace
+
+std::vector<double> elbowRadiusVotes(const Eigen::Vector3d& point, const Eigen::Vector3d& corner,
+                                     const Eigen::Vector3d& bisector, const Eigen::Vector3d& planeNormal,
+                                     double halfAngle, double radius) {
+  // In the bend plane, with x along the bisector and z along the normal, the centre is at
+  // (kR, 0, 0), k = 1 / sin(halfAngle). On the torus: sqrt((x − kR)² + y²) = R + s, where
+  // s = ±sqrt(r² − z²) picks the outer or inner side of the tube, which expands to
+  // (k² − 1) R² − 2 (k x + s) R + (x² + y² − s²) = 0.
+  std::vector<double> roots;
+  const Eigen::Vector3d q = point - corner;
+  const double x = q.dot(bisector);
+  const double z = q.dot(planeNormal);
+  if (std::fabs(z) > radius) return roots;
+  const double y2 = std::max(0.0, q.squaredNorm() - x * x - z * z);
+  const double k = 1.0 / std::sin(halfAngle);
+  const double a = k * k - 1.0;
+  const double tube = std::sqrt(radius * radius - z * z);
+  for (double s : {tube, -tube}) {
+    const double halfB = k * x + s;
+    const double c = x * x + y2 - s * s;
+    const double discriminant = halfB * halfB - a * c;
+    if (discriminant < 0.0 || a <= 0.0) continue;
+    const double root = std::sqrt(discriminant);
+    for (double R : {(halfB - root) / a, (halfB + root) / a}) {
+      if (R > 0.0 && R + s > 0.0) roots.push_back(R);
+    }
+  }
+  return roots;
+}
+
+JointsResult connectPipes(const JointsInput& input, const JointsParams& params, Progress& progress) {
+  const auto started = std::chrono::steady_clock::now();
+  const auto& pipes = input.pipes;
+  const int pipeCount = static_cast<int>(pipes.size());
+  JointBuilder builder(input, params);
+  JointsResult result;
+
+  // Spatial index over the pipes' axes.
+  double largestRadius = 0.0;
+  for (const auto& pipe : pipes) largestRadius = std::max(largestRadius, pipe.radius);
+  const double cellSize = std::max(params.minSearchDistance, 0.25);
+  HashGrid pipeGrid(cellSize);
+  for (int p = 0; p < pipeCount; ++p) {
+    const PipeSegment& pipe = pipes[static_cast<std::size_t>(p)];
+    const double length = (pipe.end - pipe.start).norm();
+    const int steps = std::max(1, static_cast<int>(std::ceil(length / (0.5 * cellSize))));
+    for (int k = 0; k <= steps; ++k) {
+      const Eigen::Vector3d sample = pipe.start + (pipe.end - pipe.start) * (static_cast<double>(k) / steps);
+      pipeGrid.insert(pipeGrid.cellOf(sample), static_cast<std::uint32_t>(p));
+    }
+  }
+
+  // Hypotheses, in a deterministic order (by end, then by partner).
+  std::vector<Hypothesis> hypotheses;
+  std::vector<int> near;
+  const auto isFragment = [&](int p) {
+    const PipeSegment& pipe = pipes[static_cast<std::size_t>(p)];
+    return (pipe.end - pipe.start).norm() < params.minPipeDiameters * 2.0 * pipe.radius;
+  };
+  for (int p = 0; p < pipeCount; ++p) {
+    if (isFragment(p)) continue;
+    for (int side = 0; side < 2; ++side) {
+      const PipeEnd end = endOf(pipes, p, side);
+      const double partnerRadius = end.radius / params.minRadiusRatio;
+      const double reach = std::max(builder.searchDistance(partnerRadius), builder.boundaryGapLimit(partnerRadius)) +
+                           largestRadius;
+      near.clear();
+      pipeGrid.forEachInCube(end.point, reach, [&](std::uint32_t other) {
+        if (static_cast<int>(other) != p && !isFragment(static_cast<int>(other))) near.push_back(static_cast<int>(other));
+      });
+      std::sort(near.begin(), near.end());
+      near.erase(std::unique(near.begin(), near.end()), near.end());
+      for (int other : near) {
+        ++result.diagnostics.candidatePairs;
+        builder.tryTee(end, other, hypotheses);
+        for (int otherSide = 0; otherSide < 2; ++otherSide) {
+          if (2 * other + otherSide < end.key()) continue;  // Each end pair once.
+          builder.tryEndPair(end, endOf(pipes, other, otherSide), hypotheses);
+        }
+      }
+    }
+  }
+  progress.checkCancelled();
+
+  // The points near each hypothesis, from one pass over the cloud through a grid of the
+  // hypotheses' reach spheres.
+  HashGrid hypothesisGrid(cellSize);
+  for (std::size_t h = 0; h < hypotheses.size(); ++h) {
+    const double reach = hypotheses[h].reach;
+    const Eigen::Vector3i low = hypothesisGrid.cellOf(hypotheses[h].center - Eigen::Vector3d::Constant(reach));
+    const Eigen::Vector3i high = hypothesisGrid.cellOf(hypotheses[h].center + Eigen::Vector3d::Constant(reach));
+    for (int x = low.x(); x <= high.x(); ++x) {
+      for (int y = low.y(); y <= high.y(); ++y) {
+        for (int z = low.z(); z <= high.z(); ++z) hypothesisGrid.insert({x, y, z}, static_cast<std::uint32_t>(h));
+      }
+    }
+  }
+  std::vector<std::vector<std::uint32_t>> nearby(hypotheses.size());
+  if (!hypotheses.empty()) {
+    for (std::size_t i = 0; i < input.cloud.size(); ++i) {
+      const Eigen::Vector3d p = input.cloud.positions[i].cast<double>();
+      const auto* bucket = hypothesisGrid.find(hypothesisGrid.cellOf(p));
+      if (!bucket) continue;
+      for (std::uint32_t h : *bucket) {
+        if ((p - hypotheses[h].center).squaredNorm() <= hypotheses[h].reach * hypotheses[h].reach) {
+          nearby[h].push_back(static_cast<std::uint32_t>(i));
+        }
+      }
+    }
+  }
+  progress.report("joints", 0.3);
+  progress.checkCancelled();
+
+  tbb::parallel_for(std::size_t{0}, hypotheses.size(),
+                    [&](std::size_t h) { builder.reconstruct(hypotheses[h], nearby[h]); });
+  progress.checkCancelled();
+
+  // Conflicts: the best-supported hypothesis takes its ends first.
+  std::vector<std::size_t> order;
+  for (std::size_t h = 0; h < hypotheses.size(); ++h) {
+    if (!hypotheses[h].valid) continue;
+    ++result.diagnostics.hypotheses[static_cast<std::size_t>(hypotheses[h].type)];
+    order.push_back(h);
+  }
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
+    return hypotheses[x].confidence > hypotheses[y].confidence;
+  });
+  std::vector<char> endTaken(2 * static_cast<std::size_t>(pipeCount), 0);
+  // Where each end lies once the chosen elbows have moved it: two elbows on one short pipe must
+  // leave it a length.
+  std::vector<Eigen::Vector3d> endPoint(2 * static_cast<std::size_t>(pipeCount));
+  for (int p = 0; p < pipeCount; ++p) {
+    endPoint[2 * static_cast<std::size_t>(p)] = pipes[static_cast<std::size_t>(p)].start;
+    endPoint[2 * static_cast<std::size_t>(p) + 1] = pipes[static_cast<std::size_t>(p)].end;
+  }
+  const auto keepsLength = [&](const PipeEnd& end, const Eigen::Vector3d& moved) {
+    const Eigen::Vector3d& other = endPoint[static_cast<std::size_t>(end.key() ^ 1)];
+    return (moved - other).dot(end.outward) >= kSectionLength;
+  };
+  std::vector<std::size_t> chosen;
+  for (std::size_t h : order) {
+    const Hypothesis& hypothesis = hypotheses[h];
+    const bool twoEnds = hypothesis.type != JointType::Tee;
+    const bool elbow = hypothesis.type == JointType::Elbow;
+    if (endTaken[static_cast<std::size_t>(hypothesis.a.key())] ||
+        (twoEnds && endTaken[static_cast<std::size_t>(hypothesis.b.key())]) ||
+        (elbow && (!keepsLength(hypothesis.a, hypothesis.newA) || !keepsLength(hypothesis.b, hypothesis.newB)))) {
+      ++result.diagnostics.conflicts;
+      continue;
+    }
+    endTaken[static_cast<std::size_t>(hypothesis.a.key())] = 1;
+    if (twoEnds) endTaken[static_cast<std::size_t>(hypothesis.b.key())] = 1;
+    if (elbow) {
+      endPoint[static_cast<std::size_t>(hypothesis.a.key())] = hypothesis.newA;
+      endPoint[static_cast<std::size_t>(hypothesis.b.key())] = hypothesis.newB;
+    }
+    chosen.push_back(h);
+  }
+
+  // Fragments lying on a chosen elbow's arc are bits of the elbow fitted as cylinders: they go.
+  std::vector<char> absorbed(static_cast<std::size_t>(pipeCount), 0);
+  for (int p = 0; p < pipeCount; ++p) {
+    if (!isFragment(p)) continue;
+    const PipeSegment& fragment = pipes[static_cast<std::size_t>(p)];
+    for (std::size_t h : chosen) {
+      const Hypothesis& elbow = hypotheses[h];
+      if (elbow.type != JointType::Elbow) continue;
+      const auto nearArc = [&](const Eigen::Vector3d& point) {
+        for (const auto& sample : elbow.axis) {
+          if ((sample - point).norm() <= fragment.radius) return true;
+        }
+        return false;
+      };
+      if (nearArc(fragment.start) && nearArc(fragment.end)) absorbed[static_cast<std::size_t>(p)] = 1;
+    }
+  }
+  // Pipe ids: input order, absorbed fragments left out.
+  std::vector<int> idOf(static_cast<std::size_t>(pipeCount), 0);
+  int pipeIds = 0;
+  for (int p = 0; p < pipeCount; ++p) {
+    if (absorbed[static_cast<std::size_t>(p)]) continue;
+    idOf[static_cast<std::size_t>(p)] = ++pipeIds;
+    result.pipes.push_back(pipes[static_cast<std::size_t>(p)]);
+  }
+  result.diagnostics.absorbedFragments = static_cast<std::size_t>(pipeCount - pipeIds);
+
+  // Joints, ordered by the pipes they join; elbows trim or extend their pipes to the tangent points.
+  std::vector<std::tuple<int, int, int, std::size_t>> keyed;  // first pipe id, second pipe id, type, hypothesis
+  for (std::size_t h : chosen) {
+    const Hypothesis& hypothesis = hypotheses[h];
+    const int first = hypothesis.type == JointType::Tee ? hypothesis.mainPipe : hypothesis.a.pipe;
+    const int second = hypothesis.type == JointType::Tee ? hypothesis.a.pipe : hypothesis.b.pipe;
+    keyed.emplace_back(idOf[static_cast<std::size_t>(first)], idOf[static_cast<std::size_t>(second)],
+                       static_cast<int>(hypothesis.type), h);
+  }
+  std::sort(keyed.begin(), keyed.end());
+  UnionFind runs(static_cast<std::size_t>(pipeIds) + 1);
+  int nextId = pipeIds + 1;
+  for (const auto& [first, second, type, h] : keyed) {
+    Hypothesis& hypothesis = hypotheses[h];
+    if (hypothesis.type == JointType::Elbow) {
+      for (const auto& [end, point] : {std::pair{hypothesis.a, hypothesis.newA}, std::pair{hypothesis.b, hypothesis.newB}}) {
+        PipeSegment& pipe = result.pipes[static_cast<std::size_t>(idOf[static_cast<std::size_t>(end.pipe)] - 1)];
+        (end.side == 0 ? pipe.start : pipe.end) = point;
+      }
+    }
+    Joint joint;
+    joint.id = nextId++;
+    joint.type = hypothesis.type;
+    joint.pipeIds = {first, second};
+    joint.radius = hypothesis.type == JointType::Tee ? hypothesis.a.radius : 0.5 * (hypothesis.a.radius + hypothesis.b.radius);
+    joint.axis = std::move(hypothesis.axis);
+    joint.bendRadius = hypothesis.bendRadius;
+    joint.confidence = std::clamp(hypothesis.confidence, 0.0, 1.0);
+    joint.status = joint.confidence >= params.acceptConfidence ? JointStatus::Accepted : JointStatus::Proposed;
+    if (joint.status == JointStatus::Accepted) runs.unite(static_cast<std::size_t>(first), static_cast<std::size_t>(second));
+    std::sort(hypothesis.supportPoints.begin(), hypothesis.supportPoints.end());
+    result.jointSupport.push_back(std::move(hypothesis.supportPoints));
+    result.joints.push_back(std::move(joint));
+  }
+
+  // Runs in the order of their first pipe.
+  std::vector<int> runOfRoot(static_cast<std::size_t>(pipeIds) + 1, -1);
+  for (int id = 1; id <= pipeIds; ++id) {
+    const std::size_t root = runs.find(static_cast<std::size_t>(id));
+    if (runOfRoot[root] < 0) {
+      runOfRoot[root] = static_cast<int>(result.runs.size());
+      result.runs.push_back(Run{static_cast<int>(result.runs.size()) + 1, {}, {}});
+    }
+    result.runs[static_cast<std::size_t>(runOfRoot[root])].pipeIds.push_back(id);
+  }
+  for (const Joint& joint : result.joints) {
+    if (joint.status != JointStatus::Accepted) continue;
+    const std::size_t root = runs.find(static_cast<std::size_t>(joint.pipeIds.front()));
+    result.runs[static_cast<std::size_t>(runOfRoot[root])].jointIds.push_back(joint.id);
+  }
+
+  progress.report("joints", 1.0);
+  result.diagnostics.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  return result;
+}
+
+}  // namespace piperun

@@ -1,0 +1,276 @@
+#include "piperun/stages/joints.h"
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+namespace piperun {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+/// Points (with normals) on pipes and elbows, and the pipe segments that a pipeline would have found.
+class ConstructedScene {
+ public:
+  explicit ConstructedScene(double noise = 0.0, bool oneSided = false) : noise_(noise), oneSided_(oneSided) {}
+
+  /// A straight pipe sampled every 5 mm along and 10° around; returns its index.
+  int addPipe(const Eigen::Vector3d& start, const Eigen::Vector3d& end, double radius) {
+    const Eigen::Vector3d axis = (end - start).normalized();
+    const Eigen::Vector3d u = axis.unitOrthogonal();
+    const Eigen::Vector3d v = axis.cross(u);
+    PipeSegment segment;
+    segment.start = start;
+    segment.end = end;
+    segment.radius = radius;
+    segment.confidence = 1.0;
+    const int steps = static_cast<int>((end - start).norm() / 0.005);
+    for (int k = 0; k <= steps; ++k) {
+      const Eigen::Vector3d center = start + (end - start) * (static_cast<double>(k) / steps);
+      for (double angle : angles()) {
+        const Eigen::Vector3d radial = std::cos(angle) * u + std::sin(angle) * v;
+        segment.inliers.push_back(addPoint(center + radius * radial, radial));
+      }
+    }
+    pipes_.push_back(std::move(segment));
+    return static_cast<int>(pipes_.size()) - 1;
+  }
+
+  /// The elbow surface between tangent points: centre circle around `center` from `start`, turning
+  /// by `sweep` in the plane with normal `normal`.
+  void addElbow(const Eigen::Vector3d& center, const Eigen::Vector3d& start, const Eigen::Vector3d& normal,
+                double sweep, double radius) {
+    const double bendRadius = (start - center).norm();
+    const int steps = static_cast<int>(bendRadius * sweep / 0.005);
+    for (int k = 0; k <= steps; ++k) {
+      const double t = sweep * k / steps;
+      const Eigen::Vector3d outward = Eigen::AngleAxisd(t, normal) * (start - center).normalized();
+      const Eigen::Vector3d onCircle = center + bendRadius * outward;
+      for (double angle : angles()) {
+        const Eigen::Vector3d radial = std::cos(angle) * outward + std::sin(angle) * normal;
+        addPoint(onCircle + radius * radial, radial);
+      }
+    }
+  }
+
+  JointsResult connect(const JointsParams& params = {}) const { return connectPipes({cloud_, pipes_}, params); }
+  std::vector<PipeSegment>& pipes() { return pipes_; }
+
+ private:
+  std::vector<double> angles() const {
+    std::vector<double> result;
+    // A scanner sees about half of a pipe; "one-sided" keeps a half that faces +z and -x alike.
+    for (int a = 0; a < 36; ++a) {
+      if (oneSided_ && a >= 18) break;
+      result.push_back(a * kPi / 18.0);
+    }
+    return result;
+  }
+
+  std::uint32_t addPoint(const Eigen::Vector3d& p, const Eigen::Vector3d& normal) {
+    std::normal_distribution<double> gauss(0.0, noise_);
+    const Eigen::Vector3d jitter = noise_ > 0.0 ? Eigen::Vector3d(gauss(rng_), gauss(rng_), gauss(rng_)) : Eigen::Vector3d::Zero();
+    cloud_.positions.push_back((p + jitter).cast<float>());
+    cloud_.normals.push_back(normal.cast<float>());
+    return static_cast<std::uint32_t>(cloud_.positions.size() - 1);
+  }
+
+  double noise_;
+  bool oneSided_;
+  std::mt19937 rng_{7};
+  PointCloud cloud_;
+  std::vector<PipeSegment> pipes_;
+};
+
+/// Two pipes meeting at a corner at the origin with an elbow of major radius R between them: the
+/// first comes along +x, the second leaves at `bendAngle` from it in the xy plane.
+ConstructedScene elbowScene(double bendAngle, double radius, double bendRadius, double noise = 0.0, bool oneSided = false,
+                            double shortenEnds = 0.0) {
+  ConstructedScene scene(noise, oneSided);
+  const Eigen::Vector3d in = Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d out(std::cos(bendAngle), std::sin(bendAngle), 0.0);
+  const double tangent = bendRadius * std::tan(0.5 * bendAngle);
+  const Eigen::Vector3d tangentIn = -tangent * in;
+  const Eigen::Vector3d tangentOut = tangent * out;
+  scene.addPipe(tangentIn - 1.2 * in, tangentIn - shortenEnds * in, radius);
+  scene.addPipe(tangentOut + shortenEnds * out, tangentOut + 1.2 * out, radius);
+  const Eigen::Vector3d inward(0.0, 1.0, 0.0);  // Towards the centre from the first tangent point.
+  scene.addElbow(tangentIn + bendRadius * inward, tangentIn, Eigen::Vector3d::UnitZ(), bendAngle, radius);
+  return scene;
+}
+
+TEST(Joints, RadiusVotesPutAPointOnTheTorus) {
+  // A 90° elbow with R = 0.2 at the corner (0,0,0): centre (−0.2, 0.2, 0); arms along −x and +y.
+  const double R = 0.2, r = 0.05;
+  const Eigen::Vector3d bisector = Eigen::Vector3d(-1, 1, 0).normalized();
+  const Eigen::Vector3d center(-R, R, 0);
+  const Eigen::Vector3d outward = Eigen::Vector3d(1, -1, 0).normalized();
+  for (double tubeAngle : {0.0, 1.0, 2.5, -2.0}) {
+    const Eigen::Vector3d p = center + R * outward + r * (std::cos(tubeAngle) * outward + std::sin(tubeAngle) * Eigen::Vector3d::UnitZ());
+    const auto votes = elbowRadiusVotes(p, Eigen::Vector3d::Zero(), bisector, Eigen::Vector3d::UnitZ(), kPi / 4, r);
+    ASSERT_FALSE(votes.empty());
+    double nearest = 1e9;
+    for (double vote : votes) nearest = std::min(nearest, std::fabs(vote - R));
+    EXPECT_LT(nearest, 1e-9) << "tube angle " << tubeAngle;
+  }
+}
+
+TEST(Joints, ElbowMajorRadiusRecoveredOnCleanPoints) {
+  for (const auto& [angleDeg, radius, bendRadius] : {std::tuple{90.0, 0.05, 0.15}, std::tuple{90.0, 0.03, 0.06},
+                                                     std::tuple{45.0, 0.08, 0.24}, std::tuple{60.0, 0.1, 0.2}}) {
+    SCOPED_TRACE(testing::Message() << angleDeg << "° r=" << radius << " R=" << bendRadius);
+    const double angle = angleDeg * kPi / 180.0;
+    // The pipe ends stop short of the tangent points, as an extents stage leaves them.
+    const auto scene = elbowScene(angle, radius, bendRadius, 0.0, false, 0.02);
+    const JointsResult result = scene.connect();
+    ASSERT_EQ(result.joints.size(), 1u);
+    const Joint& elbow = result.joints[0];
+    EXPECT_EQ(elbow.type, JointType::Elbow);
+    EXPECT_EQ(elbow.pipeIds, (std::vector<int>{1, 2}));
+    EXPECT_EQ(elbow.id, 3);
+    EXPECT_NEAR(elbow.bendRadius, bendRadius, 0.05 * bendRadius);
+    EXPECT_NEAR(elbow.radius, radius, 1e-9);
+    EXPECT_EQ(elbow.status, JointStatus::Accepted);
+    EXPECT_GT(elbow.confidence, 0.8);
+    // Both pipes now end at the tangent points, where the arc starts and ends.
+    const double tangent = bendRadius * std::tan(0.5 * angle);
+    EXPECT_NEAR(result.pipes[0].end.x(), -tangent, 0.05 * tangent);
+    EXPECT_LT((result.pipes[0].end - elbow.axis.front()).norm(), 1e-9);
+    EXPECT_LT((result.pipes[1].start - elbow.axis.back()).norm(), 1e-9);
+    // The arc's middle lies R (1/sin(half the inner angle) − 1) from the corner, on the bisector.
+    const double expectedMiddle = bendRadius * (1.0 / std::sin(0.5 * (kPi - angle)) - 1.0);
+    EXPECT_NEAR(elbow.position().norm(), expectedMiddle, 0.05 * bendRadius);
+    EXPECT_FALSE(result.jointSupport[0].empty());
+  }
+}
+
+TEST(Joints, ElbowOnNoisyOneSidedScan) {
+  const auto scene = elbowScene(kPi / 2, 0.05, 0.15, 0.002, true, 0.05);
+  const JointsResult result = scene.connect();
+  ASSERT_EQ(result.joints.size(), 1u);
+  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
+  EXPECT_NEAR(result.joints[0].bendRadius, 0.15, 0.1 * 0.15);
+}
+
+TEST(Joints, OccludedElbowIsProposedWithTheLargestRadiusTheEndsAllow) {
+  // No points on the elbow at all: the geometry alone suggests it.
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-0.3, 0, 0}, 0.05);
+  scene.addPipe({0, 0.3, 0}, {0, 1.5, 0}, 0.05);
+  const JointsResult result = scene.connect();
+  ASSERT_EQ(result.joints.size(), 1u);
+  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
+  EXPECT_NEAR(result.joints[0].bendRadius, 0.25, 1e-6);  // max_bend_radii × r
+  EXPECT_EQ(result.joints[0].status, JointStatus::Proposed);
+}
+
+TEST(Joints, TeeExtendsTheBranchToTheMainAxis) {
+  ConstructedScene scene;
+  scene.addPipe({-1, 0, 0}, {1, 0, 0}, 0.1);
+  scene.addPipe({0.2, 1.0, 0}, {0.2, 0.12, 0}, 0.05);  // Ends just outside the main pipe.
+  const JointsResult result = scene.connect();
+  ASSERT_EQ(result.joints.size(), 1u);
+  const Joint& tee = result.joints[0];
+  EXPECT_EQ(tee.type, JointType::Tee);
+  EXPECT_EQ(tee.pipeIds, (std::vector<int>{1, 2}));  // Main first, then the branch.
+  ASSERT_EQ(tee.axis.size(), 2u);
+  EXPECT_LT((tee.axis.front() - Eigen::Vector3d(0.2, 0, 0)).norm(), 1e-9);
+  EXPECT_LT((tee.axis.back() - Eigen::Vector3d(0.2, 0.12, 0)).norm(), 1e-9);
+  EXPECT_NEAR(tee.radius, 0.05, 1e-12);
+  EXPECT_EQ(tee.status, JointStatus::Accepted);
+  // The pipes themselves are unchanged.
+  EXPECT_TRUE(result.pipes[1].end.isApprox(Eigen::Vector3d(0.2, 0.12, 0)));
+}
+
+TEST(Joints, BoundaryJointBridgesACollinearGap) {
+  ConstructedScene scene;
+  scene.addPipe({0, 0, 1}, {1, 0, 1}, 0.05);
+  scene.addPipe({2.5, 0.004, 1}, {1.25, 0.002, 1}, 0.05);  // Reversed orientation, 25 cm gap.
+  const JointsResult result = scene.connect();
+  ASSERT_EQ(result.joints.size(), 1u);
+  const Joint& boundary = result.joints[0];
+  EXPECT_EQ(boundary.type, JointType::Boundary);
+  EXPECT_NEAR(boundary.length(), 0.25, 0.01);
+  EXPECT_NEAR(boundary.position().x(), 1.125, 0.01);
+  EXPECT_EQ(boundary.status, JointStatus::Accepted);
+}
+
+TEST(Joints, RejectsParallelNeighboursFarPairsAndRadiusMismatch) {
+  {
+    // A rack: parallel pipes side by side, ends level.
+    ConstructedScene scene;
+    scene.addPipe({0, 0, 0}, {2, 0, 0}, 0.05);
+    scene.addPipe({0, 0.12, 0}, {2, 0.12, 0}, 0.05);
+    scene.addPipe({2.2, 0.12, 0}, {3, 0.12, 0}, 0.05);  // ...and a collinear one beyond, offset from the first.
+    const JointsResult result = scene.connect();
+    ASSERT_EQ(result.joints.size(), 1u);  // Only the collinear pair on the second line.
+    EXPECT_EQ(result.joints[0].type, JointType::Boundary);
+    EXPECT_EQ(result.joints[0].pipeIds, (std::vector<int>{2, 3}));
+  }
+  {
+    // Axes that would meet at a right angle, but 1.5 m beyond the ends of 5 cm pipes.
+    ConstructedScene scene;
+    scene.addPipe({-3, 0, 0}, {-1.5, 0, 0}, 0.05);
+    scene.addPipe({0, 1.5, 0}, {0, 3, 0}, 0.05);
+    EXPECT_TRUE(scene.connect().joints.empty());
+  }
+  {
+    // An elbow's geometry between a 5 cm and a 10 cm pipe.
+    auto scene = elbowScene(kPi / 2, 0.05, 0.15);
+    scene.pipes()[1].radius = 0.1;
+    EXPECT_TRUE(scene.connect().joints.empty());
+  }
+  {
+    // Skew pipes: right angle, but one passes 20 cm above the other's axis.
+    ConstructedScene scene;
+    scene.addPipe({-1.5, 0, 0}, {-0.15, 0, 0}, 0.05);
+    scene.addPipe({0, 0.15, 0.2}, {0, 1.5, 0.2}, 0.05);
+    EXPECT_TRUE(scene.connect().joints.empty());
+  }
+}
+
+TEST(Joints, AnEndTakesAtMostOneJointTheBestSupported) {
+  // Pipe 1's end could continue into pipe 2 (boundary joint) or bend into pipe 3 (elbow with
+  // points on it): the elbow has the support and wins; the boundary hypothesis loses its end.
+  auto scene = elbowScene(kPi / 2, 0.05, 0.15);
+  scene.addPipe({0.3, 0.0, 0}, {1.5, 0.0, 0}, 0.05);
+  const JointsResult result = scene.connect();
+  EXPECT_GE(result.diagnostics.conflicts, 1u);
+  int jointsOnFirstEnd = 0;
+  for (const Joint& joint : result.joints) {
+    if (joint.pipeIds.front() == 1 || joint.pipeIds.back() == 1) ++jointsOnFirstEnd;
+  }
+  EXPECT_EQ(jointsOnFirstEnd, 1);
+  ASSERT_FALSE(result.joints.empty());
+  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
+  EXPECT_EQ(result.joints[0].pipeIds, (std::vector<int>{1, 2}));
+}
+
+TEST(Joints, RunsAreConnectedComponentsOverAcceptedJoints) {
+  ConstructedScene scene;
+  scene.addPipe({0, 0, 0}, {1, 0, 0}, 0.05);        // 1 ─ boundary ─ 2
+  scene.addPipe({1.2, 0, 0}, {2, 0, 0}, 0.05);
+  scene.addPipe({0, 3, 0}, {1, 3, 0}, 0.05);        // 3 alone
+  scene.addPipe({0.5, 4, 0}, {0.5, 3.06, 0}, 0.03);  // 4 is a branch of 3 (tee)
+  scene.addPipe({5, 5, 5}, {5, 5, 6}, 0.05);        // 5 alone
+  const JointsResult result = scene.connect();
+  ASSERT_EQ(result.joints.size(), 2u);
+  ASSERT_EQ(result.runs.size(), 3u);
+  EXPECT_EQ(result.runs[0].pipeIds, (std::vector<int>{1, 2}));
+  EXPECT_EQ(result.runs[1].pipeIds, (std::vector<int>{3, 4}));
+  EXPECT_EQ(result.runs[2].pipeIds, (std::vector<int>{5}));
+  EXPECT_EQ(result.runs[0].jointIds.size(), 1u);
+  EXPECT_EQ(result.runs[2].jointIds.size(), 0u);
+
+  // Proposed joints stay out of runs: every pipe is then a run of its own.
+  JointsParams strict;
+  strict.acceptConfidence = 1.01;
+  const JointsResult proposed = scene.connect(strict);
+  EXPECT_EQ(proposed.joints.size(), 2u);
+  EXPECT_EQ(proposed.runs.size(), 5u);
+}
+
+}  // namespace
+}  // namespace piperun
