@@ -207,6 +207,19 @@ TEST(PipelineRealScan, PumpRoomRisersAndCeilingPipe) {
     EXPECT_NEAR(found->radius, pipe.radius, 0.010) << pipe.name;
     EXPECT_GT(found->length(), 1.0) << pipe.name;
   }
+  // The ceiling pipe turns towards riser 1 through an accepted elbow: they share a run.
+  const Pipe* ceiling = findPipe(network, expected[2]);
+  ASSERT_NE(ceiling, nullptr);
+  const Joint* elbow = nullptr;
+  for (const Joint& joint : network.joints) {
+    const bool onCeiling = std::count(joint.pipeIds.begin(), joint.pipeIds.end(), ceiling->id) > 0;
+    if (onCeiling && joint.type == JointType::Elbow && joint.status == JointStatus::Accepted) elbow = &joint;
+  }
+  ASSERT_NE(elbow, nullptr) << "no accepted elbow on the ceiling pipe";
+  const int other = elbow->pipeIds.front() == ceiling->id ? elbow->pipeIds.back() : elbow->pipeIds.front();
+  EXPECT_EQ(network.findPipe(other)->runId, ceiling->runId);
+  EXPECT_GT(ceiling->runId, 0);
+  EXPECT_NEAR(elbow->radius, 0.114, 0.010);
 }
 
 }  // namespace
