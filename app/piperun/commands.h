@@ -60,9 +60,18 @@ struct ReconstructOptions {
   std::int64_t seed = -1;                ///< -1: from the parameters
   std::string dumpDirectory;
   std::string truth;                     ///< Optional: evaluate against this network.
+  std::vector<std::string> exports;      ///< "FORMAT:FILE", written after the network.
   bool quiet = false;
 };
 int runReconstruct(const ReconstructOptions& options);
+
+struct ExportCommandOptions {
+  std::string input;
+  std::string output;
+  std::string format;             ///< Empty: from the output's extension.
+  double chordTolerance = 0.001;  ///< Mesh tessellation, metres.
+};
+int runExport(const ExportCommandOptions& options);
 
 struct ParamsOptions {
   bool json = false;
