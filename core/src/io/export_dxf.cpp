@@ -5,6 +5,7 @@
 #include "io/export_elements.h"
 
 #include <cstdio>
+#include <iterator>
 
 namespace piperun::io {
 

@@ -21,6 +21,7 @@
 #include <cstdio>
 #include <map>
 #include <numeric>
+#include <optional>
 
 namespace piperun::io {
 
@@ -136,7 +137,7 @@ void writeElbow(const ExportElement& elbow, PcfText& pcf) {
   const Eigen::Vector3d ab = m - a;
   const Eigen::Vector3d ac = b - a;
   const Eigen::Vector3d normal = ab.cross(ac);
-  if (normal.norm() <= 1e-9 * ab.norm() * ac.norm() || elbow.axis.size() < 3) {
+  if (normal.norm() <= 1e-9 * ab.norm() * ac.norm()) {
     pcf.pipe(a, b, elbow.radius);
     return;
   }
