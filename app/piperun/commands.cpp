@@ -330,13 +330,12 @@ int runReconstruct(const ReconstructOptions& options) {
 }
 
 int runExport(const ExportCommandOptions& options) {
-  std::optional<ExportFormat> format =
+  // --format is checked by the parser; without it the extension decides.
+  const std::optional<ExportFormat> format =
       options.format.empty() ? exportFormatFromPath(options.output) : exportFormatFromString(options.format);
   if (!format) {
-    throw std::invalid_argument(options.format.empty()
-                                    ? "cannot tell the export format from \"" + options.output +
-                                          "\": name a .obj .ply .csv .dxf or .pcf file, or give --format"
-                                    : "unknown export format \"" + options.format + "\": expected obj, ply, csv, dxf or pcf");
+    throw std::invalid_argument("cannot tell the export format from \"" + options.output +
+                                "\": name a .obj .ply .csv .dxf or .pcf file, or give --format");
   }
   const PipeNetwork network = readNetwork(options.input);
   ExportOptions exportOptions;
@@ -344,13 +343,7 @@ int runExport(const ExportCommandOptions& options) {
   exportNetwork(network, *format, options.output, exportOptions);
 
   int pipes = 0, elbows = 0, tees = 0, boundaries = 0, leftOut = 0;
-  for (const auto& pipe : network.pipes) {
-    if (pipe.status == PipeStatus::Deleted) {
-      ++leftOut;
-    } else {
-      ++pipes;
-    }
-  }
+  for (const auto& pipe : network.pipes) ++(pipe.status == PipeStatus::Deleted ? leftOut : pipes);
   for (const auto& joint : network.joints) {
     if (joint.status == JointStatus::Rejected) {
       ++leftOut;
