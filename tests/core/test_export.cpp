@@ -723,6 +723,34 @@ TEST(Export, TruthNetworkEveryFormat) {
   EXPECT_EQ(pcfTees, tees);
 }
 
+TEST(Export, EmptyNetworkGivesValidEmptyFiles) {
+  // Everything left out: only a deleted pipe and a rejected joint.
+  PipeNetwork network = sampleNetwork();
+  network.pipes = {network.pipes[3]};
+  network.joints = {network.joints[2]};
+  network.joints[0].pipeIds = {4};
+  network.runs.clear();
+  TempDir dir;
+  for (ExportFormat format : {ExportFormat::Obj, ExportFormat::Ply, ExportFormat::Csv, ExportFormat::Dxf, ExportFormat::Pcf}) {
+    exportNetwork(network, format, dir / ("empty." + toString(format)));
+  }
+  vtkNew<vtkOBJReader> obj;
+  obj->SetFileName((dir / "empty.obj").c_str());
+  obj->Update();
+  EXPECT_EQ(obj->GetOutput()->GetNumberOfPoints(), 0);
+  vtkNew<vtkPLYReader> ply;
+  ply->SetFileName((dir / "empty.ply").c_str());
+  ply->Update();
+  EXPECT_EQ(ply->GetOutput()->GetNumberOfPoints(), 0);
+  EXPECT_EQ(splitLines(test::readFile(dir / "empty.csv")).size(), 1u);
+  const DxfFile dxf = parseDxf(test::readFile(dir / "empty.dxf"));
+  EXPECT_TRUE(dxf.polylines.empty());
+  EXPECT_TRUE(dxf.endsWithEof);
+  const PcfFile pcf = parsePcf(test::readFile(dir / "empty.pcf"));
+  EXPECT_TRUE(pcf.pipelines.empty());
+  EXPECT_EQ(pcf.units.at("UNITS-BORE"), "MM");
+}
+
 TEST(Export, RefusesBadOptionsAndUnwritablePaths) {
   TempDir dir;
   ExportOptions options;
