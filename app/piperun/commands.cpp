@@ -3,6 +3,7 @@
 #include "console.h"
 #include "piperun/error.h"
 #include "piperun/eval/evaluation.h"
+#include "piperun/io/network_export.h"
 #include "piperun/io/network_io.h"
 #include "piperun/io/point_reader.h"
 #include "piperun/io/point_writer.h"
@@ -72,6 +73,21 @@ int networkInfo(const InfoOptions& options) {
   std::printf("joints: %zu (elbows %d, tees %d, boundary %d)\n", network.joints.size(), elbows, tees, boundaries);
   std::printf("runs: %zu\n", network.runs.size());
   return kExitOk;
+}
+
+struct ExportTarget {
+  ExportFormat format;
+  std::string path;
+};
+
+// "obj:out/net.obj" → (Obj, "out/net.obj").
+ExportTarget parseExportTarget(const std::string& spec) {
+  const auto colon = spec.find(':');
+  const auto format = colon == std::string::npos ? std::nullopt : exportFormatFromString(spec.substr(0, colon));
+  if (!format || colon + 1 >= spec.size()) {
+    throw std::invalid_argument("--export " + spec + ": expected FORMAT:FILE with FORMAT one of obj, ply, csv, dxf, pcf");
+  }
+  return {*format, spec.substr(colon + 1)};
 }
 
 }  // namespace
@@ -249,6 +265,8 @@ int runConvert(const ConvertOptions& options) {
 
 int runReconstruct(const ReconstructOptions& options) {
   const auto start = std::chrono::steady_clock::now();
+  std::vector<ExportTarget> exports;
+  for (const auto& spec : options.exports) exports.push_back(parseExportTarget(spec));
   PipelineParams params;
   if (!options.paramsFile.empty()) params = readParams(options.paramsFile);
   for (const auto& assignment : options.assignments) setParam(params, assignment);
@@ -272,6 +290,7 @@ int runReconstruct(const ReconstructOptions& options) {
                {{"generator", std::string("piperun reconstruct ") + PIPERUN_VERSION},
                 {"source", options.input},
                 {"seed", std::to_string(params.seed)}});
+  for (const auto& target : exports) exportNetwork(network, target.format, target.path);
   int dumped = 0;
   if (!options.dumpDirectory.empty()) dumped = dumpStages(pipeline, options.dumpDirectory);
   bar.finish();
@@ -309,6 +328,7 @@ int runReconstruct(const ReconstructOptions& options) {
               pipeline.stageSeconds(Stage::Joints));
   std::printf("(per-tile stage times are summed over tiles, which run in parallel)\n");
   std::printf("network: %s\n", options.output.c_str());
+  for (const auto& target : exports) std::printf("export: %s (%s)\n", target.path.c_str(), toString(target.format).c_str());
   if (dumped > 0) std::printf("stages: %d files in %s\n", dumped, options.dumpDirectory.c_str());
   if (!options.truth.empty()) {
     const EvaluationResult figures = evaluateNetwork(readNetwork(options.truth), network);
@@ -317,6 +337,35 @@ int runReconstruct(const ReconstructOptions& options) {
   std::printf("points=%zu kept=%zu directions=%zu pipes=%zu joints=%zu runs=%zu seconds=%.2f\n", cloud->size(),
               d.keptPoints, directions, network.pipes.size(), network.joints.size(), network.runs.size(),
               secondsSince(start));
+  return kExitOk;
+}
+
+int runExport(const ExportCommandOptions& options) {
+  // --format is checked by the parser; without it the extension decides.
+  const std::optional<ExportFormat> format =
+      options.format.empty() ? exportFormatFromPath(options.output) : exportFormatFromString(options.format);
+  if (!format) {
+    throw std::invalid_argument("cannot tell the export format from \"" + options.output +
+                                "\": name a .obj .ply .csv .dxf or .pcf file, or give --format");
+  }
+  const PipeNetwork network = readNetwork(options.input);
+  ExportOptions exportOptions;
+  exportOptions.chordTolerance = options.chordTolerance;
+  exportNetwork(network, *format, options.output, exportOptions);
+
+  int pipes = 0, elbows = 0, tees = 0, boundaries = 0, leftOut = 0;
+  for (const auto& pipe : network.pipes) ++(pipe.status == PipeStatus::Deleted ? leftOut : pipes);
+  for (const auto& joint : network.joints) {
+    if (joint.status == JointStatus::Rejected) {
+      ++leftOut;
+      continue;
+    }
+    elbows += joint.type == JointType::Elbow;
+    tees += joint.type == JointType::Tee;
+    boundaries += joint.type == JointType::Boundary;
+  }
+  std::printf("exported: %s -> %s (%s)\n", options.input.c_str(), options.output.c_str(), toString(*format).c_str());
+  std::printf("pipes=%d elbows=%d tees=%d boundary=%d left_out=%d\n", pipes, elbows, tees, boundaries, leftOut);
   return kExitOk;
 }
 

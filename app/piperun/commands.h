@@ -61,9 +61,18 @@ struct ReconstructOptions {
   std::string dumpDirectory;
   std::string truth;                     ///< Optional: evaluate against this network.
   std::string until = "joints";          ///< Last stage to run: "merge" or "joints".
+  std::vector<std::string> exports;      ///< "FORMAT:FILE", written after the network.
   bool quiet = false;
 };
 int runReconstruct(const ReconstructOptions& options);
+
+struct ExportCommandOptions {
+  std::string input;
+  std::string output;
+  std::string format;             ///< Empty: from the output's extension.
+  double chordTolerance = 0.001;  ///< Mesh tessellation, metres.
+};
+int runExport(const ExportCommandOptions& options);
 
 struct ParamsOptions {
   bool json = false;

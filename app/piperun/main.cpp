@@ -106,6 +106,21 @@ int main(int argc, char** argv) {
   reconstructCommand->add_option("--until", reconstruct.until,
                                  "Last stage to run: merge (pipes only, no joints or runs) or joints (default)")
       ->check(CLI::IsMember({"merge", "joints"}));
+  reconstructCommand->add_option("--export", reconstruct.exports,
+                                 "Also export the network, e.g. --export obj:net.obj (obj ply csv dxf pcf; repeatable)");
+
+  ExportCommandOptions exportOptions;
+  auto* exportCommand =
+      app.add_subcommand("export", "Export a network as a mesh (OBJ, PLY), table (CSV), CAD lines (DXF) or PCF");
+  addVersion(*exportCommand);
+  exportCommand->add_option("network", exportOptions.input, "Network to export (.json)")->required();
+  exportCommand->add_option("-o,--output", exportOptions.output, "File to write")->required();
+  exportCommand->add_option("--format", exportOptions.format, "obj, ply, csv, dxf or pcf (default: from the file name)")
+      ->transform(CLI::IsMember({"obj", "ply", "csv", "dxf", "pcf"}, CLI::ignore_case));
+  exportCommand->add_option("--chord-tolerance", exportOptions.chordTolerance,
+                            "Meshes: largest gap between a tube's polygon and its circle, metres")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
 
   ParamsOptions paramsOptions;
   auto* paramsCommand = app.add_subcommand("params", "Print every reconstruction parameter with its default");
@@ -134,6 +149,7 @@ int main(int argc, char** argv) {
     if (*convertCommand) return runConvert(convert);
     if (*reconstructCommand) return runReconstruct(reconstruct);
     if (*paramsCommand) return runParams(paramsOptions);
+    if (*exportCommand) return runExport(exportOptions);
   } catch (const piperun::InputError& error) {
     std::fprintf(stderr, "piperun: error: %s\n", error.what());
     return kExitBadInput;

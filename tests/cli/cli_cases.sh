@@ -37,14 +37,14 @@ case "$CASE" in
   version)
     run 0 --version
     expect_out "^piperun [0-9]+\.[0-9]+\.[0-9]+$"
-    for sub in info generate eval convert reconstruct params; do
+    for sub in info generate eval convert reconstruct params export; do
       run 0 "$sub" --version
       expect_out "^piperun [0-9]+\.[0-9]+\.[0-9]+$"
     done
     ;;
   help)
     run 0 --help
-    for sub in info generate eval convert reconstruct params; do expect_out "$sub"; done
+    for sub in info generate eval convert reconstruct params export; do expect_out "$sub"; done
     expect_out "Exit codes"
     run 0 generate --help
     expect_out "--preset"
@@ -161,6 +161,41 @@ case "$CASE" in
     run 0 reconstruct "$WORK/scene.ply" -o "$WORK/net1.json" --threads 1
     run 0 reconstruct "$WORK/scene.ply" -o "$WORK/net2.json" --threads 2
     cmp -s "$WORK/net1.json" "$WORK/net2.json" || fail "1 and 2 threads gave different networks"
+    ;;
+  export)
+    run 0 generate --preset small --seed 1 --density 0.1 -o "$WORK/scene.ply" --truth "$WORK/truth.json"
+    elements=$(tail -1 <<<"$OUT" | sed -E 's/.*pipes=([0-9]+) elbows=([0-9]+) tees=([0-9]+).*/\1 + \2 + \3/')
+    elements=$((elements))
+    for format in obj ply csv dxf pcf; do
+      run 0 export "$WORK/truth.json" -o "$WORK/net.$format"
+      expect_out "^exported: .*truth.json -> .*net.$format \($format\)$"
+      expect_out "^pipes=[1-9][0-9]* elbows=[1-9][0-9]* tees=[1-9][0-9]* boundary=0 left_out=0$"
+      [ -s "$WORK/net.$format" ] || fail "net.$format is empty"
+    done
+    [ "$(grep -c '^o ' "$WORK/net.obj")" -eq "$elements" ] || fail "net.obj lacks one object per element"
+    [ "$(wc -l <"$WORK/net.csv")" -eq $((elements + 1)) ] || fail "net.csv lacks one row per element"
+    head -c 4 "$WORK/net.ply" | grep -q "^ply" || fail "net.ply is not PLY"
+    grep -q "^AC1009" "$WORK/net.dxf" || fail "net.dxf is not DXF R12"
+    grep -q "^PIPELINE-REFERENCE RUN-" "$WORK/net.pcf" || fail "net.pcf has no pipeline"
+    run 0 export "$WORK/truth.json" --format PCF -o "$WORK/iso.txt"
+    grep -q "^UNITS-BORE MM" "$WORK/iso.txt" || fail "--format pcf did not write PCF"
+    run 1 export "$WORK/truth.json" -o "$WORK/net.stl"
+    expect_one_line_error "cannot tell the export format from .*net.stl"
+    run 1 export "$WORK/truth.json" --format stl -o "$WORK/x.obj"
+    run 2 export "$WORK/absent.json" -o "$WORK/x.obj"
+    expect_one_line_error "absent.json: no such file"
+    run 2 export "$WORK/truth.json" -o "$WORK/missing/x.obj"
+    expect_one_line_error "missing/x.obj: cannot create"
+    # Batch exports from reconstruct: a bad target fails before any work, a good one writes what
+    # `export` writes from the saved network.
+    run 1 reconstruct "$WORK/scene.ply" -o "$WORK/n.json" --export stl:"$WORK/n.stl"
+    expect_one_line_error "FORMAT:FILE"
+    [ -e "$WORK/n.json" ] && fail "reconstruct ran despite a bad --export"
+    run 0 reconstruct "$WORK/scene.ply" -o "$WORK/n.json" --threads 2 --export obj:"$WORK/r.obj" --export pcf:"$WORK/r.pcf"
+    expect_out "^export: .*r.obj \(obj\)$"
+    expect_out "^export: .*r.pcf \(pcf\)$"
+    run 0 export "$WORK/n.json" -o "$WORK/n.obj"
+    cmp -s "$WORK/r.obj" "$WORK/n.obj" || fail "reconstruct --export differs from export of the saved network"
     ;;
   *)
     fail "unknown case"

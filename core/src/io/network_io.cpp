@@ -1,16 +1,15 @@
 #include "piperun/io/network_io.h"
 
+#include "io/atomic_file.h"
 #include "piperun/error.h"
 
 #include <nlohmann/json.hpp>
 
 #include <cerrno>
 #include <cmath>
-#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <sstream>
-#include <unistd.h>
 
 namespace piperun {
 
@@ -305,24 +304,7 @@ PipeNetwork networkFromJson(const std::string& text, const std::filesystem::path
 }
 
 void writeNetwork(const std::filesystem::path& path, const PipeNetwork& network, const NetworkMetadata& metadata) {
-  const std::string text = networkToJson(network, metadata);
-  const std::filesystem::path temporary = path.string() + ".tmp-" + std::to_string(::getpid());
-  std::FILE* file = std::fopen(temporary.c_str(), "wb");
-  if (!file) throw OutputError(path, std::string("cannot create: ") + std::strerror(errno));
-  const bool written = std::fwrite(text.data(), 1, text.size(), file) == text.size();
-  const bool flushed = std::fflush(file) == 0 && ::fsync(fileno(file)) == 0;
-  const bool closed = std::fclose(file) == 0;
-  if (!written || !flushed || !closed) {
-    const int saved = errno;
-    std::filesystem::remove(temporary);
-    throw OutputError(path, std::string("write failed: ") + std::strerror(saved));
-  }
-  std::error_code error;
-  std::filesystem::rename(temporary, path, error);
-  if (error) {
-    std::filesystem::remove(temporary);
-    throw OutputError(path, "cannot replace: " + error.message());
-  }
+  io::writeFileAtomically(path, networkToJson(network, metadata));
 }
 
 PipeNetwork readNetwork(const std::filesystem::path& path, NetworkMetadata* metadata) {

@@ -1,0 +1,50 @@
+#pragma once
+// Exports of a pipe network for CAD, viewers, spreadsheets and piping isometric tools
+// (docs/FORMATS.md, "Network exports").
+//
+// Every format leaves deleted pipes and rejected joints out. Pipes and joints have separate id
+// spaces, so an element is named by its type and id: "pipe-12", "elbow-3", "tee-4", "boundary-5".
+
+#include "piperun/pipe_network.h"
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+namespace piperun {
+
+enum class ExportFormat {
+  Obj,  ///< Wavefront OBJ mesh: capped tubes, one object and group per element.
+  Ply,  ///< Binary little-endian PLY mesh with a per-face element id and type.
+  Csv,  ///< One row per element (RFC 4180).
+  Dxf,  ///< ASCII DXF R12: 3-D polylines of the centre lines, properties in XDATA.
+  Pcf,  ///< Piping Component File (ISOGEN): one pipeline per run, millimetres.
+};
+
+struct ExportOptions {
+  /// Meshes: the largest distance (m) allowed between a tube's polygonal cross-section and its
+  /// circle. It sets the number of sides around each tube, so thick pipes get more of them.
+  double chordTolerance = 0.001;
+  int minSegments = 8;    ///< Meshes: fewest sides around a tube.
+  int maxSegments = 128;  ///< Meshes: most sides around a tube.
+};
+
+/// "obj", "ply", "csv", "dxf", "pcf".
+std::string toString(ExportFormat format);
+/// Parses a format name (case-insensitive); nullopt for an unknown name.
+std::optional<ExportFormat> exportFormatFromString(const std::string& name);
+/// The format a file name's extension asks for (".obj" → Obj, case-insensitive); nullopt otherwise.
+std::optional<ExportFormat> exportFormatFromPath(const std::filesystem::path& path);
+
+/// Sides around a tube of `radius` metres: enough to keep within options.chordTolerance, rounded up
+/// to a multiple of four (so an axis-aligned tube's mesh reaches exactly ±radius), then clamped to
+/// [minSegments, maxSegments].
+int meshSegments(double radius, const ExportOptions& options);
+
+/// Writes `network` to `path` in `format`, atomically (a temporary file beside `path` is renamed
+/// over it). Throws OutputError when the file cannot be written and std::invalid_argument for
+/// options out of range (chordTolerance ≤ 0, minSegments < 3, maxSegments < minSegments).
+void exportNetwork(const PipeNetwork& network, ExportFormat format, const std::filesystem::path& path,
+                   const ExportOptions& options = {});
+
+}  // namespace piperun

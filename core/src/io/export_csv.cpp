@@ -1,0 +1,27 @@
+// CSV (RFC 4180: CRLF line ends, a header row): one row per element. No field ever holds a comma,
+// quote or line break, so none is quoted.
+
+#include "io/export_elements.h"
+
+namespace piperun::io {
+
+std::string csvDocument(const std::vector<ExportElement>& elements) {
+  std::string text =
+      "id,type,run,radius_m,length_m,start_x,start_y,start_z,end_x,end_y,end_z,bend_radius_m,confidence,status\r\n";
+  for (const auto& element : elements) {
+    const Eigen::Vector3d& start = element.axis.front();
+    const Eigen::Vector3d& end = element.axis.back();
+    text += std::to_string(element.id) + "," + kindName(element.kind) + ",";
+    if (element.runId >= 0) text += std::to_string(element.runId);
+    text += "," + shortestNumber(element.radius) + "," + shortestNumber(element.length());
+    for (const auto* point : {&start, &end}) {
+      for (int c = 0; c < 3; ++c) text += "," + shortestNumber((*point)[c]);
+    }
+    text += ",";
+    if (element.kind == ElementKind::Elbow) text += shortestNumber(element.bendRadius);
+    text += "," + shortestNumber(element.confidence) + "," + element.status + "\r\n";
+  }
+  return text;
+}
+
+}  // namespace piperun::io

@@ -1,0 +1,240 @@
+// Piping Component File (PCF), the input of ISOGEN and other piping isometric tools.
+//
+// Units header (bore and co-ordinates in millimetres), then one PIPELINE-REFERENCE per pipeline:
+// a run ("RUN-<id>"), or for elements in no run each group connected through joints
+// ("GROUP-<n>", numbered in network order). Components:
+//   PIPE   two END-POINTs (x y z bore). A pipe that hosts tees is cut around them; boundary joints
+//          are PIPEs too (they are straight pipe pieces).
+//   ELBOW  two END-POINTs, CENTRE-POINT (where the tangent lines at the two ends meet), SKEY ELBW.
+//          An arc of more than 90° is written as equal elbows of at most 90°.
+//   TEE    two END-POINTs on the main pipe, CENTRE-POINT on the main axis, BRANCH1-POINT (x y z
+//          bore) at the branch pipe's end, SKEY TEBW. Its arms are all as long as the branch arm.
+// Tools connect components by matching END-POINT co-ordinates. BORE is the fitted outside
+// diameter in mm, not a nominal size.
+
+#include "io/export_elements.h"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <numeric>
+#include <optional>
+
+namespace piperun::io {
+
+namespace {
+
+// Pipe pieces shorter than this (m), as left between close tees, are not written.
+constexpr double kShortestPiece = 1e-4;
+
+std::string millimetres(double metres) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.1f", metres * 1000.0);
+  return std::string(text) == "-0.0" ? "0.0" : text;
+}
+
+std::string coordinates(const Eigen::Vector3d& p) {
+  return millimetres(p.x()) + " " + millimetres(p.y()) + " " + millimetres(p.z());
+}
+
+class PcfText {
+ public:
+  void line(const std::string& text) { text_ += text + "\r\n"; }
+  void endPoint(const Eigen::Vector3d& p, double radius) {
+    line("    END-POINT " + coordinates(p) + " " + millimetres(2.0 * radius));
+  }
+  void pipe(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double radius) {
+    line("PIPE");
+    endPoint(a, radius);
+    endPoint(b, radius);
+  }
+  std::string& text() { return text_; }
+
+ private:
+  std::string text_;
+};
+
+struct Pipeline {
+  std::string reference;
+  std::vector<const ExportElement*> elements;
+};
+
+// Union-find over element indices.
+int findRoot(std::vector<int>& parent, int i) {
+  while (parent[i] != i) i = parent[i] = parent[parent[i]];
+  return i;
+}
+
+std::vector<Pipeline> pipelines(const std::vector<ExportElement>& elements) {
+  std::map<int, Pipeline> runs;
+  for (const auto& element : elements) {
+    if (element.runId < 0) continue;
+    Pipeline& pipeline = runs[element.runId];
+    pipeline.reference = "RUN-" + std::to_string(element.runId);
+    pipeline.elements.push_back(&element);
+  }
+  std::vector<Pipeline> result;
+  for (auto& [id, pipeline] : runs) result.push_back(std::move(pipeline));
+
+  // Elements in no run: connect each joint to its pipes.
+  std::map<int, int> pipeIndex;
+  for (std::size_t i = 0; i < elements.size(); ++i) {
+    if (elements[i].kind == ElementKind::Pipe && elements[i].runId < 0) pipeIndex[elements[i].id] = static_cast<int>(i);
+  }
+  std::vector<int> parent(elements.size());
+  std::iota(parent.begin(), parent.end(), 0);
+  for (std::size_t i = 0; i < elements.size(); ++i) {
+    if (!elements[i].joint || elements[i].runId >= 0) continue;
+    for (int pipeId : elements[i].joint->pipeIds) {
+      if (const auto found = pipeIndex.find(pipeId); found != pipeIndex.end()) {
+        parent[findRoot(parent, static_cast<int>(i))] = findRoot(parent, found->second);
+      }
+    }
+  }
+  std::map<int, std::size_t> groupOfRoot;
+  for (std::size_t i = 0; i < elements.size(); ++i) {
+    if (elements[i].runId >= 0) continue;
+    const int root = findRoot(parent, static_cast<int>(i));
+    auto [group, added] = groupOfRoot.emplace(root, result.size());
+    if (added) result.push_back({"GROUP-" + std::to_string(groupOfRoot.size()), {}});
+    result[group->second].elements.push_back(&elements[i]);
+  }
+  return result;
+}
+
+// The tee geometry on its main pipe: centre on the main axis, arm length, main direction.
+struct TeeLayout {
+  const ExportElement* main = nullptr;
+  Eigen::Vector3d direction = Eigen::Vector3d::Zero();
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  double along = 0.0;  // centre's distance from the main pipe's start
+  double arm = 0.0;
+};
+
+std::optional<TeeLayout> teeLayout(const ExportElement& tee, const std::map<int, const ExportElement*>& pipes) {
+  const auto& ids = tee.joint->pipeIds;
+  const auto found = ids.empty() ? pipes.end() : pipes.find(ids.front());
+  if (found == pipes.end() || found->second->length() <= 0.0) return std::nullopt;
+  TeeLayout layout;
+  layout.main = found->second;
+  const Eigen::Vector3d& start = layout.main->axis.front();
+  layout.direction = (layout.main->axis.back() - start).normalized();
+  layout.along = (tee.axis.front() - start).dot(layout.direction);
+  layout.centre = start + layout.along * layout.direction;
+  layout.arm = std::max((tee.axis.back() - layout.centre).norm(), layout.main->radius);
+  return layout;
+}
+
+// Writes an elbow's arc as ELBOW components of at most 90° each, or a PIPE when it is straight.
+void writeElbow(const ExportElement& elbow, PcfText& pcf) {
+  const Eigen::Vector3d& a = elbow.axis.front();
+  const Eigen::Vector3d& m = elbow.axis[elbow.axis.size() / 2];
+  const Eigen::Vector3d& b = elbow.axis.back();
+  // Circumcentre of a, m, b.
+  const Eigen::Vector3d ab = m - a;
+  const Eigen::Vector3d ac = b - a;
+  const Eigen::Vector3d normal = ab.cross(ac);
+  if (normal.norm() <= 1e-9 * ab.norm() * ac.norm()) {
+    pcf.pipe(a, b, elbow.radius);
+    return;
+  }
+  const Eigen::Vector3d centre =
+      a + (ac.squaredNorm() * normal.cross(ab) + ab.squaredNorm() * ac.cross(normal)) / (2.0 * normal.squaredNorm());
+  const Eigen::Vector3d fromCentre = a - centre;
+  const Eigen::Vector3d axis = fromCentre.cross(m - centre).normalized();
+  double angle = std::atan2(fromCentre.cross(b - centre).dot(axis), fromCentre.dot(b - centre));
+  if (angle <= 0.0) angle += 2.0 * M_PI;
+  const int pieces = std::max(1, static_cast<int>(std::ceil(angle / (0.5 * M_PI) - 1e-6)));
+  const double step = angle / pieces;
+  const double bendRadius = fromCentre.norm();
+  for (int j = 0; j < pieces; ++j) {
+    const Eigen::Vector3d first = centre + Eigen::AngleAxisd(j * step, axis) * fromCentre;
+    const Eigen::Vector3d last = j + 1 == pieces ? b : Eigen::Vector3d(centre + Eigen::AngleAxisd((j + 1) * step, axis) * fromCentre);
+    // The tangents at both ends meet on the bisector, R / cos(step / 2) from the bend centre.
+    const Eigen::Vector3d bisector = ((first - centre) + (last - centre)).normalized();
+    pcf.line("ELBOW");
+    pcf.endPoint(first, elbow.radius);
+    pcf.endPoint(last, elbow.radius);
+    pcf.line("    CENTRE-POINT " + coordinates(centre + bendRadius / std::cos(0.5 * step) * bisector));
+    pcf.line("    SKEY ELBW");
+  }
+}
+
+}  // namespace
+
+std::string pcfDocument(const std::vector<ExportElement>& elements) {
+  std::map<int, const ExportElement*> pipes;
+  for (const auto& element : elements) {
+    if (element.kind == ElementKind::Pipe) pipes.emplace(element.id, &element);
+  }
+  // Where tees sit on their main pipes: the pipes are cut around them.
+  std::map<const ExportElement*, TeeLayout> tees;
+  std::map<const ExportElement*, std::vector<std::pair<double, double>>> teeSpans;
+  for (const auto& element : elements) {
+    if (element.kind != ElementKind::Tee) continue;
+    if (const auto layout = teeLayout(element, pipes)) {
+      tees.emplace(&element, *layout);
+      teeSpans[layout->main].emplace_back(layout->along - layout->arm, layout->along + layout->arm);
+    }
+  }
+
+  PcfText pcf;
+  pcf.line("ISOGEN-FILES ISOGEN.FLS");
+  pcf.line("UNITS-BORE MM");
+  pcf.line("UNITS-CO-ORDS MM");
+  pcf.line("UNITS-WEIGHT KGS");
+  pcf.line("UNITS-BOLT-DIA MM");
+  pcf.line("UNITS-BOLT-LENGTH MM");
+  for (const auto& pipeline : pipelines(elements)) {
+    pcf.line("PIPELINE-REFERENCE " + pipeline.reference);
+    for (const ExportElement* element : pipeline.elements) {
+      const Eigen::Vector3d& start = element->axis.front();
+      const Eigen::Vector3d& end = element->axis.back();
+      switch (element->kind) {
+        case ElementKind::Pipe: {
+          auto spans = teeSpans[element];
+          std::sort(spans.begin(), spans.end());
+          const double length = element->length();
+          const Eigen::Vector3d direction = length > 0.0 ? Eigen::Vector3d((end - start) / length) : Eigen::Vector3d::Zero();
+          double cursor = 0.0;
+          for (const auto& [from, to] : spans) {
+            if (from > cursor + kShortestPiece) {
+              pcf.pipe(start + cursor * direction, start + std::min(from, length) * direction, element->radius);
+            }
+            cursor = std::max(cursor, to);
+          }
+          if (length > cursor + kShortestPiece) pcf.pipe(start + cursor * direction, end, element->radius);
+          break;
+        }
+        case ElementKind::Boundary:
+          pcf.pipe(start, end, element->radius);
+          break;
+        case ElementKind::Elbow:
+          writeElbow(*element, pcf);
+          break;
+        case ElementKind::Tee: {
+          const auto found = tees.find(element);
+          if (found == tees.end()) {
+            // Without its main pipe a tee is only its branch stub.
+            pcf.pipe(start, end, element->radius);
+            break;
+          }
+          const TeeLayout& tee = found->second;
+          pcf.line("TEE");
+          pcf.endPoint(tee.centre - tee.arm * tee.direction, tee.main->radius);
+          pcf.endPoint(tee.centre + tee.arm * tee.direction, tee.main->radius);
+          pcf.line("    CENTRE-POINT " + coordinates(tee.centre));
+          pcf.line("    BRANCH1-POINT " + coordinates(end) + " " + millimetres(2.0 * element->radius));
+          pcf.line("    SKEY TEBW");
+          break;
+        }
+      }
+    }
+  }
+  return std::move(pcf.text());
+}
+
+}  // namespace piperun::io

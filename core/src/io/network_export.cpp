@@ -1,0 +1,78 @@
+#include "piperun/io/network_export.h"
+
+#include "io/atomic_file.h"
+#include "io/export_elements.h"
+#include "io/file_extension.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <stdexcept>
+
+namespace piperun {
+
+namespace {
+
+constexpr ExportFormat kFormats[] = {ExportFormat::Obj, ExportFormat::Ply, ExportFormat::Csv, ExportFormat::Dxf,
+                                     ExportFormat::Pcf};
+
+void checkOptions(const ExportOptions& options) {
+  if (!(options.chordTolerance > 0.0)) throw std::invalid_argument("export: the chord tolerance must be positive");
+  if (options.minSegments < 3) throw std::invalid_argument("export: a tube needs at least 3 sides");
+  if (options.maxSegments < options.minSegments) {
+    throw std::invalid_argument("export: the most sides around a tube is below the fewest");
+  }
+}
+
+}  // namespace
+
+std::string toString(ExportFormat format) {
+  switch (format) {
+    case ExportFormat::Obj: return "obj";
+    case ExportFormat::Ply: return "ply";
+    case ExportFormat::Csv: return "csv";
+    case ExportFormat::Dxf: return "dxf";
+    case ExportFormat::Pcf: return "pcf";
+  }
+  return "obj";
+}
+
+std::optional<ExportFormat> exportFormatFromString(const std::string& name) {
+  std::string lower = name;
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  for (ExportFormat format : kFormats) {
+    if (toString(format) == lower) return format;
+  }
+  return std::nullopt;
+}
+
+std::optional<ExportFormat> exportFormatFromPath(const std::filesystem::path& path) {
+  const std::string extension = io::lowerExtension(path);
+  if (extension.size() < 2) return std::nullopt;
+  return exportFormatFromString(extension.substr(1));
+}
+
+int meshSegments(double radius, const ExportOptions& options) {
+  // A chord of a regular n-gon of radius r stands r (1 - cos(π / n)) off the circle.
+  const double ratio = 1.0 - options.chordTolerance / radius;
+  const double ideal = ratio <= -1.0 ? 3.0 : M_PI / std::acos(ratio);
+  const int multipleOfFour = 4 * static_cast<int>(std::ceil(std::min(ideal, 1e6) / 4.0));
+  return std::clamp(multipleOfFour, options.minSegments, options.maxSegments);
+}
+
+void exportNetwork(const PipeNetwork& network, ExportFormat format, const std::filesystem::path& path,
+                   const ExportOptions& options) {
+  checkOptions(options);
+  const auto elements = io::exportedElements(network);
+  std::string document;
+  switch (format) {
+    case ExportFormat::Obj: document = io::objDocument(elements, options); break;
+    case ExportFormat::Ply: document = io::plyDocument(elements, options); break;
+    case ExportFormat::Csv: document = io::csvDocument(elements); break;
+    case ExportFormat::Dxf: document = io::dxfDocument(elements); break;
+    case ExportFormat::Pcf: document = io::pcfDocument(elements); break;
+  }
+  io::writeFileAtomically(path, document);
+}
+
+}  // namespace piperun

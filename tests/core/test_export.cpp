@@ -1,0 +1,767 @@
+// Tests of the network exports: every format is written, read back (OBJ and PLY with VTK's
+// readers, CSV, DXF and PCF with the small parsers below) and its geometry compared with the network.
+
+#include <gtest/gtest.h>
+
+#include <vtkCellArray.h>
+#include <vtkCellData.h>
+#include <vtkDataArray.h>
+#include <vtkIdList.h>
+#include <vtkNew.h>
+#include <vtkOBJReader.h>
+#include <vtkPLYReader.h>
+#include <vtkPoints.h>
+#include <vtkPolyData.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "piperun/error.h"
+#include "piperun/io/network_export.h"
+#include "synth/scene_layout.h"
+#include "test_util.h"
+
+namespace piperun {
+namespace {
+
+using Eigen::Vector3d;
+using test::TempDir;
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kMainRadius = 0.05;
+constexpr double kBendRadius = 0.15;
+constexpr double kBranchRadius = 0.03;
+
+// A run of a main pipe along x with a tee (branch down) and a 90° elbow into y; beside it a pipe in
+// no run, two pipes joined by a boundary joint, a deleted pipe and a rejected joint. Pipe and joint
+// ids overlap on purpose: they are separate id spaces.
+PipeNetwork sampleNetwork() {
+  PipeNetwork network;
+  const auto addPipe = [&](int id, double radius, Vector3d start, Vector3d end, int run,
+                           PipeStatus status = PipeStatus::Accepted) {
+    Pipe pipe;
+    pipe.id = id;
+    pipe.radius = radius;
+    pipe.start = start;
+    pipe.end = end;
+    pipe.runId = run;
+    pipe.status = status;
+    pipe.confidence = 0.9;
+    network.pipes.push_back(pipe);
+  };
+  addPipe(1, kMainRadius, {0, 0, 1}, {2, 0, 1}, 0);
+  addPipe(2, kMainRadius, {2 + kBendRadius, kBendRadius, 1}, {2 + kBendRadius, 1.5, 1}, 0);
+  addPipe(3, kBranchRadius, {1, 0, 1 - kMainRadius}, {1, 0, 0.2}, 0);
+  addPipe(4, 0.04, {5, 5, 5}, {6, 5, 5}, -1, PipeStatus::Deleted);
+  addPipe(5, kMainRadius, {2 + kBendRadius, 1.6, 1}, {2 + kBendRadius, 2.5, 1}, -1);
+  addPipe(6, 0.02, {3, 3, 0}, {4, 3, 0}, -1);
+  addPipe(7, 0.02, {4.1, 3, 0}, {5, 3, 0}, -1, PipeStatus::Proposed);
+
+  const auto addJoint = [&](int id, JointType type, std::vector<int> pipes, double radius,
+                            std::vector<Vector3d> axis, JointStatus status) {
+    Joint joint;
+    joint.id = id;
+    joint.type = type;
+    joint.pipeIds = std::move(pipes);
+    joint.radius = radius;
+    joint.axis = std::move(axis);
+    joint.status = status;
+    joint.confidence = 0.7;
+    if (type == JointType::Elbow) joint.bendRadius = kBendRadius;
+    network.joints.push_back(joint);
+  };
+  addJoint(1, JointType::Elbow, {1, 2}, kMainRadius,
+           sampleArc({2, kBendRadius, 1}, {2, 0, 1}, {2 + kBendRadius, kBendRadius, 1}, 0.01), JointStatus::Accepted);
+  addJoint(2, JointType::Tee, {1, 3}, kBranchRadius, {{1, 0, 1}, {1, 0, 1 - kMainRadius}}, JointStatus::Accepted);
+  addJoint(3, JointType::Boundary, {2, 5}, kMainRadius, {{2 + kBendRadius, 1.5, 1}, {2 + kBendRadius, 1.6, 1}},
+           JointStatus::Rejected);
+  addJoint(4, JointType::Boundary, {6, 7}, 0.02, {{4, 3, 0}, {4.1, 3, 0}}, JointStatus::Proposed);
+  network.runs.push_back({0, {1, 2, 3}, {1, 2}});
+  network.validate();
+  return network;
+}
+
+const std::set<std::string> kExportedNames = {"pipe-1", "pipe-2", "pipe-3",  "pipe-5",    "pipe-6",
+                                              "pipe-7", "elbow-1", "tee-2", "boundary-4"};
+
+std::vector<std::string> splitLines(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    lines.push_back(line);
+  }
+  return lines;
+}
+
+std::vector<std::string> splitWords(const std::string& line) {
+  std::istringstream in(line);
+  std::vector<std::string> words;
+  for (std::string word; in >> word;) words.push_back(word);
+  return words;
+}
+
+std::vector<std::string> splitFields(const std::string& line) {
+  std::vector<std::string> fields;
+  std::size_t begin = 0;
+  for (std::size_t comma; (comma = line.find(',', begin)) != std::string::npos; begin = comma + 1) {
+    fields.push_back(line.substr(begin, comma - begin));
+  }
+  fields.push_back(line.substr(begin));
+  return fields;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Meshes
+
+// The triangles of one element of a mesh read back by VTK, with the checks every closed tube passes.
+struct MeshPart {
+  std::vector<std::array<vtkIdType, 3>> triangles;
+  Vector3d low = Vector3d::Constant(1e300);
+  Vector3d high = Vector3d::Constant(-1e300);
+  double volume = 0.0;  // signed: positive when the triangles face outwards
+
+  void add(vtkPolyData* mesh, const vtkIdType* ids) {
+    std::array<Vector3d, 3> corners;
+    for (int c = 0; c < 3; ++c) {
+      double p[3];
+      mesh->GetPoint(ids[c], p);
+      corners[c] = {p[0], p[1], p[2]};
+      low = low.cwiseMin(corners[c]);
+      high = high.cwiseMax(corners[c]);
+    }
+    triangles.push_back({ids[0], ids[1], ids[2]});
+    volume += corners[0].dot(corners[1].cross(corners[2])) / 6.0;
+  }
+
+  // Closed and consistently oriented: every directed edge appears once and its reverse once.
+  bool closedAndOriented() const {
+    std::map<std::pair<vtkIdType, vtkIdType>, int> edges;
+    for (const auto& t : triangles) {
+      for (int c = 0; c < 3; ++c) ++edges[{t[c], t[(c + 1) % 3]}];
+    }
+    for (const auto& [edge, count] : edges) {
+      const auto reverse = edges.find({edge.second, edge.first});
+      if (count != 1 || reverse == edges.end() || reverse->second != 1) return false;
+    }
+    return !triangles.empty();
+  }
+};
+
+// Splits a VTK mesh into parts by a per-cell integer array.
+std::map<int, MeshPart> partsByCellArray(vtkPolyData* mesh, const char* arrayName) {
+  std::map<int, MeshPart> parts;
+  vtkDataArray* labels = mesh->GetCellData()->GetArray(arrayName);
+  if (!labels) return parts;
+  vtkCellArray* polys = mesh->GetPolys();
+  vtkNew<vtkIdList> ids;
+  for (vtkIdType cell = 0; cell < mesh->GetNumberOfPolys(); ++cell) {
+    polys->GetCellAtId(cell, ids);
+    if (ids->GetNumberOfIds() != 3) continue;
+    parts[static_cast<int>(labels->GetTuple1(cell))].add(mesh, ids->GetPointer(0));
+  }
+  return parts;
+}
+
+// Volume of a straight tube of `sides` sides: the regular polygon's area times the length.
+double prismVolume(double radius, int sides, double length) {
+  return 0.5 * sides * radius * radius * std::sin(2.0 * kPi / sides) * length;
+}
+
+void expectBounds(const MeshPart& part, const Vector3d& low, const Vector3d& high, double tolerance) {
+  EXPECT_LT((part.low - low).norm(), tolerance) << part.low.transpose() << " vs " << low.transpose();
+  EXPECT_LT((part.high - high).norm(), tolerance) << part.high.transpose() << " vs " << high.transpose();
+}
+
+TEST(Export, FormatNamesAndExtensions) {
+  for (ExportFormat format : {ExportFormat::Obj, ExportFormat::Ply, ExportFormat::Csv, ExportFormat::Dxf, ExportFormat::Pcf}) {
+    EXPECT_EQ(exportFormatFromString(toString(format)), format);
+    EXPECT_EQ(exportFormatFromPath("out/net." + toString(format)), format);
+  }
+  EXPECT_EQ(exportFormatFromString("PCF"), ExportFormat::Pcf);
+  EXPECT_EQ(exportFormatFromPath("NET.DXF"), ExportFormat::Dxf);
+  EXPECT_FALSE(exportFormatFromString("stl"));
+  EXPECT_FALSE(exportFormatFromPath("net.json"));
+  EXPECT_FALSE(exportFormatFromPath("net"));
+}
+
+TEST(Export, SegmentsGrowWithRadiusInFours) {
+  const ExportOptions options;
+  int previous = 0;
+  for (double radius : {0.005, 0.02, 0.05, 0.2, 0.5, 2.0}) {
+    const int segments = meshSegments(radius, options);
+    EXPECT_EQ(segments % 4, 0) << radius;
+    EXPECT_GE(segments, previous) << radius;
+    EXPECT_GE(segments, options.minSegments);
+    EXPECT_LE(segments, options.maxSegments);
+    // Within the clamp, the polygon stays within the chord tolerance.
+    if (segments < options.maxSegments) {
+      EXPECT_LE(radius * (1.0 - std::cos(kPi / segments)), options.chordTolerance);
+    }
+    previous = segments;
+  }
+  EXPECT_GT(meshSegments(0.5, options), meshSegments(0.05, options));
+  EXPECT_EQ(meshSegments(1e-4, options), options.minSegments);
+  EXPECT_EQ(meshSegments(100.0, options), options.maxSegments);
+}
+
+TEST(Export, ObjReadBackByVtk) {
+  TempDir dir;
+  const auto path = dir / "net.obj";
+  const ExportOptions options;
+  exportNetwork(sampleNetwork(), ExportFormat::Obj, path, options);
+
+  // Object and group names, in file order.
+  std::vector<std::string> groups;
+  std::set<std::string> objects;
+  std::size_t vertexLines = 0, faceLines = 0;
+  for (const auto& line : splitLines(test::readFile(path))) {
+    const auto words = splitWords(line);
+    if (words.empty()) continue;
+    if (words[0] == "g") groups.push_back(words.at(1));
+    if (words[0] == "o") objects.insert(words.at(1));
+    vertexLines += words[0] == "v";
+    faceLines += words[0] == "f";
+  }
+  EXPECT_EQ(std::set<std::string>(groups.begin(), groups.end()), kExportedNames);
+  EXPECT_EQ(objects, kExportedNames);
+  ASSERT_EQ(groups.size(), kExportedNames.size());
+
+  vtkNew<vtkOBJReader> reader;
+  reader->SetFileName(path.c_str());
+  reader->Update();
+  vtkPolyData* mesh = reader->GetOutput();
+  EXPECT_EQ(static_cast<std::size_t>(mesh->GetNumberOfPoints()), vertexLines);
+  EXPECT_EQ(static_cast<std::size_t>(mesh->GetNumberOfPolys()), faceLines);
+  const auto parts = partsByCellArray(mesh, "GroupIds");
+  ASSERT_EQ(parts.size(), groups.size());
+  std::map<std::string, const MeshPart*> byName;
+  for (const auto& [group, part] : parts) byName[groups.at(group)] = &part;
+
+  for (const auto& [name, part] : byName) {
+    EXPECT_TRUE(part->closedAndOriented()) << name;
+    EXPECT_GT(part->volume, 0.0) << name;
+  }
+  // The main pipe: bounds exactly the cylinder's (an axis-aligned tube reaches ±r), volume of its prism.
+  const MeshPart& main = *byName.at("pipe-1");
+  expectBounds(main, {0, -kMainRadius, 1 - kMainRadius}, {2, kMainRadius, 1 + kMainRadius}, 1e-6);
+  const int sides = meshSegments(kMainRadius, options);
+  EXPECT_NEAR(main.volume, prismVolume(kMainRadius, sides, 2.0), 1e-6);
+  EXPECT_EQ(main.triangles.size(), static_cast<std::size_t>(4 * sides));
+  // The elbow: a quarter torus section around (2, 0.15, 1) from -y to +x, its end rings square to
+  // the pipes, so its bounds are the torus section's.
+  const MeshPart& elbow = *byName.at("elbow-1");
+  expectBounds(elbow, {2, -kMainRadius, 1 - kMainRadius},
+               {2 + kBendRadius + kMainRadius, kBendRadius, 1 + kMainRadius}, 1e-5);
+  EXPECT_NEAR(elbow.volume, prismVolume(kMainRadius, sides, 0.5 * kPi * kBendRadius), 0.01 * elbow.volume);
+  // The deleted pipe (around y = z = 5) is not in the mesh.
+  double bounds[6];
+  mesh->GetBounds(bounds);
+  EXPECT_LT(bounds[3], 3.1);
+  EXPECT_LT(bounds[5], 1.1);
+}
+
+TEST(Export, PlyReadBackByVtkWithElementIds) {
+  TempDir dir;
+  const auto objPath = dir / "net.obj";
+  const auto plyPath = dir / "net.ply";
+  const PipeNetwork network = sampleNetwork();
+  exportNetwork(network, ExportFormat::Obj, objPath);
+  exportNetwork(network, ExportFormat::Ply, plyPath);
+
+  vtkNew<vtkOBJReader> objReader;
+  objReader->SetFileName(objPath.c_str());
+  objReader->Update();
+  vtkNew<vtkPLYReader> plyReader;
+  plyReader->SetFileName(plyPath.c_str());
+  plyReader->Update();
+  vtkPolyData* ply = plyReader->GetOutput();
+  // The same mesh as the OBJ export.
+  EXPECT_EQ(ply->GetNumberOfPoints(), objReader->GetOutput()->GetNumberOfPoints());
+  EXPECT_EQ(ply->GetNumberOfPolys(), objReader->GetOutput()->GetNumberOfPolys());
+  double plyBounds[6], objBounds[6];
+  ply->GetBounds(plyBounds);
+  objReader->GetOutput()->GetBounds(objBounds);
+  for (int i = 0; i < 6; ++i) EXPECT_NEAR(plyBounds[i], objBounds[i], 1e-6);
+
+  // The per-face element id and type, read straight from the binary body.
+  const std::string bytes = test::readFile(plyPath);
+  const auto headerEnd = bytes.find("end_header\n");
+  ASSERT_NE(headerEnd, std::string::npos);
+  const std::string header = bytes.substr(0, headerEnd);
+  EXPECT_NE(header.find("format binary_little_endian 1.0"), std::string::npos);
+  EXPECT_NE(header.find("property float x"), std::string::npos);
+  EXPECT_NE(header.find("element face " + std::to_string(ply->GetNumberOfPolys()) +
+                        "\nproperty list uchar int vertex_indices\nproperty int element_id\nproperty uchar element_type\n"),
+            std::string::npos);
+  const char* body = bytes.data() + headerEnd + std::strlen("end_header\n");
+  const char* faces = body + ply->GetNumberOfPoints() * 3 * sizeof(float);
+  constexpr std::size_t kFaceBytes = 1 + 3 * 4 + 4 + 1;
+  ASSERT_EQ(bytes.size(), static_cast<std::size_t>(faces - bytes.data()) + ply->GetNumberOfPolys() * kFaceBytes);
+  std::map<std::pair<int, int>, MeshPart> parts;  // (type, id) → faces
+  for (vtkIdType f = 0; f < ply->GetNumberOfPolys(); ++f) {
+    const char* face = faces + f * kFaceBytes;
+    ASSERT_EQ(static_cast<unsigned char>(face[0]), 3u);
+    std::int32_t corners[3], id;
+    std::memcpy(corners, face + 1, sizeof corners);
+    std::memcpy(&id, face + 13, sizeof id);
+    const int type = static_cast<unsigned char>(face[17]);
+    const vtkIdType ids[3] = {corners[0], corners[1], corners[2]};
+    parts[{type, id}].add(ply, ids);
+  }
+  const std::set<std::pair<int, int>> expected = {{0, 1}, {0, 2}, {0, 3}, {0, 5}, {0, 6},
+                                                  {0, 7}, {1, 1}, {2, 2}, {3, 4}};
+  std::set<std::pair<int, int>> found;
+  for (const auto& [key, part] : parts) {
+    found.insert(key);
+    EXPECT_TRUE(part.closedAndOriented()) << key.first << " " << key.second;
+  }
+  EXPECT_EQ(found, expected);
+  expectBounds(parts.at({0, 1}), {0, -kMainRadius, 1 - kMainRadius}, {2, kMainRadius, 1 + kMainRadius}, 1e-6);
+  // The tee's stub: from the main axis down to the branch pipe, of the branch radius.
+  expectBounds(parts.at({2, 2}), {1 - kBranchRadius, -kBranchRadius, 1 - kMainRadius}, {1 + kBranchRadius, kBranchRadius, 1},
+               1e-6);
+}
+
+TEST(Export, PlyFarFromOriginStoresDoubles) {
+  PipeNetwork network = sampleNetwork();
+  const Vector3d offset(500000.0, 4000000.0, 0.0);
+  for (auto& pipe : network.pipes) {
+    pipe.start += offset;
+    pipe.end += offset;
+  }
+  for (auto& joint : network.joints) {
+    for (auto& p : joint.axis) p += offset;
+  }
+  TempDir dir;
+  exportNetwork(network, ExportFormat::Ply, dir / "far.ply");
+  vtkNew<vtkPLYReader> reader;
+  reader->SetFileName((dir / "far.ply").c_str());
+  reader->Update();
+  const std::string bytes = test::readFile(dir / "far.ply");
+  EXPECT_NE(bytes.find("property double x"), std::string::npos);
+  // The first vertex of pipe 1 is on its start circle, to the micrometre.
+  const auto body = bytes.find("end_header\n") + std::strlen("end_header\n");
+  double first[3];
+  std::memcpy(first, bytes.data() + body, sizeof first);
+  EXPECT_NEAR((Vector3d(first[0], first[1], first[2]) - (offset + Vector3d(0, 0, 1))).norm(), kMainRadius, 1e-6);
+  EXPECT_GT(reader->GetOutput()->GetNumberOfPolys(), 0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// CSV
+
+TEST(Export, CsvOneRowPerElement) {
+  TempDir dir;
+  exportNetwork(sampleNetwork(), ExportFormat::Csv, dir / "net.csv");
+  const std::string text = test::readFile(dir / "net.csv");
+  // RFC 4180 line ends.
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), std::count(text.begin(), text.end(), '\r'));
+  const auto lines = splitLines(text);
+  ASSERT_EQ(lines.size(), 1 + kExportedNames.size());
+  EXPECT_EQ(lines[0],
+            "id,type,run,radius_m,length_m,start_x,start_y,start_z,end_x,end_y,end_z,bend_radius_m,confidence,status");
+  std::map<std::string, std::vector<std::string>> rows;
+  for (std::size_t i = 1; i < lines.size(); ++i) {
+    auto fields = splitFields(lines[i]);
+    ASSERT_EQ(fields.size(), 14u) << lines[i];
+    rows[fields[1] + "-" + fields[0]] = fields;
+  }
+  std::set<std::string> names;
+  for (const auto& [name, row] : rows) names.insert(name);
+  EXPECT_EQ(names, kExportedNames);
+
+  const auto& elbow = rows.at("elbow-1");
+  EXPECT_EQ(elbow[2], "0");
+  EXPECT_DOUBLE_EQ(std::stod(elbow[3]), kMainRadius);
+  EXPECT_NEAR(std::stod(elbow[4]), 0.5 * kPi * kBendRadius, 1e-4);
+  EXPECT_DOUBLE_EQ(std::stod(elbow[5]), 2.0);
+  EXPECT_DOUBLE_EQ(std::stod(elbow[8]), 2 + kBendRadius);
+  EXPECT_DOUBLE_EQ(std::stod(elbow[9]), kBendRadius);
+  EXPECT_DOUBLE_EQ(std::stod(elbow[10]), 1.0);
+  EXPECT_DOUBLE_EQ(std::stod(elbow[11]), kBendRadius);
+  EXPECT_EQ(elbow[13], "accepted");
+
+  const auto& main = rows.at("pipe-1");
+  EXPECT_DOUBLE_EQ(std::stod(main[4]), 2.0);
+  EXPECT_EQ(main[11], "");  // bend radius only for elbows
+  EXPECT_DOUBLE_EQ(std::stod(main[12]), 0.9);
+  EXPECT_EQ(rows.at("pipe-5")[2], "");  // in no run
+  EXPECT_EQ(rows.at("boundary-4")[13], "proposed");
+  EXPECT_EQ(rows.at("pipe-7")[13], "proposed");
+  EXPECT_EQ(rows.at("tee-2")[2], "0");
+}
+
+// ---------------------------------------------------------------------------------------------
+// DXF
+
+struct DxfPolyline {
+  std::string layer;
+  int flags = 0;
+  std::vector<std::string> xdataStrings;
+  std::vector<double> xdataReals;
+  std::vector<long> xdataIntegers;
+  std::string application;
+  std::vector<Vector3d> vertices;
+};
+
+struct DxfFile {
+  std::map<std::string, std::string> header;  // variable → first value
+  std::set<std::string> layers;
+  std::set<std::string> applications;
+  std::vector<DxfPolyline> polylines;
+  bool endsWithEof = false;
+};
+
+// Reads the (group code, value) pairs of an ASCII DXF and collects what the export writes.
+DxfFile parseDxf(const std::string& text) {
+  const auto lines = splitLines(text);
+  std::vector<std::pair<int, std::string>> pairs;
+  for (std::size_t i = 0; i + 1 < lines.size(); i += 2) pairs.emplace_back(std::stoi(lines[i]), lines[i + 1]);
+  DxfFile dxf;
+  std::string section, table, entity;
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const auto& [code, value] = pairs[i];
+    if (code == 0) {
+      entity = value;
+      if (value == "EOF") dxf.endsWithEof = i + 1 == pairs.size();
+      if (value == "POLYLINE") dxf.polylines.emplace_back();
+      if (value == "VERTEX") dxf.polylines.back().vertices.emplace_back(Vector3d::Zero());
+      if (value == "ENDSEC") section.clear();
+      continue;
+    }
+    if (code == 2 && entity == "SECTION") section = value;
+    if (code == 2 && entity == "TABLE") table = value;
+    if (section == "HEADER" && code == 9) dxf.header[value] = pairs.at(i + 1).second;
+    if (code == 2 && entity == "LAYER") dxf.layers.insert(value);
+    if (code == 2 && entity == "APPID") dxf.applications.insert(value);
+    if (entity == "POLYLINE") {
+      auto& polyline = dxf.polylines.back();
+      if (code == 8) polyline.layer = value;
+      if (code == 70) polyline.flags = std::stoi(value);
+      if (code == 1001) polyline.application = value;
+      if (code == 1000) polyline.xdataStrings.push_back(value);
+      if (code == 1040) polyline.xdataReals.push_back(std::stod(value));
+      if (code == 1071) polyline.xdataIntegers.push_back(std::stol(value));
+    }
+    if (entity == "VERTEX" && code >= 10 && code <= 30 && code % 10 == 0) {
+      dxf.polylines.back().vertices.back()[code / 10 - 1] = std::stod(value);
+    }
+  }
+  return dxf;
+}
+
+TEST(Export, DxfPolylinesWithRadiusInXdata) {
+  TempDir dir;
+  const PipeNetwork network = sampleNetwork();
+  exportNetwork(network, ExportFormat::Dxf, dir / "net.dxf");
+  const DxfFile dxf = parseDxf(test::readFile(dir / "net.dxf"));
+  EXPECT_EQ(dxf.header.at("$ACADVER"), "AC1009");
+  EXPECT_TRUE(dxf.endsWithEof);
+  EXPECT_EQ(dxf.applications, std::set<std::string>{"PIPERUN"});
+  EXPECT_EQ(dxf.layers, (std::set<std::string>{"PIPE", "ELBOW", "TEE", "BOUNDARY"}));
+
+  std::map<std::string, const DxfPolyline*> byName;
+  for (const auto& polyline : dxf.polylines) {
+    ASSERT_EQ(polyline.application, "PIPERUN");
+    ASSERT_EQ(polyline.xdataStrings.size(), 2u);  // name, status
+    ASSERT_EQ(polyline.xdataReals.size(), 3u);    // radius, bend radius, confidence
+    ASSERT_EQ(polyline.xdataIntegers.size(), 1u); // run
+    EXPECT_EQ(polyline.flags, 8);                 // 3-D polyline
+    byName[polyline.xdataStrings[0]] = &polyline;
+  }
+  EXPECT_EQ(dxf.polylines.size(), kExportedNames.size());
+  std::set<std::string> names;
+  for (const auto& [name, polyline] : byName) names.insert(name);
+  EXPECT_EQ(names, kExportedNames);
+
+  const DxfPolyline& main = *byName.at("pipe-1");
+  EXPECT_EQ(main.layer, "PIPE");
+  EXPECT_EQ(main.xdataReals[0], kMainRadius);
+  EXPECT_EQ(main.xdataIntegers[0], 0);
+  ASSERT_EQ(main.vertices.size(), 2u);
+  EXPECT_EQ(main.vertices[0], Vector3d(0, 0, 1));
+  EXPECT_EQ(main.vertices[1], Vector3d(2, 0, 1));
+
+  // The elbow's centre line is its arc, every sample exactly as in the network.
+  const DxfPolyline& elbow = *byName.at("elbow-1");
+  EXPECT_EQ(elbow.layer, "ELBOW");
+  EXPECT_EQ(elbow.xdataReals[1], kBendRadius);
+  EXPECT_EQ(elbow.vertices, network.findJoint(1)->axis);
+  for (const auto& p : elbow.vertices) EXPECT_NEAR((p - Vector3d(2, kBendRadius, 1)).norm(), kBendRadius, 1e-12);
+
+  EXPECT_EQ(byName.at("tee-2")->layer, "TEE");
+  EXPECT_EQ(byName.at("tee-2")->xdataReals[0], kBranchRadius);
+  EXPECT_EQ(byName.at("boundary-4")->layer, "BOUNDARY");
+  EXPECT_EQ(byName.at("boundary-4")->xdataStrings[1], "proposed");
+  EXPECT_EQ(byName.at("pipe-5")->xdataIntegers[0], -1);
+}
+
+// ---------------------------------------------------------------------------------------------
+// PCF
+
+struct PcfPoint {
+  Vector3d position = Vector3d::Zero();  // millimetres
+  double bore = 0.0;                     // millimetres; 0 when not given
+};
+
+struct PcfComponent {
+  std::string type;
+  std::vector<PcfPoint> endPoints;
+  std::vector<PcfPoint> centrePoints;
+  std::vector<PcfPoint> branchPoints;
+  std::string skey;
+};
+
+struct PcfFile {
+  std::map<std::string, std::string> units;
+  std::vector<std::pair<std::string, std::vector<PcfComponent>>> pipelines;
+};
+
+PcfFile parsePcf(const std::string& text) {
+  PcfFile pcf;
+  for (const auto& line : splitLines(text)) {
+    const auto words = splitWords(line);
+    if (words.empty()) continue;
+    const bool attribute = line[0] == ' ';
+    if (!attribute && words[0].rfind("UNITS-", 0) == 0) {
+      pcf.units[words[0]] = words.at(1);
+    } else if (!attribute && words[0] == "PIPELINE-REFERENCE") {
+      pcf.pipelines.push_back({words.at(1), {}});
+    } else if (!attribute && words[0] != "ISOGEN-FILES") {
+      pcf.pipelines.back().second.push_back({words[0], {}, {}, {}, {}});
+    } else if (attribute) {
+      auto& component = pcf.pipelines.back().second.back();
+      if (words[0] == "SKEY") {
+        component.skey = words.at(1);
+        continue;
+      }
+      PcfPoint point;
+      point.position = {std::stod(words.at(1)), std::stod(words.at(2)), std::stod(words.at(3))};
+      if (words.size() > 4) point.bore = std::stod(words[4]);
+      if (words[0] == "END-POINT") component.endPoints.push_back(point);
+      if (words[0] == "CENTRE-POINT") component.centrePoints.push_back(point);
+      if (words[0] == "BRANCH1-POINT") component.branchPoints.push_back(point);
+    }
+  }
+  return pcf;
+}
+
+// Connection points (END-POINTs and BRANCH1-POINTs) of a pipeline that no other component shares.
+std::vector<Vector3d> openEnds(const std::vector<PcfComponent>& components) {
+  std::vector<std::pair<Vector3d, std::size_t>> points;
+  for (std::size_t c = 0; c < components.size(); ++c) {
+    for (const auto& p : components[c].endPoints) points.emplace_back(p.position, c);
+    for (const auto& p : components[c].branchPoints) points.emplace_back(p.position, c);
+  }
+  std::vector<Vector3d> open;
+  for (const auto& [p, owner] : points) {
+    const bool shared = std::any_of(points.begin(), points.end(), [&, owner = owner](const auto& other) {
+      return other.second != owner && (other.first - p).norm() < 0.15;
+    });
+    if (!shared) open.push_back(p);
+  }
+  return open;
+}
+
+bool containsPoint(const std::vector<Vector3d>& points, const Vector3d& p, double tolerance) {
+  return std::any_of(points.begin(), points.end(), [&](const Vector3d& q) { return (q - p).norm() < tolerance; });
+}
+
+TEST(Export, PcfRunsWithElbowAndTee) {
+  TempDir dir;
+  exportNetwork(sampleNetwork(), ExportFormat::Pcf, dir / "net.pcf");
+  const PcfFile pcf = parsePcf(test::readFile(dir / "net.pcf"));
+  EXPECT_EQ(pcf.units.at("UNITS-BORE"), "MM");
+  EXPECT_EQ(pcf.units.at("UNITS-CO-ORDS"), "MM");
+  // The run, then the elements in no run grouped by connection: pipe 5 alone (its joint is
+  // rejected), pipes 6 and 7 with their boundary joint.
+  ASSERT_EQ(pcf.pipelines.size(), 3u);
+  EXPECT_EQ(pcf.pipelines[0].first, "RUN-0");
+  EXPECT_EQ(pcf.pipelines[1].first, "GROUP-1");
+  EXPECT_EQ(pcf.pipelines[2].first, "GROUP-2");
+  EXPECT_EQ(pcf.pipelines[1].second.size(), 1u);
+  EXPECT_EQ(pcf.pipelines[2].second.size(), 3u);
+  for (const auto& component : pcf.pipelines[2].second) EXPECT_EQ(component.type, "PIPE");
+
+  const auto& run = pcf.pipelines[0].second;
+  std::map<std::string, std::vector<const PcfComponent*>> byType;
+  for (const auto& component : run) byType[component.type].push_back(&component);
+  // Pipe 1 is cut around the tee: two pieces, plus pipes 2 and 3.
+  ASSERT_EQ(byType["PIPE"].size(), 4u);
+  ASSERT_EQ(byType["ELBOW"].size(), 1u);
+  ASSERT_EQ(byType["TEE"].size(), 1u);
+
+  const PcfComponent& elbow = *byType["ELBOW"][0];
+  ASSERT_EQ(elbow.endPoints.size(), 2u);
+  ASSERT_EQ(elbow.centrePoints.size(), 1u);
+  EXPECT_EQ(elbow.skey, "ELBW");
+  EXPECT_LT((elbow.endPoints[0].position - Vector3d(2000, 0, 1000)).norm(), 0.06);
+  EXPECT_LT((elbow.endPoints[1].position - Vector3d(2150, 150, 1000)).norm(), 0.06);
+  EXPECT_DOUBLE_EQ(elbow.endPoints[0].bore, 100.0);
+  // Where the tangent lines at the two ends meet: the corner of the bend.
+  EXPECT_LT((elbow.centrePoints[0].position - Vector3d(2150, 0, 1000)).norm(), 0.06);
+
+  const PcfComponent& tee = *byType["TEE"][0];
+  ASSERT_EQ(tee.endPoints.size(), 2u);
+  ASSERT_EQ(tee.centrePoints.size(), 1u);
+  ASSERT_EQ(tee.branchPoints.size(), 1u);
+  EXPECT_EQ(tee.skey, "TEBW");
+  EXPECT_LT((tee.centrePoints[0].position - Vector3d(1000, 0, 1000)).norm(), 0.06);
+  EXPECT_LT((tee.branchPoints[0].position - Vector3d(1000, 0, 950)).norm(), 0.06);
+  EXPECT_DOUBLE_EQ(tee.branchPoints[0].bore, 60.0);
+  EXPECT_DOUBLE_EQ(tee.endPoints[0].bore, 100.0);
+  const std::vector<Vector3d> teeEnds = {tee.endPoints[0].position, tee.endPoints[1].position};
+  EXPECT_TRUE(containsPoint(teeEnds, {950, 0, 1000}, 0.06));
+  EXPECT_TRUE(containsPoint(teeEnds, {1050, 0, 1000}, 0.06));
+
+  // Every component connects to the next; the only open ends are the run's three extremities.
+  const auto open = openEnds(run);
+  EXPECT_EQ(open.size(), 3u);
+  EXPECT_TRUE(containsPoint(open, {0, 0, 1000}, 0.06));
+  EXPECT_TRUE(containsPoint(open, {2150, 1500, 1000}, 0.06));
+  EXPECT_TRUE(containsPoint(open, {1000, 0, 200}, 0.06));
+}
+
+TEST(Export, PcfSplitsBendsBeyondNinetyDegrees) {
+  // A 135° bend of radius 0.2 around the origin, from (0.2, 0, 0), becomes two 67.5° elbows.
+  PipeNetwork network;
+  const Vector3d start(0.2, 0, 0);
+  const Vector3d end = Eigen::AngleAxisd(0.75 * kPi, Vector3d::UnitZ()) * start;
+  Joint bend;
+  bend.id = 1;
+  bend.radius = 0.05;
+  bend.bendRadius = 0.2;
+  bend.axis = sampleArc(Vector3d::Zero(), start, end, 0.01);
+  network.joints.push_back(bend);
+  TempDir dir;
+  exportNetwork(network, ExportFormat::Pcf, dir / "bend.pcf");
+  const PcfFile pcf = parsePcf(test::readFile(dir / "bend.pcf"));
+  ASSERT_EQ(pcf.pipelines.size(), 1u);
+  const auto& components = pcf.pipelines[0].second;
+  ASSERT_EQ(components.size(), 2u);
+  const double step = 0.375 * kPi;
+  for (int j = 0; j < 2; ++j) {
+    EXPECT_EQ(components[j].type, "ELBOW");
+    const Vector3d first = 1000.0 * (Eigen::AngleAxisd(j * step, Vector3d::UnitZ()) * start);
+    const Vector3d last = 1000.0 * (Eigen::AngleAxisd((j + 1) * step, Vector3d::UnitZ()) * start);
+    EXPECT_LT((components[j].endPoints.at(0).position - first).norm(), 0.06);
+    EXPECT_LT((components[j].endPoints.at(1).position - last).norm(), 0.06);
+    const Vector3d corner = 1000.0 * 0.2 / std::cos(0.5 * step) *
+                            (Eigen::AngleAxisd((j + 0.5) * step, Vector3d::UnitZ()) * Vector3d::UnitX());
+    EXPECT_LT((components[j].centrePoints.at(0).position - corner).norm(), 0.06);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// A generated truth network through every format.
+
+double distanceToLine(const Vector3d& p, const Vector3d& a, const Vector3d& b) {
+  return (p - a).cross((b - a).normalized()).norm();
+}
+
+TEST(Export, TruthNetworkEveryFormat) {
+  SceneParams params;
+  params.seed = 1;
+  const PipeNetwork truth = synth::buildSceneLayout(params).truth;
+  int elbows = 0, tees = 0;
+  for (const auto& joint : truth.joints) {
+    elbows += joint.type == JointType::Elbow;
+    tees += joint.type == JointType::Tee;
+  }
+  ASSERT_GT(elbows, 0);
+  ASSERT_GT(tees, 0);
+  const std::size_t elements = truth.pipes.size() + truth.joints.size();
+  TempDir dir;
+
+  exportNetwork(truth, ExportFormat::Obj, dir / "truth.obj");
+  vtkNew<vtkOBJReader> obj;
+  obj->SetFileName((dir / "truth.obj").c_str());
+  obj->Update();
+  const auto parts = partsByCellArray(obj->GetOutput(), "GroupIds");
+  EXPECT_EQ(parts.size(), elements);
+  for (const auto& [group, part] : parts) {
+    EXPECT_TRUE(part.closedAndOriented()) << group;
+    EXPECT_GT(part.volume, 0.0) << group;
+  }
+
+  exportNetwork(truth, ExportFormat::Csv, dir / "truth.csv");
+  EXPECT_EQ(splitLines(test::readFile(dir / "truth.csv")).size(), 1 + elements);
+  exportNetwork(truth, ExportFormat::Dxf, dir / "truth.dxf");
+  EXPECT_EQ(parseDxf(test::readFile(dir / "truth.dxf")).polylines.size(), elements);
+
+  // PCF: a pipeline per run, every elbow's CENTRE-POINT on the centre lines of both its pipes.
+  exportNetwork(truth, ExportFormat::Pcf, dir / "truth.pcf");
+  const PcfFile pcf = parsePcf(test::readFile(dir / "truth.pcf"));
+  EXPECT_EQ(pcf.pipelines.size(), truth.runs.size());
+  int pcfElbows = 0, pcfTees = 0;
+  for (const auto& [reference, components] : pcf.pipelines) {
+    for (const auto& component : components) {
+      pcfTees += component.type == "TEE";
+      if (component.type != "ELBOW") continue;
+      ++pcfElbows;
+      ASSERT_EQ(component.centrePoints.size(), 1u);
+      const Vector3d corner = component.centrePoints[0].position / 1000.0;
+      for (const auto& end : component.endPoints) {
+        const Vector3d at = end.position / 1000.0;
+        const auto pipe = std::find_if(truth.pipes.begin(), truth.pipes.end(), [&](const Pipe& p) {
+          return (p.start - at).norm() < 1e-4 || (p.end - at).norm() < 1e-4;
+        });
+        ASSERT_NE(pipe, truth.pipes.end()) << reference << ": no pipe ends at " << at.transpose();
+        EXPECT_LT(distanceToLine(corner, pipe->start, pipe->end), 2e-4) << reference << " pipe " << pipe->id;
+      }
+    }
+  }
+  EXPECT_EQ(pcfElbows, elbows);  // the generator bends by 90° at most: one ELBOW each
+  EXPECT_EQ(pcfTees, tees);
+}
+
+TEST(Export, EmptyNetworkGivesValidEmptyFiles) {
+  // Everything left out: only a deleted pipe and a rejected joint.
+  PipeNetwork network = sampleNetwork();
+  network.pipes = {network.pipes[3]};
+  network.joints = {network.joints[2]};
+  network.joints[0].pipeIds = {4};
+  network.runs.clear();
+  TempDir dir;
+  for (ExportFormat format : {ExportFormat::Obj, ExportFormat::Ply, ExportFormat::Csv, ExportFormat::Dxf, ExportFormat::Pcf}) {
+    exportNetwork(network, format, dir / ("empty." + toString(format)));
+  }
+  vtkNew<vtkOBJReader> obj;
+  obj->SetFileName((dir / "empty.obj").c_str());
+  obj->Update();
+  EXPECT_EQ(obj->GetOutput()->GetNumberOfPoints(), 0);
+  vtkNew<vtkPLYReader> ply;
+  ply->SetFileName((dir / "empty.ply").c_str());
+  ply->Update();
+  EXPECT_EQ(ply->GetOutput()->GetNumberOfPoints(), 0);
+  EXPECT_EQ(splitLines(test::readFile(dir / "empty.csv")).size(), 1u);
+  const DxfFile dxf = parseDxf(test::readFile(dir / "empty.dxf"));
+  EXPECT_TRUE(dxf.polylines.empty());
+  EXPECT_TRUE(dxf.endsWithEof);
+  const PcfFile pcf = parsePcf(test::readFile(dir / "empty.pcf"));
+  EXPECT_TRUE(pcf.pipelines.empty());
+  EXPECT_EQ(pcf.units.at("UNITS-BORE"), "MM");
+}
+
+TEST(Export, RefusesBadOptionsAndUnwritablePaths) {
+  TempDir dir;
+  ExportOptions options;
+  options.chordTolerance = 0.0;
+  EXPECT_THROW(exportNetwork(sampleNetwork(), ExportFormat::Obj, dir / "a.obj", options), std::invalid_argument);
+  options = {};
+  options.maxSegments = 4;
+  EXPECT_THROW(exportNetwork(sampleNetwork(), ExportFormat::Ply, dir / "a.ply", options), std::invalid_argument);
+  EXPECT_THROW(exportNetwork(sampleNetwork(), ExportFormat::Csv, dir / "missing" / "a.csv"), OutputError);
+  EXPECT_TRUE(std::filesystem::is_empty(dir.path()));
+}
+
+}  // namespace
+}  // namespace piperun
