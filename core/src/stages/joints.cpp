@@ -221,8 +221,9 @@ class JointBuilder {
     h.mainPipe = main;
     h.gap = alongBranch - mainPipe.radius;  // Stub from the main pipe's surface to the branch end.
     h.gapLimit = searchDistance(branch.radius);
-    // The branch end sits outside the main pipe (half a radius of slack for the fitted ends).
-    if (alongBranch < 0.5 * mainPipe.radius || h.gap > h.gapLimit) return;
+    // The branch end does not pass the main's axis (it may reach into the main pipe: a branch of
+    // the main's size shares points with it around the junction).
+    if (alongBranch < 0.0 || h.gap > h.gapLimit) return;
     h.skew = (branch.point + alongBranch * branch.outward - (mainPipe.start + alongMain * mainAxis)).norm();
     h.skewLimit = skewLimit(branch.radius);
     if (h.skew > h.skewLimit) return;
