@@ -16,12 +16,13 @@
 
 #include "piperun/stages/joints.h"
 
+#include "union_find.h"
+
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <numeric>
 #include <optional>
 #include <tuple>
 #include <unordered_map>
@@ -412,23 +413,6 @@ class JointBuilder {
 
   const JointsInput& input_;
   const JointsParams& params_;
-};
-
-class UnionFind {
- public:
-  explicit UnionFind(std::size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0); }
-  std::size_t find(std::size_t i) {
-    while (parent_[i] != i) i = parent_[i] = parent_[parent_[i]];
-    return i;
-  }
-  void unite(std::size_t a, std::size_t b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent_[std::max(a, b)] = std::min(a, b);
-  }
-
- private:
-  std::vector<std::size_t> parent_;
 };
 
 }  // namespace
