@@ -140,7 +140,9 @@ struct Hypothesis {
 
 class JointBuilder {
  public:
-  JointBuilder(const JointsInput& input, const JointsParams& params) : input_(input), params_(params) {}
+  /// `explained` flags the points that are inliers of some pipe.
+  JointBuilder(const JointsInput& input, const JointsParams& params, const std::vector<char>& explained)
+      : input_(input), params_(params), explained_(explained) {}
 
   double searchDistance(double radius) const {
     return std::max(params_.minSearchDistance, params_.searchDiameters * 2.0 * radius);
@@ -318,11 +320,14 @@ class JointBuilder {
     };
 
     // Votes for R (paper eqs. 3–4), accumulated in a histogram smoothed by a triangular kernel.
+    // Points the straight pipes explain stay out: each ring of a pipe would vote for the R whose
+    // tangent point it lies at, a plateau that buries the elbow's peak.
     const double binWidth = std::max(0.001, 0.02 * r);
     const auto bins = static_cast<std::size_t>(std::ceil((maxBend - minBend) / binWidth)) + 1;
     std::vector<double> histogram(bins, 0.0);
     std::vector<std::pair<double, std::uint32_t>> votes;
     for (std::uint32_t i : nearby) {
+      if (explained_[i]) continue;
       const Eigen::Vector3d p = position(i);
       for (double bendRadius : elbowRadiusVotes(p, h.corner, bisector, normal, halfAngle, r)) {
         if (bendRadius < minBend || bendRadius > maxBend) continue;
@@ -374,8 +379,11 @@ class JointBuilder {
     h.newA = h.corner + tangent * armA;
     h.newB = h.corner + tangent * armB;
     const double search = searchDistance(larger);
-    const double endMismatch = std::max(std::fabs(toEndA - tangent), std::fabs(toEndB - tangent));
-    h.geometric = (1.0 - h.skew / h.skewLimit) * std::clamp(1.0 - endMismatch / search, 0.0, 1.0);
+    // An end short of its tangent point leaves a gap nothing observed; an end past it is normal (the
+    // elbow's surface stays within a cylinder's inlier band for a while, and near the corner the
+    // other pipe's wall crosses the cylinder's extension).
+    const double endGap = std::max({0.0, toEndA - tangent, toEndB - tangent});
+    h.geometric = (1.0 - h.skew / h.skewLimit) * std::clamp(1.0 - endGap / search, 0.0, 1.0);
     h.confidence = 0.4 * h.geometric + 0.6 * h.support;
     h.bendRadius = bendRadius;
     const Eigen::Vector3d center = h.corner + bendRadius / std::sin(halfAngle) * bisector;
@@ -413,6 +421,7 @@ class JointBuilder {
 
   const JointsInput& input_;
   const JointsParams& params_;
+  const std::vector<char>& explained_;
 };
 
 }  // namespace
@@ -450,7 +459,11 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   const auto started = std::chrono::steady_clock::now();
   const auto& pipes = input.pipes;
   const int pipeCount = static_cast<int>(pipes.size());
-  JointBuilder builder(input, params);
+  std::vector<char> explained(input.cloud.size(), 0);
+  for (const auto& pipe : pipes) {
+    for (std::uint32_t i : pipe.inliers) explained[i] = 1;
+  }
+  JointBuilder builder(input, params, explained);
   JointsResult result;
 
   // Spatial index over the pipes' axes.
