@@ -90,12 +90,24 @@ int dumpStages(const Pipeline& pipeline, const std::filesystem::path& directory)
     }
   }
 
-  if (const auto merged = pipeline.mergeResult()) {
+  // Labels are the network's ids: those of the joints stage when it ran (fragments it absorbed
+  // are gone), else of the merge.
+  const auto joints = pipeline.isFresh(Stage::Joints) ? pipeline.jointsResult() : nullptr;
+  const auto merged = pipeline.mergeResult();
+  if (joints || merged) {
+    const std::vector<PipeSegment>& segments = joints ? joints->pipes : merged->segments;
     PointChunk pipes;
-    for (std::size_t p = 0; p < merged->segments.size(); ++p) {
-      append(pipes, labelledPoints(cloud, merged->segments[p].inliers, static_cast<int>(p + 1)));
+    for (std::size_t p = 0; p < segments.size(); ++p) {
+      append(pipes, labelledPoints(cloud, segments[p].inliers, static_cast<int>(p + 1)));
     }
     if (!pipes.empty()) writeChunk(directory / "pipes.ply", pipes, files);
+  }
+  if (joints) {
+    PointChunk support;
+    for (std::size_t j = 0; j < joints->joints.size(); ++j) {
+      append(support, labelledPoints(cloud, joints->jointSupport[j], joints->joints[j].id));
+    }
+    if (!support.empty()) writeChunk(directory / "joints.ply", support, files);
   }
   return files;
 }

@@ -150,6 +150,7 @@ case "$CASE" in
     grep -q '"runs": \[' "$WORK/net.json" || fail "no runs in the network"
     [ -s "$WORK/stages/preprocessed.ply" ] || fail "no preprocessed.ply"
     [ -s "$WORK/stages/pipes.ply" ] || fail "no pipes.ply"
+    [ -s "$WORK/stages/joints.ply" ] || fail "no joints.ply"
     ls "$WORK"/stages/tile_*/round_0/sphere_samples.ply >/dev/null || fail "no sphere samples"
     ls "$WORK"/stages/tile_*/round_0/candidates_0.ply >/dev/null || fail "no circle candidates"
     run 0 info "$WORK/stages/pipes.ply"
