@@ -185,7 +185,8 @@ class JointBuilder {
     if (!parameters) return;
     const auto [alongA, alongB] = *parameters;
     const double search = searchDistance(larger);
-    // The corner lies ahead of both ends (an end may overshoot the tangent point by a radius).
+    // The corner lies ahead of both ends, or at most a radius behind one: ends fitted into the
+    // elbow reach about the corner.
     if (alongA < -larger || alongB < -larger || alongA > search || alongB > search) return;
     const Eigen::Vector3d onA = a.point + alongA * a.outward;
     const Eigen::Vector3d onB = b.point + alongB * b.outward;
