@@ -1,6 +1,7 @@
 #include "piperun/io/network_io.h"
 
 #include "io/atomic_file.h"
+#include "io/network_json.h"
 #include "piperun/error.h"
 
 #include <nlohmann/json.hpp>
@@ -165,6 +166,41 @@ Run readRun(const JsonReader& in, const json& object, const std::string& pointer
 
 }  // namespace
 
+json pipeToJson(const Pipe& pipe) {
+  json item;
+  item["id"] = pipe.id;
+  item["radius"] = pipe.radius;
+  item["axis"] = polylineToJson({pipe.start, pipe.end});
+  item["length"] = pipe.length();
+  item["fit_rms"] = pipe.fitRms;
+  item["inliers"] = pipe.inlierCount;
+  item["confidence"] = pipe.confidence;
+  item["run"] = pipe.runId >= 0 ? json(pipe.runId) : json(nullptr);
+  item["status"] = toString(pipe.status);
+  return item;
+}
+
+json jointToJson(const Joint& joint) {
+  json item;
+  item["id"] = joint.id;
+  item["type"] = toString(joint.type);
+  item["pipes"] = joint.pipeIds;
+  item["radius"] = joint.radius;
+  item["axis"] = polylineToJson(joint.axis);
+  if (joint.type == JointType::Elbow) item["bend_radius"] = joint.bendRadius;
+  item["confidence"] = joint.confidence;
+  item["status"] = toString(joint.status);
+  return item;
+}
+
+Pipe pipeFromJson(const json& object, const std::filesystem::path& source, const std::string& pointer) {
+  return readPipe(JsonReader(source), object, pointer);
+}
+
+Joint jointFromJson(const json& object, const std::filesystem::path& source, const std::string& pointer) {
+  return readJoint(JsonReader(source), object, pointer);
+}
+
 double runLength(const PipeNetwork& network, const Run& run) {
   double total = 0.0;
   for (int id : run.pipeIds) {
@@ -203,34 +239,11 @@ std::string networkToJson(const PipeNetwork& network, const NetworkMetadata& met
   if (!metadata.empty()) document["metadata"] = metadata;
 
   json pipes = json::array();
-  for (const auto& pipe : network.pipes) {
-    json item;
-    item["id"] = pipe.id;
-    item["radius"] = pipe.radius;
-    item["axis"] = polylineToJson({pipe.start, pipe.end});
-    item["length"] = pipe.length();
-    item["fit_rms"] = pipe.fitRms;
-    item["inliers"] = pipe.inlierCount;
-    item["confidence"] = pipe.confidence;
-    item["run"] = pipe.runId >= 0 ? json(pipe.runId) : json(nullptr);
-    item["status"] = toString(pipe.status);
-    pipes.push_back(std::move(item));
-  }
+  for (const auto& pipe : network.pipes) pipes.push_back(pipeToJson(pipe));
   document["pipes"] = std::move(pipes);
 
   json joints = json::array();
-  for (const auto& joint : network.joints) {
-    json item;
-    item["id"] = joint.id;
-    item["type"] = toString(joint.type);
-    item["pipes"] = joint.pipeIds;
-    item["radius"] = joint.radius;
-    item["axis"] = polylineToJson(joint.axis);
-    if (joint.type == JointType::Elbow) item["bend_radius"] = joint.bendRadius;
-    item["confidence"] = joint.confidence;
-    item["status"] = toString(joint.status);
-    joints.push_back(std::move(item));
-  }
+  for (const auto& joint : network.joints) joints.push_back(jointToJson(joint));
   document["joints"] = std::move(joints);
 
   json runs = json::array();
