@@ -1,5 +1,6 @@
 // Edits on a hand-made network: operations, runs, undo/redo, the command forms.
 
+#include "piperun/edit/carry_over.h"
 #include "piperun/edit/command_interpreter.h"
 #include "piperun/edit/edit_session.h"
 #include "piperun/edit/runs.h"
@@ -8,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
 #include <sstream>
 
 namespace piperun {
@@ -178,6 +180,63 @@ TEST(EditSession, UndoAndRedoReturnToIdenticalStates) {
   session.apply(parse("joint 7 reject"), context());
   EXPECT_FALSE(session.canRedo());
   EXPECT_EQ(session.steps().size(), states.size() - 2);
+}
+
+TEST(CarryOver, PipesMatchByAxisOverlapAndRadius) {
+  const Pipe pipe = makePipe(1, {0, 0, 0}, {2, 0, 0}, 0.05);
+  EXPECT_DOUBLE_EQ(pipeMatchOverlap(pipe, pipe), 2.0);
+  EXPECT_DOUBLE_EQ(pipeMatchOverlap(pipe, makePipe(2, {1.9, 0.01, 0}, {0.4, 0.01, 0}, 0.052)), 1.5);  // reversed, shifted 1 cm
+  EXPECT_EQ(pipeMatchOverlap(pipe, makePipe(2, {0, 0.08, 0}, {2, 0.08, 0}, 0.05)), 0.0);   // beside it
+  EXPECT_EQ(pipeMatchOverlap(pipe, makePipe(2, {0, 0, 0}, {2, 0, 0}, 0.07)), 0.0);         // 40 % thicker
+  EXPECT_EQ(pipeMatchOverlap(pipe, makePipe(2, {0, 0, 0}, {2, 0.54, 0}, 0.05)), 0.0);      // 15 degrees off
+  EXPECT_EQ(pipeMatchOverlap(pipe, makePipe(2, {1.5, 0, 0}, {3.5, 0, 0}, 0.05)), 0.0);     // overlaps a quarter
+}
+
+// The sample network as a re-run might return it: ids renumbered, pipe 3 not found, the rest
+// moved by a few millimetres.
+PipeNetwork rerunNetwork() {
+  const PipeNetwork old = sampleNetwork();
+  const std::map<int, int> newId = {{1, 21}, {2, 22}, {4, 24}};
+  PipeNetwork network;
+  for (int id : {4, 2, 1}) {
+    Pipe pipe = *old.findPipe(id);
+    pipe.id = newId.at(id);
+    pipe.start += Eigen::Vector3d(0.003, 0.002, 0);
+    network.pipes.push_back(pipe);
+  }
+  for (int id : {7, 5}) {
+    Joint joint = *old.findJoint(id);
+    joint.id += 30;
+    for (int& pipeId : joint.pipeIds) pipeId = newId.at(pipeId);
+    joint.status = JointStatus::Accepted;
+    network.joints.push_back(joint);
+  }
+  return network;
+}
+
+TEST(CarryOver, DecisionsFollowTheirElementsAndTheRestIsListed) {
+  EditSession session(sampleNetwork());
+  for (const char* line : {"joint 5 reject", "joint 6 accept", "pipe 4 delete", "pipe 1 split 0.5 0 0", "pipe 8 radius 0.055",
+                           "pipe 3 radius 0.06", "joint 7 reject"}) {
+    session.apply(parse(line), context());
+  }
+  session.undo();  // the undone step stays behind
+  const CarryOver carried = carryOver(session, rerunNetwork(), context());
+  const PipeNetwork& network = carried.session.network();
+  EXPECT_EQ(network.findJoint(35)->status, JointStatus::Rejected);  // joint 5 joins pipes 1 and 2 = 21 and 22
+  EXPECT_EQ(network.findJoint(37)->status, JointStatus::Accepted);  // "joint 7 reject" was undone
+  EXPECT_EQ(network.findPipe(24)->status, PipeStatus::Deleted);
+  // The split made pipe 8; its radius edit follows it to the pipe the split makes now.
+  const int split = nextElementId(rerunNetwork());
+  EXPECT_EQ(network.findPipe(split)->radius, 0.055);
+  EXPECT_NEAR((network.findPipe(21)->end - Eigen::Vector3d(0.5, 0, 0)).norm(), 0.0, 0.005);
+  // Pipe 3 and the elbow 6 into it are gone: both edits are listed with why.
+  ASSERT_EQ(carried.dropped.size(), 2u);
+  EXPECT_EQ(carried.dropped[0].command, "joint 6 accept");
+  EXPECT_NE(carried.dropped[0].reason.find("pipe 3 has none"), std::string::npos) << carried.dropped[0].reason;
+  EXPECT_EQ(carried.dropped[1].command, "pipe 3 radius 0.06");
+  EXPECT_EQ(carried.dropped[1].reason, "pipe 3 has no counterpart in the new network");
+  EXPECT_EQ(carried.session.position(), 4u);
 }
 
 TEST(EditCommands, RoundTripThroughTheirText) {

@@ -118,7 +118,7 @@ CommandOutcome CommandInterpreter::dispatch(const std::vector<std::string>& word
     if (!stage) throw EditError("unknown stage \"" + words[1] + "\" (preprocess, directions, placement, extents, merge, joints)");
     PipelineParams params = pipeline_->params();
     for (std::size_t i = 2; i < words.size(); ++i) {
-      // Keys are the stage's own ("centerBandwidth=0.012"); "section.key=value" names any.
+      // Keys are the stage's own ("center_bandwidth=0.012"); "section.key=value" names any.
       const bool qualified = words[i].find('.') < words[i].find('=');
       try {
         setParam(params, qualified ? words[i] : words[1] + "." + words[i]);

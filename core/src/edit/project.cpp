@@ -126,13 +126,14 @@ Project newProject(const std::filesystem::path& scanPath, const Pipeline& pipeli
 }
 
 std::string projectToJson(const Project& project) {
-  json document;
+  // Ordered so that a reader meets the format, the scan and the parameters before the networks.
+  nlohmann::ordered_json document;
   document["format"] = kProjectFormatName;
   document["version"] = kProjectFormatVersion;
   document["scan"] = project.scanPath.empty() ? json(nullptr)
                                               : json{{"path", project.scanPath.string()}, {"hash", project.scanHash}};
   document["parameters"] = json::parse(paramsToJson(project.params, -1));
-  json stages = json::object();
+  nlohmann::ordered_json stages;
   for (Stage stage : kAllStages) stages[stageName(stage)] = project.freshStages[static_cast<std::size_t>(stage)] ? "fresh" : "stale";
   document["stages"] = std::move(stages);
   document["network"] = embeddedNetwork(project.edits.network());
