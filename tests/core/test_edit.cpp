@@ -3,6 +3,7 @@
 #include "piperun/edit/carry_over.h"
 #include "piperun/edit/command_interpreter.h"
 #include "piperun/edit/edit_session.h"
+#include "piperun/edit/review_queue.h"
 #include "piperun/edit/runs.h"
 #include "piperun/io/network_io.h"
 #include "test_util.h"
@@ -79,6 +80,20 @@ TEST(Runs, ConnectedOverAcceptedJointsOnly) {
   EXPECT_EQ(network.runs[0].jointIds, (std::vector<int>{5, 7}));
   EXPECT_EQ(network.runs[1].pipeIds, (std::vector<int>{3}));
   EXPECT_EQ(network.findPipe(3)->runId, 2);
+}
+
+TEST(ReviewQueue, ProposedJointsLowestConfidenceFirst) {
+  PipeNetwork network = sampleNetwork();
+  network.joints.push_back(makeJoint(9, JointType::Tee, {2, 4}, {{2.5, 0, 0}, {2.5, 0.1, 0}}, JointStatus::Proposed));
+  network.joints.back().confidence = 0.1;
+  EXPECT_EQ(jointReviewQueue(network), (std::vector<int>{9, 6}));
+  EditSession session(network);
+  session.apply(parse("joint 9 reject"), context());
+  EXPECT_EQ(jointReviewQueue(session.network()), (std::vector<int>{6}));
+  const ReviewCounts counts = countJointReview(session.network());
+  EXPECT_EQ(counts.accepted, 2);
+  EXPECT_EQ(counts.rejected, 1);
+  EXPECT_EQ(counts.left, 1);
 }
 
 TEST(EditSession, RejectedJointsAndDeletedPipesLeaveTheRunsAtOnce) {
@@ -266,7 +281,9 @@ TEST(CommandInterpreter, ErrorsNameTheScriptLineAndCommand) {
   project.edits = EditSession(sampleNetwork());
   CommandInterpreter interpreter(project, nullptr);
   interpreter.setAutosaveInterval(0);
-  EXPECT_EQ(interpreter.execute("joint 5 reject  # a comment").message, "joint 5 rejected");
+  const CommandOutcome rejected = interpreter.execute("joint 5 reject  # a comment");
+  EXPECT_EQ(rejected.message, "joint 5 rejected");
+  EXPECT_TRUE(rejected.networkChanged);
   EXPECT_TRUE(interpreter.execute("   # only a comment").message.empty());
   try {
     interpreter.execute("pipe 99 delete");

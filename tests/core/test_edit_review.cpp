@@ -67,6 +67,11 @@ class EditReview : public ::testing::Test {
   std::unique_ptr<CommandInterpreter> interpreter_;
 };
 
+TEST_F(EditReview, EditedRunsFollowTheJointsStageRule) {
+  // The session rebuilds runs with assignRuns(); on the pipeline's network it changes nothing.
+  EXPECT_EQ(snapshot(project_.edits.network()), snapshot(pipeline_->network()));
+}
+
 TEST_F(EditReview, FitInABoxFindsThePipeInside) {
   const Pipe& pipe = longestPipe(project_.edits.network());
   // The middle 60 % of the pipe, with a margin around its surface.

@@ -168,8 +168,8 @@ TEST(ProjectFile, KillDuringSaveLeavesTheOldOrTheNewFile) {
   test::TempDir dir;
   const std::filesystem::path path = dir / "big.piperun";
   Project first, second;
-  first.edits = EditSession(gridNetwork(6000));
-  second.edits = EditSession(gridNetwork(6000));
+  first.edits = EditSession(gridNetwork(3000));
+  second.edits = EditSession(gridNetwork(3000));
   second.edits.apply(Edit{EditKind::DeletePipe, 3, 0, 0, 0.0, {}, {}}, {});
   const std::string firstNetwork = networkToJson(first.edits.network());
   const std::string secondNetwork = networkToJson(second.edits.network());
@@ -177,13 +177,13 @@ TEST(ProjectFile, KillDuringSaveLeavesTheOldOrTheNewFile) {
   const std::string documents[2] = {projectToJson(second), projectToJson(first)};
 
   int killedMidWrite = 0;
-  for (int attempt = 0; attempt < 6; ++attempt) {
+  for (int attempt = 0; attempt < 5; ++attempt) {
     const pid_t child = fork();
     ASSERT_GE(child, 0);
     if (child == 0) {
       for (int k = 0;; ++k) io::writeFileAtomically(path, documents[k % 2]);
     }
-    std::this_thread::sleep_for(std::chrono::milliseconds(40 + 23 * attempt));
+    std::this_thread::sleep_for(std::chrono::milliseconds(30 + 17 * attempt));
     ASSERT_EQ(kill(child, SIGKILL), 0);
     int status = 0;
     ASSERT_EQ(waitpid(child, &status, 0), child);

@@ -62,15 +62,22 @@ const char* kUsage =
 
 }  // namespace
 
-CommandInterpreter::CommandInterpreter(Project& project, Pipeline* pipeline, NominalSizes sizes)
-    : project_(project), pipeline_(pipeline), sizes_(std::move(sizes)) {}
+CommandInterpreter::CommandInterpreter(Project& project, Pipeline* pipeline, std::optional<NominalSizes> sizes)
+    : project_(project), pipeline_(pipeline), sizes_(std::move(sizes)) {
+  if (sizes_) return;
+  try {
+    sizes_ = NominalSizes::shipped();
+  } catch (const InputError& error) {
+    sizesError_ = error.what();
+  }
+}
 
 EditContext CommandInterpreter::editContext() const {
   EditContext context;
   if (pipeline_ && pipeline_->preprocessResult()) context.cloud = &pipeline_->preprocessResult()->points;
   context.joints = project_.params.joints;
   context.placement = project_.params.placement;
-  context.sizes = &sizes_;
+  context.sizes = sizes_ ? &*sizes_ : nullptr;
   return context;
 }
 
@@ -90,12 +97,13 @@ CommandOutcome CommandInterpreter::runPipeline(Progress& progress, Stage last) {
   pipeline_->run(progress, last);
   recordPipelineState(project_, *pipeline_);
   if (!newNetwork) {
-    if (last == Stage::Joints) return {"every stage is fresh", {}};
-    return {std::string(stageName(last)) + " re-ran; later stages are stale (\"run\" runs them)", {}};
+    if (last == Stage::Joints) return {"every stage is fresh", false, {}};
+    return {std::string(stageName(last)) + " re-ran; later stages are stale (\"run\" runs them)", false, {}};
   }
   // A new network: the review carries over to it.
   CarryOver carried = carryOver(project_.edits, pipeline_->network(), editContext());
   CommandOutcome outcome;
+  outcome.networkChanged = true;
   const std::size_t kept = carried.session.position();
   project_.edits = std::move(carried.session);
   outcome.dropped = std::move(carried.dropped);
@@ -134,21 +142,22 @@ CommandOutcome CommandInterpreter::dispatch(const std::vector<std::string>& word
     if (words.size() != 1) throw EditError("expected \"" + verb + "\"");
     const EditStep& step = verb == "undo" ? project_.edits.undo() : project_.edits.redo();
     countEdit();
-    return {(verb == "undo" ? "undid: " : "redid: ") + toCommand(step.edit), {}};
+    return {(verb == "undo" ? "undid: " : "redid: ") + toCommand(step.edit), true, {}};
   }
   if (verb == "save") {
     if (words.size() != 2) throw EditError("expected \"save PATH\"");
     saveProject(words[1], project_);
     editsSinceAutosave_ = 0;
-    return {"saved " + words[1], {}};
+    return {"saved " + words[1], false, {}};
   }
   if (const auto edit = parseEdit(words)) {
+    if (edit->kind == EditKind::SnapRadius && !sizes_) throw EditError(sizesError_);
     const EditStep& step = project_.edits.apply(*edit, editContext());
     countEdit();
-    return {describe(step), {}};
+    return {describe(step), true, {}};
   }
   if (const auto found = extraCommands_.find(verb); found != extraCommands_.end()) {
-    return {found->second(std::vector<std::string>(words.begin() + 1, words.end())), {}};
+    return {found->second(std::vector<std::string>(words.begin() + 1, words.end())), false, {}};
   }
   throw EditError(std::string("unknown command; ") + kUsage);
 }

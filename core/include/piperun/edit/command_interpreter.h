@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,14 +27,16 @@ class CommandError : public std::runtime_error {
 /// What a command did, for the status line.
 struct CommandOutcome {
   std::string message;               ///< One line, e.g. "joint 14 rejected" or "undid: pipe 3 delete".
+  bool networkChanged = false;       ///< The reviewed network changed (an edit, undo, redo or a new network): redraw it.
   std::vector<DroppedEdit> dropped;  ///< After a re-run: the edits that could not be carried over.
 };
 
 class CommandInterpreter {
  public:
   /// Edits `project`; `pipeline` (may be null: a project opened without its scan) serves `run`,
-  /// `rerun` and the edits that look at the points. Both must outlive the interpreter.
-  CommandInterpreter(Project& project, Pipeline* pipeline, NominalSizes sizes = NominalSizes::shipped());
+  /// `rerun` and the edits that look at the points. Both must outlive the interpreter. Without
+  /// `sizes`, the shipped table is read (when it cannot be, `snap` fails saying why).
+  CommandInterpreter(Project& project, Pipeline* pipeline, std::optional<NominalSizes> sizes = std::nullopt);
 
   /// Runs one command line (blank lines and `#` comments do nothing). Throws CommandError.
   CommandOutcome execute(const std::string& line, Progress& progress = Progress::none());
@@ -60,7 +63,8 @@ class CommandInterpreter {
 
   Project& project_;
   Pipeline* pipeline_;
-  NominalSizes sizes_;
+  std::optional<NominalSizes> sizes_;
+  std::string sizesError_;  ///< Why the shipped table could not be read.
   std::map<std::string, std::function<std::string(const std::vector<std::string>&)>> extraCommands_;
   int autosaveInterval_ = 5;
   int editsSinceAutosave_ = 0;
