@@ -666,6 +666,7 @@ class InlierSearch {
   CellIndex grid_;
 };
 
+/// refineCylinderFit() on the stripe points `inliers` (indices into the stripe).
 bool refineFit(CylinderFit& fit, const PointCloud& cloud, const StripeProjection& stripe, const std::vector<std::uint32_t>& inliers,
                int iterations) {
   std::vector<Eigen::Vector3d> points(inliers.size());
