@@ -207,6 +207,26 @@ TEST(CarryOver, PipesMatchByAxisOverlapAndRadius) {
   EXPECT_EQ(pipeMatchOverlap(pipe, makePipe(2, {1.5, 0, 0}, {3.5, 0, 0}, 0.05)), 0.0);     // overlaps a quarter
 }
 
+TEST(CarryOver, MatchingPairsEachPipeWithItsCounterpart) {
+  // A thousand pipes in a grid, re-found in another order and shifted by a few millimetres.
+  PipeNetwork before, after;
+  for (int i = 0; i < 1000; ++i) {
+    const Eigen::Vector3d start((i % 40) * 1.0, (i / 40) * 0.3, 0.5 * (i % 3));
+    before.pipes.push_back(makePipe(i + 1, start, start + Eigen::Vector3d(0.8, 0, 0), 0.02 + 0.01 * (i % 5)));
+  }
+  for (int i = 999; i >= 0; --i) {
+    Pipe pipe = before.pipes[static_cast<std::size_t>(i)];
+    pipe.id = 5000 - i;
+    pipe.start += Eigen::Vector3d(0.004, -0.003, 0.002);
+    after.pipes.push_back(pipe);
+  }
+  after.pipes.front().status = PipeStatus::Deleted;  // deleted pipes are no counterparts
+  const std::map<int, int> matched = matchPipes(before, after);
+  ASSERT_EQ(matched.size(), 999u);
+  for (const auto& [from, to] : matched) EXPECT_EQ(to, 5001 - from);
+  EXPECT_EQ(matched.count(1000), 0u);
+}
+
 // The sample network as a re-run might return it: ids renumbered, pipe 3 not found, the rest
 // moved by a few millimetres.
 PipeNetwork rerunNetwork() {

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <set>
 #include <tuple>
+#include <unordered_map>
 
 namespace piperun {
 
@@ -19,13 +20,14 @@ constexpr double kMatchRadiusRatio = 0.8;
 constexpr double kMatchAngleDeg = 10.0;
 constexpr double kMatchMinOffset = 0.02;  // m
 constexpr double kMatchMinOverlapShare = 0.5;
+constexpr double kMatchCell = 1.0;  // smallest cell of the candidate grid (m)
 constexpr double kDegree = 3.14159265358979323846 / 180.0;
 
 std::set<int> pipeSet(const Joint& joint) { return {joint.pipeIds.begin(), joint.pipeIds.end()}; }
 
 class IdTranslation {
  public:
-  IdTranslation(std::map<int, int> pipes) : pipes_(std::move(pipes)) {}
+  explicit IdTranslation(std::map<int, int> pipes) : pipes_(std::move(pipes)) {}
 
   /// The new id of old pipe `id`; throws EditError naming it when it has no counterpart.
   int pipe(int id) const {
@@ -119,10 +121,52 @@ double pipeMatchOverlap(const Pipe& a, const Pipe& b) {
 }
 
 std::map<int, int> matchPipes(const PipeNetwork& from, const PipeNetwork& to) {
+  // Candidates through a hash grid over axis samples: two matching pipes overlap, so a sample of
+  // each lies within (a step + the allowed offset) of the other's, at most a cell: neighbouring cells.
+  double largestRadius = 0.0;
+  for (const PipeNetwork* network : {&from, &to}) {
+    for (const Pipe& pipe : network->pipes) largestRadius = std::max(largestRadius, pipe.radius);
+  }
+  const double cell = std::max(kMatchCell, 2.0 * (largestRadius + kMatchMinOffset));
+  const double step = 0.5 * cell;
+  const auto forEachSampleCell = [&](const Pipe& pipe, auto&& visit) {
+    const int samples = 1 + static_cast<int>(std::ceil(pipe.length() / step));
+    for (int k = 0; k <= samples; ++k) {
+      const Eigen::Vector3d p = pipe.start + (static_cast<double>(k) / samples) * (pipe.end - pipe.start);
+      visit(Eigen::Vector3i((p / cell).array().floor().cast<int>()));
+    }
+  };
+  const auto key = [](const Eigen::Vector3i& c) {
+    const auto part = [](int v) { return static_cast<std::uint64_t>(static_cast<std::uint32_t>(v) & 0x1FFFFFu); };
+    return part(c.x()) | (part(c.y()) << 21) | (part(c.z()) << 42);
+  };
+  std::unordered_map<std::uint64_t, std::vector<std::size_t>> grid;
+  for (std::size_t i = 0; i < to.pipes.size(); ++i) {
+    if (to.pipes[i].status == PipeStatus::Deleted) continue;
+    forEachSampleCell(to.pipes[i], [&](const Eigen::Vector3i& c) {
+      auto& bucket = grid[key(c)];
+      if (bucket.empty() || bucket.back() != i) bucket.push_back(i);
+    });
+  }
+
   std::vector<std::tuple<double, int, int>> candidates;  // overlap, from id, to id
+  std::vector<std::size_t> near;
   for (const Pipe& a : from.pipes) {
-    for (const Pipe& b : to.pipes) {
-      if (b.status == PipeStatus::Deleted) continue;
+    near.clear();
+    forEachSampleCell(a, [&](const Eigen::Vector3i& c) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        for (int dy = -1; dy <= 1; ++dy) {
+          for (int dz = -1; dz <= 1; ++dz) {
+            const auto found = grid.find(key(c + Eigen::Vector3i(dx, dy, dz)));
+            if (found != grid.end()) near.insert(near.end(), found->second.begin(), found->second.end());
+          }
+        }
+      }
+    });
+    std::sort(near.begin(), near.end());
+    near.erase(std::unique(near.begin(), near.end()), near.end());
+    for (const std::size_t i : near) {
+      const Pipe& b = to.pipes[i];
       if (const double overlap = pipeMatchOverlap(a, b); overlap > 0.0) candidates.emplace_back(overlap, a.id, b.id);
     }
   }
