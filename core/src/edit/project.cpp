@@ -3,11 +3,11 @@
 #include "io/atomic_file.h"
 #include "io/network_json.h"
 #include "piperun/error.h"
-#include "piperun/io/network_io.h"
 #include "piperun/params.h"
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cinttypes>
 #include <cstdio>
 #include <fstream>
@@ -32,15 +32,20 @@ const json& member(const json& object, const std::filesystem::path& source, cons
   return *found;
 }
 
-json embeddedNetwork(const PipeNetwork& network) { return json::parse(networkToJson(network, {}, -1)); }
-
 PipeNetwork readEmbeddedNetwork(const json& value, const std::filesystem::path& source, const std::string& pointer) {
   try {
-    return networkFromJson(value.dump(), source);
+    return networkFromJsonValue(value, source);
   } catch (const InputError& error) {
     // Locations inside the embedded document are relative to it.
     fail(source, pointer + (error.location() == "/" ? "" : error.location()), error.message());
   }
+}
+
+bool sameElements(const PipeNetwork& a, const PipeNetwork& b) {
+  const auto same = [](const auto& x, const auto& y) {
+    return std::equal(x.begin(), x.end(), y.begin(), y.end(), [](const auto& p, const auto& q) { return sameElement(p, q); });
+  };
+  return same(a.pipes, b.pipes) && same(a.joints, b.joints);
 }
 
 std::vector<std::string> splitWords(const std::string& line) {
@@ -136,8 +141,8 @@ std::string projectToJson(const Project& project) {
   nlohmann::ordered_json stages;
   for (Stage stage : kAllStages) stages[stageName(stage)] = project.freshStages[static_cast<std::size_t>(stage)] ? "fresh" : "stale";
   document["stages"] = std::move(stages);
-  document["network"] = embeddedNetwork(project.edits.network());
-  document["base"] = embeddedNetwork(project.edits.base());
+  document["network"] = networkToJsonValue(project.edits.network());
+  document["base"] = networkToJsonValue(project.edits.base());
   json steps = json::array();
   for (const EditStep& step : project.edits.steps()) {
     steps.push_back({{"command", toCommand(step.edit)},
@@ -215,7 +220,7 @@ Project projectFromJson(const std::string& text, const std::filesystem::path& so
     fail(source, "/history", std::string("does not apply to the base network: ") + error.what());
   }
   // The history must lead to the saved network; if it does not, the network wins.
-  if (networkToJson(project.edits.network()) != networkToJson(network)) {
+  if (!sameElements(project.edits.network(), network)) {
     if (warnings) warnings->push_back(source.string() + ": the edit history does not lead to the saved network; undo history dropped");
     project.edits = EditSession(std::move(network));
   }

@@ -231,7 +231,7 @@ double runNominalRadius(const PipeNetwork& network, const Run& run) {
   return best;
 }
 
-std::string networkToJson(const PipeNetwork& network, const NetworkMetadata& metadata, int indent) {
+json networkToJsonValue(const PipeNetwork& network, const NetworkMetadata& metadata) {
   json document;
   document["format"] = kNetworkFormatName;
   document["version"] = kNetworkFormatVersion;
@@ -257,7 +257,11 @@ std::string networkToJson(const PipeNetwork& network, const NetworkMetadata& met
     runs.push_back(std::move(item));
   }
   document["runs"] = std::move(runs);
-  return document.dump(indent) + "\n";
+  return document;
+}
+
+std::string networkToJson(const PipeNetwork& network, const NetworkMetadata& metadata, int indent) {
+  return networkToJsonValue(network, metadata).dump(indent) + "\n";
 }
 
 PipeNetwork networkFromJson(const std::string& text, const std::filesystem::path& source, NetworkMetadata* metadata) {
@@ -271,6 +275,10 @@ PipeNetwork networkFromJson(const std::string& text, const std::filesystem::path
     // nlohmann counts bytes from 1; the other readers report 0-based offsets.
     throw InputError(source, byteLocation(error.byte > 0 ? error.byte - 1 : 0), "invalid JSON: " + message);
   }
+  return networkFromJsonValue(document, source, metadata);
+}
+
+PipeNetwork networkFromJsonValue(const json& document, const std::filesystem::path& source, NetworkMetadata* metadata) {
   const JsonReader in(source);
   if (!document.is_object()) in.fail("", "expected a JSON object with \"format\": \"piperun-network\"");
   const auto format = in.string(in.member(document, "", "format"), "/format");
