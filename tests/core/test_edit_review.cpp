@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <limits>
 
 namespace piperun {
 namespace {
@@ -89,16 +90,32 @@ TEST_F(EditReview, FitInABoxFindsThePipeInside) {
 
 TEST_F(EditReview, FitAroundAPointGrowsAlongThePipe) {
   const Pipe pipe = longestPipe(project_.edits.network());
+  // The point a click would pick: on the pipe's surface, nearest its middle.
+  const PointCloud& cloud = pipeline_->preprocessResult()->points;
   const Eigen::Vector3d middle = 0.5 * (pipe.start + pipe.end);
-  const CommandOutcome outcome = interpreter_->execute("pipe fit-point " + std::to_string(middle.x()) + " " +
-                                                       std::to_string(middle.y()) + " " + std::to_string(middle.z()));
+  Eigen::Vector3d picked = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  for (const Eigen::Vector3f& position : cloud.positions) {
+    const Eigen::Vector3d p = cloud.origin + position.cast<double>();
+    if (std::abs(distanceToAxis(pipe, p) - pipe.radius) < 0.003 && (p - middle).norm() < (picked - middle).norm()) picked = p;
+  }
+  ASSERT_LT((picked - middle).norm(), 0.2);
+  const auto command = [](const Eigen::Vector3d& p) {
+    return "pipe fit-point " + std::to_string(p.x()) + " " + std::to_string(p.y()) + " " + std::to_string(p.z());
+  };
+  const CommandOutcome outcome = interpreter_->execute(command(picked));
   const Pipe& fitted = project_.edits.network().pipes.back();
   EXPECT_EQ(outcome.message.rfind("fitted pipe " + std::to_string(fitted.id), 0), 0u) << outcome.message;
   EXPECT_NEAR(fitted.radius, pipe.radius, 0.003);
   EXPECT_GT(fitted.length(), 0.8 * pipe.length());  // one click, the whole pipe
   EXPECT_LT(fitted.length(), pipe.length() + 4.0 * pipe.radius + 0.1);
   EXPECT_LT(distanceToAxis(pipe, 0.5 * (fitted.start + fitted.end)), 0.01);
-  // Nothing to fit in empty space.
+  // A point off the pipe, or empty space, fits nothing.
+  try {
+    interpreter_->execute(command(middle));
+    FAIL() << "fitted a pipe around its own axis point";
+  } catch (const CommandError& error) {
+    EXPECT_NE(std::string(error.what()).find("pick a point on the pipe"), std::string::npos) << error.what();
+  }
   EXPECT_THROW(interpreter_->execute("pipe fit-box 1000 1000 1000 1001 1001 1001"), CommandError);
 }
 

@@ -1,14 +1,16 @@
 #include "piperun/edit/pipe_fit.h"
 
 #include "piperun/edit/edit.h"
+#include "random.h"
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <Eigen/QR>
 
 #include <algorithm>
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <string>
 
 namespace piperun {
@@ -17,6 +19,14 @@ namespace {
 
 constexpr double kDegree = 3.14159265358979323846 / 180.0;
 constexpr double kMinGap = 0.05;  // shortest gap that ends the growth of a fit around a point (m)
+constexpr double kMinRadiusGap = 0.002;  // radius agreement floor of a point pair, as in placement (m)
+constexpr double kRadiusSlack = 0.8;     // a fit may leave [minRadius, maxRadius] by this factor, as in placement
+constexpr int kTrials = 500;             // point pairs tried for the initial cylinder
+constexpr std::size_t kMaxScored = 4000; // points an initial cylinder is scored on
+constexpr std::uint64_t kSeed = 1;
+constexpr double kAnchorReach = 0.03;    // half the pairs tried around a picked point have a point this near it (m)
+constexpr double kAnchorDrift = 2.0;     // the refined surface passes within this many inlier distances of the picked point
+constexpr std::size_t kMinFitInliers = 15;  // a hand fit is confirmed by the user: fewer points than the stage's minInliers do
 
 struct Cylinder3 {
   Eigen::Vector3d point, direction;  // relative to the cloud origin; unit direction
@@ -40,36 +50,6 @@ void requireNormals(const PointCloud& cloud) {
   if (cloud.normals.size() != cloud.positions.size()) throw EditError("fitting a pipe needs the preprocessed points with normals");
 }
 
-/// Axis from the normals, circle across it by the algebraic (Kåsa) fit.
-Cylinder3 initialCylinder(const PointCloud& cloud, const std::vector<std::uint32_t>& points) {
-  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  for (const std::uint32_t i : points) {
-    const Eigen::Vector3d n = cloud.normals[i].cast<double>();
-    scatter += n * n.transpose();
-    centroid += cloud.positions[i].cast<double>();
-  }
-  centroid /= static_cast<double>(points.size());
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(scatter);
-  Cylinder3 cylinder;
-  cylinder.direction = solver.eigenvectors().col(0).normalized();
-  const Eigen::Vector3d u = cylinder.direction.unitOrthogonal();
-  const Eigen::Vector3d v = cylinder.direction.cross(u);
-  Eigen::MatrixX3d system(points.size(), 3);
-  Eigen::VectorXd right(points.size());
-  for (std::size_t k = 0; k < points.size(); ++k) {
-    const Eigen::Vector3d q = cloud.positions[points[k]].cast<double>() - centroid;
-    const double x = q.dot(u), y = q.dot(v);
-    system.row(static_cast<Eigen::Index>(k)) << x, y, 1.0;
-    right[static_cast<Eigen::Index>(k)] = -(x * x + y * y);
-  }
-  const Eigen::Vector3d solution = system.colPivHouseholderQr().solve(right);
-  const Eigen::Vector2d center(-0.5 * solution[0], -0.5 * solution[1]);
-  cylinder.point = centroid + center.x() * u + center.y() * v;
-  cylinder.radius = std::sqrt(std::max(0.0, center.squaredNorm() - solution[2]));
-  return cylinder;
-}
-
 /// Points of `candidates` near the surface whose normal, across the axis, points radially.
 std::vector<std::uint32_t> inliersOf(const PointCloud& cloud, const Cylinder3& cylinder, const std::vector<std::uint32_t>& candidates,
                                      const PlacementParams& params) {
@@ -88,6 +68,73 @@ std::vector<std::uint32_t> inliersOf(const PointCloud& cloud, const Cylinder3& c
   return inliers;
 }
 
+/// The cylinder two points with normals determine: the axis is perpendicular to both normals, the
+/// centre where the normal lines cross in the plane across it, the radius the two distances to it
+/// when they agree as placement.radius_agreement requires.
+std::optional<Cylinder3> cylinderThrough(const PointCloud& cloud, std::uint32_t i, std::uint32_t j, const PlacementParams& params) {
+  const Eigen::Vector3d ni = cloud.normals[i].cast<double>(), nj = cloud.normals[j].cast<double>();
+  const Eigen::Vector3d axis = ni.cross(nj);
+  if (axis.norm() < std::sin(params.minPairAngleDeg * kDegree)) return std::nullopt;
+  Cylinder3 cylinder;
+  cylinder.direction = axis.normalized();
+  const auto across = [&](const Eigen::Vector3d& v) { return Eigen::Vector3d(v - v.dot(cylinder.direction) * cylinder.direction); };
+  const Eigen::Vector3d pi = cloud.positions[i].cast<double>(), pj = cloud.positions[j].cast<double>();
+  const Eigen::Vector3d ui = across(ni).normalized(), uj = across(nj).normalized();
+  // pi + t ui = pj + s uj (in the plane): least squares on the 3 x 2 system.
+  Eigen::Matrix<double, 3, 2> system;
+  system << ui, -uj;
+  const Eigen::Vector2d ts = system.colPivHouseholderQr().solve(across(pj - pi));
+  const double ri = std::abs(ts[0]), rj = std::abs(ts[1]);
+  const double radius = 0.5 * (ri + rj);
+  if (std::abs(ri - rj) > std::max(kMinRadiusGap, params.radiusAgreement * radius)) return std::nullopt;
+  if (radius < kRadiusSlack * params.minRadius || radius > params.maxRadius / kRadiusSlack) return std::nullopt;
+  cylinder.point = pi + ts[0] * ui;
+  cylinder.radius = radius;
+  return cylinder;
+}
+
+/// The start of the fit: of the cylinders through random pairs of points (a fixed seed, so the
+/// same points give the same fit), the one with the most inliers among the points. With an
+/// `anchor` (a picked point), the cylinder's surface must pass by it, so that the pipe picked wins
+/// over a bigger one beside it, and every other pair has a point near it, so that a thin pipe's
+/// few points are tried.
+Cylinder3 initialCylinder(const PointCloud& cloud, const std::vector<std::uint32_t>& points, const PlacementParams& params,
+                          const std::optional<Eigen::Vector3d>& anchor, const char* where) {
+  std::vector<std::uint32_t> firsts;
+  if (anchor) {
+    for (const std::uint32_t i : points) {
+      if ((cloud.positions[i].cast<double>() - *anchor).norm() <= kAnchorReach) firsts.push_back(i);
+    }
+  } else {
+    firsts = points;
+  }
+  if (firsts.empty()) {
+    throw EditError(anchor ? "no points within " + std::to_string(kAnchorReach) + " m of the picked point: pick a point on the pipe"
+                           : std::string("no points ") + where);
+  }
+  Rng random(kSeed);
+  // Scoring on a bounded sample (every k-th point) keeps a large box interactive.
+  std::vector<std::uint32_t> sample;
+  const std::size_t stride = (points.size() + kMaxScored - 1) / kMaxScored;
+  for (std::size_t k = 0; k < points.size(); k += stride) sample.push_back(points[k]);
+  std::optional<Cylinder3> best;
+  std::size_t bestScore = 0;
+  for (int trial = 0; trial < kTrials; ++trial) {
+    const std::vector<std::uint32_t>& from = trial % 2 == 0 ? firsts : points;
+    const std::uint32_t i = from[random.next() % from.size()], j = points[random.next() % points.size()];
+    if (i == j) continue;
+    const auto candidate = cylinderThrough(cloud, i, j, params);
+    if (!candidate || (anchor && std::abs(candidate->offset(*anchor)) > params.inlierDistance)) continue;
+    const std::size_t score = inliersOf(cloud, *candidate, sample, params).size();
+    if (score > bestScore) {
+      bestScore = score;
+      best = candidate;
+    }
+  }
+  if (!best) throw EditError(std::string("no two points ") + where + " agree on a pipe-sized cylinder");
+  return *best;
+}
+
 std::vector<Eigen::Vector3d> positionsOf(const PointCloud& cloud, const std::vector<std::uint32_t>& indices) {
   std::vector<Eigen::Vector3d> points;
   points.reserve(indices.size());
@@ -95,26 +142,34 @@ std::vector<Eigen::Vector3d> positionsOf(const PointCloud& cloud, const std::vec
   return points;
 }
 
-std::string tooFew(std::size_t found, const PlacementParams& params, const char* where) {
-  return "only " + std::to_string(found) + " points fit a cylinder " + where + " (placement.minInliers is " +
-         std::to_string(params.minInliers) + ")";
+std::string tooFew(std::size_t found, const char* where) {
+  return "only " + std::to_string(found) + " points fit a cylinder " + where + " (a hand fit needs " +
+         std::to_string(kMinFitInliers) + ")";
 }
 
-/// The seed's cylinder refined twice on its inliers among `candidates`, as the placement stage does.
-Cylinder3 refine(const PointCloud& cloud, const std::vector<std::uint32_t>& seed, const std::vector<std::uint32_t>& candidates,
-                 const PlacementParams& params, const char* where) {
-  if (static_cast<int>(seed.size()) < params.minInliers) throw EditError(tooFew(seed.size(), params, where));
-  Cylinder3 cylinder = initialCylinder(cloud, seed);
-  std::vector<std::uint32_t> inliers = inliersOf(cloud, cylinder, seed, params);
+/// The cylinder of the points, refined twice on its inliers as the placement stage refines.
+Cylinder3 fitCylinder(const PointCloud& cloud, const std::vector<std::uint32_t>& points, const PlacementParams& params,
+                      const std::optional<Eigen::Vector3d>& anchor, const char* where) {
+  if (points.size() < kMinFitInliers) throw EditError(tooFew(points.size(), where));
+  Cylinder3 cylinder = initialCylinder(cloud, points, params, anchor, where);
   for (int pass = 0; pass < 2; ++pass) {
-    if (static_cast<int>(inliers.size()) < params.minInliers) throw EditError(tooFew(inliers.size(), params, where));
+    const std::vector<std::uint32_t> inliers = inliersOf(cloud, cylinder, points, params);
+    if (inliers.size() < kMinFitInliers) throw EditError(tooFew(inliers.size(), where));
     if (!refineCylinderFit(positionsOf(cloud, inliers), cylinder.point, cylinder.direction, cylinder.radius,
                            params.refineIterations)) {
       throw EditError(std::string("the cylinder fit ") + where + " degenerates");
     }
-    inliers = inliersOf(cloud, cylinder, pass == 0 ? seed : candidates, params);
   }
-  if (static_cast<int>(inliers.size()) < params.minInliers) throw EditError(tooFew(inliers.size(), params, where));
+  if (anchor && std::abs(cylinder.offset(*anchor)) > kAnchorDrift * params.inlierDistance) {
+    throw EditError(std::string("the cylinder fitted ") + where + " does not pass by the point (" +
+                    std::to_string(std::abs(cylinder.offset(*anchor))) + " m off its surface): pick a point on the pipe");
+  }
+  if (cylinder.radius < kRadiusSlack * params.minRadius || cylinder.radius > params.maxRadius / kRadiusSlack) {
+    throw EditError(std::string("the points ") + where + " fit a cylinder of radius " + std::to_string(cylinder.radius) +
+                    " m, outside the placement radius limits");
+  }
+  const std::size_t inliers = inliersOf(cloud, cylinder, points, params).size();
+  if (inliers < kMinFitInliers) throw EditError(tooFew(inliers, where));
   return cylinder;
 }
 
@@ -148,7 +203,7 @@ Pipe fitPipeInBox(const PointCloud& cloud, const Eigen::Vector3d& boxMin, const 
   const std::vector<std::uint32_t> inside = pointsWhere(cloud, [&](const Eigen::Vector3d& p) {
     return (p.array() >= low.array()).all() && (p.array() <= high.array()).all();
   });
-  const Cylinder3 cylinder = refine(cloud, inside, inside, params, "in the box");
+  const Cylinder3 cylinder = fitCylinder(cloud, inside, params, std::nullopt, "in the box");
   return pipeOver(cloud, cylinder, inliersOf(cloud, cylinder, inside, params));
 }
 
@@ -157,7 +212,7 @@ Pipe fitPipeAround(const PointCloud& cloud, const Eigen::Vector3d& center, doubl
   const Eigen::Vector3d local = center - cloud.origin;
   const std::vector<std::uint32_t> near =
       pointsWhere(cloud, [&](const Eigen::Vector3d& p) { return (p - local).squaredNorm() <= reach * reach; });
-  const Cylinder3 cylinder = refine(cloud, near, near, params, "around the point");
+  const Cylinder3 cylinder = fitCylinder(cloud, near, params, local, "around the point");
 
   // Grow along the axis: the inliers anywhere, sorted along it, kept while they continue from the
   // picked point without a long gap.
