@@ -23,6 +23,7 @@ constexpr double kMinRadiusGap = 0.002;  // radius agreement floor of a point pa
 constexpr double kRadiusSlack = 0.8;     // a fit may leave [minRadius, maxRadius] by this factor, as in placement
 constexpr int kTrials = 500;             // point pairs tried for the initial cylinder
 constexpr std::size_t kMaxScored = 4000; // points an initial cylinder is scored on
+constexpr std::size_t kStarts = 8;        // best-scored starts refined until one gives a pipe
 constexpr std::uint64_t kSeed = 1;
 constexpr double kAnchorReach = 0.03;    // half the pairs tried around a picked point have a point this near it (m)
 constexpr double kAnchorDrift = 2.0;     // the refined surface passes within this many inlier distances of the picked point
@@ -93,13 +94,13 @@ std::optional<Cylinder3> cylinderThrough(const PointCloud& cloud, std::uint32_t 
   return cylinder;
 }
 
-/// The start of the fit: of the cylinders through random pairs of points (a fixed seed, so the
-/// same points give the same fit), the one with the most inliers among the points. With an
-/// `anchor` (a picked point), the cylinder's surface must pass by it, so that the pipe picked wins
-/// over a bigger one beside it, and every other pair has a point near it, so that a thin pipe's
-/// few points are tried.
-Cylinder3 initialCylinder(const PointCloud& cloud, const std::vector<std::uint32_t>& points, const PlacementParams& params,
-                          const std::optional<Eigen::Vector3d>& anchor, const char* where) {
+/// Starts for the fit: of the cylinders through random pairs of points (a fixed seed, so the same
+/// points give the same fit), the kStarts best supported, best first. With an `anchor` (a picked
+/// point), the cylinder's surface must pass by it, so that the pipe picked wins over a bigger one
+/// beside it, and every other pair has a point near it, so that a thin pipe's few points are tried.
+std::vector<Cylinder3> startingCylinders(const PointCloud& cloud, const std::vector<std::uint32_t>& points,
+                                         const PlacementParams& params, const std::optional<Eigen::Vector3d>& anchor,
+                                         const char* where) {
   std::vector<std::uint32_t> firsts;
   if (anchor) {
     for (const std::uint32_t i : points) {
@@ -117,22 +118,28 @@ Cylinder3 initialCylinder(const PointCloud& cloud, const std::vector<std::uint32
   std::vector<std::uint32_t> sample;
   const std::size_t stride = (points.size() + kMaxScored - 1) / kMaxScored;
   for (std::size_t k = 0; k < points.size(); k += stride) sample.push_back(points[k]);
-  std::optional<Cylinder3> best;
-  std::size_t bestScore = 0;
+  std::vector<std::pair<double, Cylinder3>> scored;
   for (int trial = 0; trial < kTrials; ++trial) {
     const std::vector<std::uint32_t>& from = trial % 2 == 0 ? firsts : points;
     const std::uint32_t i = from[random.next() % from.size()], j = points[random.next() % points.size()];
     if (i == j) continue;
     const auto candidate = cylinderThrough(cloud, i, j, params);
     if (!candidate || (anchor && std::abs(candidate->offset(*anchor)) > params.inlierDistance)) continue;
-    const std::size_t score = inliersOf(cloud, *candidate, sample, params).size();
-    if (score > bestScore) {
-      bestScore = score;
-      best = candidate;
+    // MSAC: an inlier counts less the farther it lies from the surface, so the cylinder the points
+    // hug wins over a bigger one whose band merely holds them.
+    double score = 0.0;
+    for (const std::uint32_t k : inliersOf(cloud, *candidate, sample, params)) {
+      const double offset = candidate->offset(cloud.positions[k].cast<double>()) / params.inlierDistance;
+      score += 1.0 - offset * offset;
     }
+    if (score > 0.0) scored.emplace_back(score, *candidate);
   }
-  if (!best) throw EditError(std::string("no two points ") + where + " agree on a pipe-sized cylinder");
-  return *best;
+  if (scored.empty()) throw EditError(std::string("no two points ") + where + " agree on a pipe-sized cylinder");
+  // Stable: equal scores keep the order they were drawn in.
+  std::stable_sort(scored.begin(), scored.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::vector<Cylinder3> starts;
+  for (std::size_t k = 0; k < scored.size() && starts.size() < kStarts; ++k) starts.push_back(scored[k].second);
+  return starts;
 }
 
 std::vector<Eigen::Vector3d> positionsOf(const PointCloud& cloud, const std::vector<std::uint32_t>& indices) {
@@ -147,11 +154,10 @@ std::string tooFew(std::size_t found, const char* where) {
          std::to_string(kMinFitInliers) + ")";
 }
 
-/// The cylinder of the points, refined twice on its inliers as the placement stage refines.
-Cylinder3 fitCylinder(const PointCloud& cloud, const std::vector<std::uint32_t>& points, const PlacementParams& params,
-                      const std::optional<Eigen::Vector3d>& anchor, const char* where) {
-  if (points.size() < kMinFitInliers) throw EditError(tooFew(points.size(), where));
-  Cylinder3 cylinder = initialCylinder(cloud, points, params, anchor, where);
+/// `start` refined twice on its inliers as the placement stage refines; throws EditError when the
+/// result is no pipe (too few inliers, degenerate, off the picked point, radius beyond the limits).
+Cylinder3 refineStart(const PointCloud& cloud, Cylinder3 cylinder, const std::vector<std::uint32_t>& points,
+                      const PlacementParams& params, const std::optional<Eigen::Vector3d>& anchor, const char* where) {
   for (int pass = 0; pass < 2; ++pass) {
     const std::vector<std::uint32_t> inliers = inliersOf(cloud, cylinder, points, params);
     if (inliers.size() < kMinFitInliers) throw EditError(tooFew(inliers.size(), where));
@@ -171,6 +177,22 @@ Cylinder3 fitCylinder(const PointCloud& cloud, const std::vector<std::uint32_t>&
   const std::size_t inliers = inliersOf(cloud, cylinder, points, params).size();
   if (inliers < kMinFitInliers) throw EditError(tooFew(inliers, where));
   return cylinder;
+}
+
+/// The first of the best starts that refines into a pipe; the best start's failure when none does.
+Cylinder3 fitCylinder(const PointCloud& cloud, const std::vector<std::uint32_t>& points, const PlacementParams& params,
+                      const std::optional<Eigen::Vector3d>& anchor, const char* where) {
+  if (points.size() < kMinFitInliers) throw EditError(tooFew(points.size(), where));
+  const std::vector<Cylinder3> starts = startingCylinders(cloud, points, params, anchor, where);
+  std::optional<EditError> firstFailure;
+  for (const Cylinder3& start : starts) {
+    try {
+      return refineStart(cloud, start, points, params, anchor, where);
+    } catch (const EditError& failure) {
+      if (!firstFailure) firstFailure = failure;
+    }
+  }
+  throw *firstFailure;
 }
 
 /// The pipe along `cylinder` spanning `inliers` (world coordinates).

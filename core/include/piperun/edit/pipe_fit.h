@@ -11,8 +11,9 @@
 namespace piperun {
 
 /// The cylinder through the points (with normals) of `cloud` inside the world-space box
-/// [boxMin, boxMax]: the best-supported of the cylinders through random pairs of points with
-/// their normals (fixed seed), then two rounds of refineCylinderFit() on the inliers (within
+/// [boxMin, boxMax]: the best-supported cylinders through random pairs of points with their
+/// normals (fixed seed) are refined, best first, until one gives a pipe: two rounds of
+/// refineCylinderFit() on the inliers (within
 /// params.inlierDistance of the surface, normal within params.inlierNormalAngleDeg of the radial
 /// direction). The pipe spans its inliers. Returns a pipe in world coordinates with id 0,
 /// confidence 1 and status accepted; throws EditError saying why when no pipe fits (fewer than 15
