@@ -23,23 +23,24 @@ std::string joined(const std::vector<std::string>& words) {
   return text;
 }
 
+/// The status line of an applied edit.
 std::string describe(const EditStep& step) {
   const Edit& edit = step.edit;
   const std::string joint = "joint " + std::to_string(edit.id), pipe = "pipe " + std::to_string(edit.id);
-  const auto& added = step.diff;
+  const NetworkDiff& diff = step.diff;
   switch (edit.kind) {
     case EditKind::AcceptJoint: return joint + " accepted";
     case EditKind::RejectJoint: return joint + " rejected";
     case EditKind::AddJoint:
-      return "joint " + std::to_string(added.joints.added.at(0).element.id) + " (" + toString(added.joints.added[0].element.type) +
+      return "joint " + std::to_string(diff.joints.added.at(0).element.id) + " (" + toString(diff.joints.added[0].element.type) +
              ") joins pipes " + std::to_string(edit.id) + " and " + std::to_string(edit.otherId);
     case EditKind::DeletePipe: return pipe + " deleted";
     case EditKind::RestorePipe: return pipe + " restored";
     case EditKind::MergePipes: return "pipe " + std::to_string(edit.otherId) + " merged into " + pipe;
-    case EditKind::SplitPipe: return pipe + " split; the far piece is pipe " + std::to_string(added.pipes.added.at(0).element.id);
+    case EditKind::SplitPipe: return pipe + " split; the far piece is pipe " + std::to_string(diff.pipes.added.at(0).element.id);
     case EditKind::SetRadius:
     case EditKind::SnapRadius: {
-      for (const auto& change : added.pipes.changed) {
+      for (const auto& change : diff.pipes.changed) {
         if (change.after.id == edit.id) return pipe + " radius " + std::to_string(change.after.radius) + " m";
       }
       return pipe + " radius unchanged";
@@ -47,7 +48,7 @@ std::string describe(const EditStep& step) {
     case EditKind::MoveEnd: return pipe + (edit.side == 0 ? " start" : " end") + " moved";
     case EditKind::FitInBox:
     case EditKind::FitAround: {
-      const Pipe& fitted = added.pipes.added.at(0).element;
+      const Pipe& fitted = diff.pipes.added.at(0).element;
       return "fitted pipe " + std::to_string(fitted.id) + ": radius " + std::to_string(fitted.radius) + " m, length " +
              std::to_string(fitted.length()) + " m, " + std::to_string(fitted.inlierCount) + " points";
     }
