@@ -1,6 +1,7 @@
 #include "piperun/io/network_io.h"
 
 #include "io/atomic_file.h"
+#include "io/network_json.h"
 #include "piperun/error.h"
 
 #include <nlohmann/json.hpp>
@@ -165,6 +166,41 @@ Run readRun(const JsonReader& in, const json& object, const std::string& pointer
 
 }  // namespace
 
+json pipeToJson(const Pipe& pipe) {
+  json item;
+  item["id"] = pipe.id;
+  item["radius"] = pipe.radius;
+  item["axis"] = polylineToJson({pipe.start, pipe.end});
+  item["length"] = pipe.length();
+  item["fit_rms"] = pipe.fitRms;
+  item["inliers"] = pipe.inlierCount;
+  item["confidence"] = pipe.confidence;
+  item["run"] = pipe.runId >= 0 ? json(pipe.runId) : json(nullptr);
+  item["status"] = toString(pipe.status);
+  return item;
+}
+
+json jointToJson(const Joint& joint) {
+  json item;
+  item["id"] = joint.id;
+  item["type"] = toString(joint.type);
+  item["pipes"] = joint.pipeIds;
+  item["radius"] = joint.radius;
+  item["axis"] = polylineToJson(joint.axis);
+  if (joint.type == JointType::Elbow) item["bend_radius"] = joint.bendRadius;
+  item["confidence"] = joint.confidence;
+  item["status"] = toString(joint.status);
+  return item;
+}
+
+Pipe pipeFromJson(const json& object, const std::filesystem::path& source, const std::string& pointer) {
+  return readPipe(JsonReader(source), object, pointer);
+}
+
+Joint jointFromJson(const json& object, const std::filesystem::path& source, const std::string& pointer) {
+  return readJoint(JsonReader(source), object, pointer);
+}
+
 double runLength(const PipeNetwork& network, const Run& run) {
   double total = 0.0;
   for (int id : run.pipeIds) {
@@ -195,7 +231,7 @@ double runNominalRadius(const PipeNetwork& network, const Run& run) {
   return best;
 }
 
-std::string networkToJson(const PipeNetwork& network, const NetworkMetadata& metadata, int indent) {
+json networkToJsonValue(const PipeNetwork& network, const NetworkMetadata& metadata) {
   json document;
   document["format"] = kNetworkFormatName;
   document["version"] = kNetworkFormatVersion;
@@ -203,34 +239,11 @@ std::string networkToJson(const PipeNetwork& network, const NetworkMetadata& met
   if (!metadata.empty()) document["metadata"] = metadata;
 
   json pipes = json::array();
-  for (const auto& pipe : network.pipes) {
-    json item;
-    item["id"] = pipe.id;
-    item["radius"] = pipe.radius;
-    item["axis"] = polylineToJson({pipe.start, pipe.end});
-    item["length"] = pipe.length();
-    item["fit_rms"] = pipe.fitRms;
-    item["inliers"] = pipe.inlierCount;
-    item["confidence"] = pipe.confidence;
-    item["run"] = pipe.runId >= 0 ? json(pipe.runId) : json(nullptr);
-    item["status"] = toString(pipe.status);
-    pipes.push_back(std::move(item));
-  }
+  for (const auto& pipe : network.pipes) pipes.push_back(pipeToJson(pipe));
   document["pipes"] = std::move(pipes);
 
   json joints = json::array();
-  for (const auto& joint : network.joints) {
-    json item;
-    item["id"] = joint.id;
-    item["type"] = toString(joint.type);
-    item["pipes"] = joint.pipeIds;
-    item["radius"] = joint.radius;
-    item["axis"] = polylineToJson(joint.axis);
-    if (joint.type == JointType::Elbow) item["bend_radius"] = joint.bendRadius;
-    item["confidence"] = joint.confidence;
-    item["status"] = toString(joint.status);
-    joints.push_back(std::move(item));
-  }
+  for (const auto& joint : network.joints) joints.push_back(jointToJson(joint));
   document["joints"] = std::move(joints);
 
   json runs = json::array();
@@ -244,7 +257,11 @@ std::string networkToJson(const PipeNetwork& network, const NetworkMetadata& met
     runs.push_back(std::move(item));
   }
   document["runs"] = std::move(runs);
-  return document.dump(indent) + "\n";
+  return document;
+}
+
+std::string networkToJson(const PipeNetwork& network, const NetworkMetadata& metadata, int indent) {
+  return networkToJsonValue(network, metadata).dump(indent) + "\n";
 }
 
 PipeNetwork networkFromJson(const std::string& text, const std::filesystem::path& source, NetworkMetadata* metadata) {
@@ -258,6 +275,10 @@ PipeNetwork networkFromJson(const std::string& text, const std::filesystem::path
     // nlohmann counts bytes from 1; the other readers report 0-based offsets.
     throw InputError(source, byteLocation(error.byte > 0 ? error.byte - 1 : 0), "invalid JSON: " + message);
   }
+  return networkFromJsonValue(document, source, metadata);
+}
+
+PipeNetwork networkFromJsonValue(const json& document, const std::filesystem::path& source, NetworkMetadata* metadata) {
   const JsonReader in(source);
   if (!document.is_object()) in.fail("", "expected a JSON object with \"format\": \"piperun-network\"");
   const auto format = in.string(in.member(document, "", "format"), "/format");

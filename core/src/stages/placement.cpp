@@ -666,52 +666,12 @@ class InlierSearch {
   CellIndex grid_;
 };
 
-/// Gauss-Newton on the surface distances |(p − c) × a| − r, over the axis direction (2 angles),
-/// the axis point (2 offsets across the axis) and the radius. Returns false when it degenerates.
+/// refineCylinderFit() on the stripe points `inliers` (indices into the stripe).
 bool refineFit(CylinderFit& fit, const PointCloud& cloud, const StripeProjection& stripe, const std::vector<std::uint32_t>& inliers,
                int iterations) {
-  using Vector5d = Eigen::Matrix<double, 5, 1>;
-  using Matrix5d = Eigen::Matrix<double, 5, 5>;
   std::vector<Eigen::Vector3d> points(inliers.size());
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  for (std::size_t k = 0; k < inliers.size(); ++k) {
-    points[k] = cloud.positions[stripe.points[inliers[k]]].cast<double>();
-    centroid += points[k];
-  }
-  centroid /= static_cast<double>(points.size());
-  for (int iteration = 0; iteration < iterations; ++iteration) {
-    // Keep the axis point level with the centroid so that tilting the axis barely moves it near the data.
-    fit.point += (centroid - fit.point).dot(fit.direction) * fit.direction;
-    const Eigen::Vector3d b1 = anyPerpendicular(fit.direction);
-    const Eigen::Vector3d b2 = fit.direction.cross(b1);
-    Matrix5d normal = Matrix5d::Zero();
-    Vector5d gradient = Vector5d::Zero();
-    for (const Eigen::Vector3d& p : points) {
-      const Eigen::Vector3d q = p - fit.point;
-      const double along = q.dot(fit.direction);
-      const Eigen::Vector3d radial = q - along * fit.direction;
-      const double distance = radial.norm();
-      if (distance <= 0.0) continue;
-      const Eigen::Vector3d g = radial / distance;
-      const double g1 = g.dot(b1), g2 = g.dot(b2);
-      Vector5d jacobian;
-      jacobian << -along * g1, -along * g2, -g1, -g2, -1.0;
-      normal.noalias() += jacobian * jacobian.transpose();
-      gradient += jacobian * (distance - fit.radius);
-    }
-    // A little Levenberg damping keeps a thin arc (radius and centre nearly degenerate) from jumping.
-    normal.diagonal() += 1e-9 * (normal.diagonal().array() + 1.0).matrix();
-    const Eigen::LDLT<Matrix5d> solver(normal);
-    if (solver.info() != Eigen::Success) return false;
-    const Vector5d step = solver.solve(-gradient);
-    if (!step.allFinite()) return false;
-    fit.direction = (fit.direction + step[0] * b1 + step[1] * b2).normalized();
-    fit.point += step[2] * b1 + step[3] * b2;
-    fit.radius += step[4];
-    if (step.norm() < 1e-8) break;
-  }
-  fit.point += (centroid - fit.point).dot(fit.direction) * fit.direction;
-  return fit.radius > 0.0 && fit.point.allFinite() && fit.direction.allFinite();
+  for (std::size_t k = 0; k < inliers.size(); ++k) points[k] = cloud.positions[stripe.points[inliers[k]]].cast<double>();
+  return refineCylinderFit(points, fit.point, fit.direction, fit.radius, iterations);
 }
 
 /// How far the inliers' surface offsets vary systematically around the axis (m): the RMS of the
@@ -855,6 +815,51 @@ double axisDistance(const Cylinder& a, const Eigen::Vector3d& p) {
 }
 
 }  // namespace
+
+// Gauss-Newton on the surface distances |(p − c) × a| − r, over the axis direction (2 angles),
+// the axis point (2 offsets across the axis) and the radius.
+bool refineCylinderFit(const std::vector<Eigen::Vector3d>& points, Eigen::Vector3d& point, Eigen::Vector3d& direction,
+                       double& radius, int iterations) {
+  using Vector5d = Eigen::Matrix<double, 5, 1>;
+  using Matrix5d = Eigen::Matrix<double, 5, 5>;
+  if (points.empty()) return false;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : points) centroid += p;
+  centroid /= static_cast<double>(points.size());
+  for (int iteration = 0; iteration < iterations; ++iteration) {
+    // Keep the axis point level with the centroid so that tilting the axis barely moves it near the data.
+    point += (centroid - point).dot(direction) * direction;
+    const Eigen::Vector3d b1 = anyPerpendicular(direction);
+    const Eigen::Vector3d b2 = direction.cross(b1);
+    Matrix5d normal = Matrix5d::Zero();
+    Vector5d gradient = Vector5d::Zero();
+    for (const Eigen::Vector3d& p : points) {
+      const Eigen::Vector3d q = p - point;
+      const double along = q.dot(direction);
+      const Eigen::Vector3d radial = q - along * direction;
+      const double distance = radial.norm();
+      if (distance <= 0.0) continue;
+      const Eigen::Vector3d g = radial / distance;
+      const double g1 = g.dot(b1), g2 = g.dot(b2);
+      Vector5d jacobian;
+      jacobian << -along * g1, -along * g2, -g1, -g2, -1.0;
+      normal.noalias() += jacobian * jacobian.transpose();
+      gradient += jacobian * (distance - radius);
+    }
+    // A little Levenberg damping keeps a thin arc (radius and centre nearly degenerate) from jumping.
+    normal.diagonal() += 1e-9 * (normal.diagonal().array() + 1.0).matrix();
+    const Eigen::LDLT<Matrix5d> solver(normal);
+    if (solver.info() != Eigen::Success) return false;
+    const Vector5d step = solver.solve(-gradient);
+    if (!step.allFinite()) return false;
+    direction = (direction + step[0] * b1 + step[1] * b2).normalized();
+    point += step[2] * b1 + step[3] * b2;
+    radius += step[4];
+    if (step.norm() < 1e-8) break;
+  }
+  point += (centroid - point).dot(direction) * direction;
+  return radius > 0.0 && point.allFinite() && direction.allFinite();
+}
 
 PlacementResult placeCylinders(const PlacementInput& input, const PlacementParams& params, Progress& progress) {
   const auto started = std::chrono::steady_clock::now();

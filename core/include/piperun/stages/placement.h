@@ -87,4 +87,11 @@ struct PlacementResult {
 PlacementResult placeCylinders(const PlacementInput& input, const PlacementParams& params,
                                Progress& progress = Progress::none());
 
+/// The least-squares refinement placement runs on each cylinder: Gauss-Newton on the surface
+/// distances |(p − c) × a| − r over the axis direction, the axis point and the radius. `point`,
+/// the unit `direction` and `radius` hold the start on entry and the fit on return (the point level
+/// with the points' centroid). Returns false when the fit degenerates.
+bool refineCylinderFit(const std::vector<Eigen::Vector3d>& points, Eigen::Vector3d& point, Eigen::Vector3d& direction,
+                       double& radius, int iterations);
+
 }  // namespace piperun
