@@ -1,6 +1,7 @@
 #include "piperun/edit/runs.h"
 
-#include <numeric>
+#include "union_find.h"
+
 #include <unordered_map>
 
 namespace piperun {
@@ -10,13 +11,8 @@ void assignRuns(PipeNetwork& network) {
   for (std::size_t i = 0; i < network.pipes.size(); ++i) {
     if (network.pipes[i].status != PipeStatus::Deleted) indexOf.emplace(network.pipes[i].id, i);
   }
-  // Union-find over pipe indices; the smaller index becomes the root, so a run's root is its first pipe.
-  std::vector<std::size_t> parent(network.pipes.size());
-  std::iota(parent.begin(), parent.end(), std::size_t{0});
-  const auto find = [&](std::size_t i) {
-    while (parent[i] != i) i = parent[i] = parent[parent[i]];
-    return i;
-  };
+  // The smaller index becomes the root, so a run's root is its first pipe.
+  UnionFind components(network.pipes.size());
   const auto connects = [&](const Joint& joint) {
     if (joint.status != JointStatus::Accepted || joint.pipeIds.empty()) return false;
     for (int id : joint.pipeIds) {
@@ -27,8 +23,7 @@ void assignRuns(PipeNetwork& network) {
   for (const Joint& joint : network.joints) {
     if (!connects(joint)) continue;
     for (std::size_t k = 1; k < joint.pipeIds.size(); ++k) {
-      const std::size_t a = find(indexOf.at(joint.pipeIds.front())), b = find(indexOf.at(joint.pipeIds[k]));
-      if (a != b) parent[std::max(a, b)] = std::min(a, b);
+      components.unite(indexOf.at(joint.pipeIds.front()), indexOf.at(joint.pipeIds[k]));
     }
   }
 
@@ -40,7 +35,7 @@ void assignRuns(PipeNetwork& network) {
       pipe.runId = -1;
       continue;
     }
-    const std::size_t root = find(i);
+    const std::size_t root = components.find(i);
     if (runOfRoot[root] < 0) {
       runOfRoot[root] = static_cast<int>(network.runs.size());
       network.runs.push_back(Run{static_cast<int>(network.runs.size()) + 1, {}, {}});
@@ -51,7 +46,7 @@ void assignRuns(PipeNetwork& network) {
   }
   for (const Joint& joint : network.joints) {
     if (!connects(joint)) continue;
-    const std::size_t root = find(indexOf.at(joint.pipeIds.front()));
+    const std::size_t root = components.find(indexOf.at(joint.pipeIds.front()));
     network.runs[static_cast<std::size_t>(runOfRoot[root])].jointIds.push_back(joint.id);
   }
 }

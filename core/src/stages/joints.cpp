@@ -16,7 +16,7 @@
 
 #include "piperun/stages/joints.h"
 
-#include "union_find.h"
+#include "piperun/edit/runs.h"
 
 #include <tbb/parallel_for.h>
 
@@ -626,7 +626,6 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
                        static_cast<int>(hypothesis.type), h);
   }
   std::sort(keyed.begin(), keyed.end());
-  UnionFind runs(static_cast<std::size_t>(pipeIds) + 1);
   int nextId = pipeIds + 1;
   for (const auto& [first, second, type, h] : keyed) {
     Hypothesis& hypothesis = hypotheses[h];
@@ -645,27 +644,17 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
     joint.bendRadius = hypothesis.bendRadius;
     joint.confidence = std::clamp(hypothesis.confidence, 0.0, 1.0);
     joint.status = joint.confidence >= params.acceptConfidence ? JointStatus::Accepted : JointStatus::Proposed;
-    if (joint.status == JointStatus::Accepted) runs.unite(static_cast<std::size_t>(first), static_cast<std::size_t>(second));
     std::sort(hypothesis.supportPoints.begin(), hypothesis.supportPoints.end());
     result.jointSupport.push_back(std::move(hypothesis.supportPoints));
     result.joints.push_back(std::move(joint));
   }
 
-  // Runs in the order of their first pipe.
-  std::vector<int> runOfRoot(static_cast<std::size_t>(pipeIds) + 1, -1);
-  for (int id = 1; id <= pipeIds; ++id) {
-    const std::size_t root = runs.find(static_cast<std::size_t>(id));
-    if (runOfRoot[root] < 0) {
-      runOfRoot[root] = static_cast<int>(result.runs.size());
-      result.runs.push_back(Run{static_cast<int>(result.runs.size()) + 1, {}, {}});
-    }
-    result.runs[static_cast<std::size_t>(runOfRoot[root])].pipeIds.push_back(id);
-  }
-  for (const Joint& joint : result.joints) {
-    if (joint.status != JointStatus::Accepted) continue;
-    const std::size_t root = runs.find(static_cast<std::size_t>(joint.pipeIds.front()));
-    result.runs[static_cast<std::size_t>(runOfRoot[root])].jointIds.push_back(joint.id);
-  }
+  // Runs by the rule every edit of the network uses too.
+  PipeNetwork joined;
+  for (int id = 1; id <= pipeIds; ++id) joined.pipes.push_back(Pipe{id});
+  joined.joints = result.joints;
+  assignRuns(joined);
+  result.runs = std::move(joined.runs);
 
   progress.report("joints", 1.0);
   result.diagnostics.seconds =
