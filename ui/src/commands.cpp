@@ -26,18 +26,21 @@ std::string CommandRegistry::run(const std::string& line) const {
   return found->second.handler(words);
 }
 
-void CommandRegistry::runScript(const std::filesystem::path& path) const {
+std::string CommandRegistry::runScript(const std::filesystem::path& path) const {
   std::ifstream file(path);
   if (!file) throw CommandError(path.string() + ": cannot open the script");
   int lineNumber = 0;
+  std::string lastMessage;
   for (std::string line; std::getline(file, line);) {
     ++lineNumber;
     try {
-      run(line);
+      const std::string message = run(line);
+      if (!message.empty()) lastMessage = message;
     } catch (const std::exception& error) {
       throw CommandError(path.string() + ":" + std::to_string(lineNumber) + ": " + error.what());
     }
   }
+  return lastMessage;
 }
 
 std::vector<const CommandRegistry::Command*> CommandRegistry::list() const {

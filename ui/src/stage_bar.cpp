@@ -112,10 +112,17 @@ void StageBar::setEnabled(bool enabled) {
   enabled_ = enabled;
   for (auto& button : buttons_) {
     button.widget->SetEnabled(enabled);
+    button.widget->GetRepresentation()->SetVisibility(enabled);  // Disabling alone leaves the face drawn.
     button.label->SetVisibility(enabled);
   }
   slider_->SetEnabled(enabled && sliderShown_);
-  if (enabled) applyStates();
+  if (!enabled) return;
+  // Enabling adds the button faces to the renderer; the labels must come after them to be drawn on top.
+  for (auto& button : buttons_) {
+    overlay_->RemoveViewProp(button.label);
+    overlay_->AddViewProp(button.label);
+  }
+  applyStates();
 }
 
 void StageBar::setStates(const std::vector<StageState>& states) {
@@ -167,8 +174,8 @@ void StageBar::layout(int windowWidth, int barHeight, double scale) {
   auto* representation = static_cast<vtkSliderRepresentation2D*>(slider_->GetRepresentation());
   const double sliderStart = x + 4.0 * margin;
   const double sliderEnd = std::max(sliderStart + 80.0 * scale, windowWidth - 4.0 * margin);
-  representation->GetPoint1Coordinate()->SetValue(sliderStart, barHeight * 0.62);
-  representation->GetPoint2Coordinate()->SetValue(sliderEnd, barHeight * 0.62);
+  representation->GetPoint1Coordinate()->SetValue(sliderStart, barHeight * 0.66);
+  representation->GetPoint2Coordinate()->SetValue(sliderEnd, barHeight * 0.66);
   // The slider's sizes are fractions of its length; keep them a fixed number of pixels.
   const double length = sliderEnd - sliderStart;
   representation->SetSliderLength(10.0 * scale / length);

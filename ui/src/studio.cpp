@@ -18,7 +18,6 @@
 #include <vtkCellPicker.h>
 #include <vtkIntArray.h>
 #include <vtkInteractorStyleTrackballCamera.h>
-#include <vtkLegendBoxActor.h>
 #include <vtkLookupTable.h>
 #include <vtkObjectFactory.h>
 #include <vtkPNGWriter.h>
@@ -77,7 +76,7 @@ vtkStandardNewMacro(StudioInteractorStyle);
 
 enum class ViewMode { All, Scene, Sphere, Plane };
 enum class PointColor { Height, Intensity, Rgb, Segment, Element, Qa };
-enum class PipeColor { Run, Radius, Confidence };
+enum class PipeColor { Run, Radius, Confidence, Plain };
 
 const std::map<std::string, ViewMode> kViewModes{
     {"all", ViewMode::All}, {"scene", ViewMode::Scene}, {"sphere", ViewMode::Sphere}, {"plane", ViewMode::Plane}};
@@ -85,7 +84,7 @@ const std::map<std::string, PointColor> kPointColors{{"height", PointColor::Heig
                                                      {"rgb", PointColor::Rgb},         {"segment", PointColor::Segment},
                                                      {"element", PointColor::Element}, {"qa", PointColor::Qa}};
 const std::map<std::string, PipeColor> kPipeColors{
-    {"run", PipeColor::Run}, {"radius", PipeColor::Radius}, {"confidence", PipeColor::Confidence}};
+    {"run", PipeColor::Run}, {"radius", PipeColor::Radius}, {"confidence", PipeColor::Confidence}, {"plain", PipeColor::Plain}};
 
 template <typename Value>
 std::string nameOf(const std::map<std::string, Value>& names, Value value) {
@@ -183,7 +182,7 @@ vtkSmartPointer<vtkTextActor> makeText(double r, double g, double b) {
   return text;
 }
 
-constexpr double kQaReach = 0.05;  ///< Points farther than this from every surface are not coloured by the QA map (m).
+constexpr double kQaReach = 0.02;  ///< Points farther than this from every surface are not coloured by the QA map (m).
 
 }  // namespace
 
@@ -245,6 +244,7 @@ struct Studio::Impl {
   vtkRenderWindowInteractor* interactor;
   StudioOptions options;
   vtkNew<vtkRenderer> scene, sphere, plane, overlay;
+  vtkNew<vtkRenderer> highlightLayer;  ///< Over the scene, sharing its camera.
   vtkNew<StudioInteractorStyle> style;
   CommandRegistry commands;
   std::vector<std::pair<std::string, std::string>> keyBindings;  ///< key, command
@@ -277,7 +277,7 @@ struct Studio::Impl {
   vtkSmartPointer<vtkTextActor> statusText, infoText, helpCommandsText, helpKeysText, progressText;
   vtkSmartPointer<vtkTextActor> sceneTitle, sphereTitle, planeTitle;
   vtkNew<vtkScalarBarActor> colorBar;
-  vtkNew<vtkLegendBoxActor> jointLegend;
+  std::vector<vtkSmartPointer<vtkTextActor>> jointLegend;  ///< One line per joint status.
   std::unique_ptr<StageBar> stageBar;
   int laidOutWidth = 0, laidOutHeight = 0;
 
@@ -308,10 +308,14 @@ Studio::Impl::Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowIntera
   scene->SetBackground2(0.22, 0.24, 0.28);
   scene->GradientBackgroundOn();
   sphere->SetBackground(0.07, 0.08, 0.09);
-  plane->SetBackground(0.95, 0.95, 0.93);
+  plane->SetBackground(0.13, 0.14, 0.16);
   overlay->SetLayer(1);
   overlay->InteractiveOff();
-  for (vtkRenderer* renderer : {scene.Get(), sphere.Get(), plane.Get(), overlay.Get()}) window->AddRenderer(renderer);
+  highlightLayer->SetLayer(1);
+  highlightLayer->InteractiveOff();
+  highlightLayer->SetActiveCamera(scene->GetActiveCamera());
+  for (vtkRenderer* renderer : {scene.Get(), sphere.Get(), plane.Get(), highlightLayer.Get(), overlay.Get()})
+    window->AddRenderer(renderer);
   plane->GetActiveCamera()->ParallelProjectionOn();
 
   style->panOnly = plane;
@@ -344,7 +348,7 @@ Studio::Impl::Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowIntera
   }
   sceneTitle = makeText(0.75, 0.8, 0.9);
   sphereTitle = makeText(0.75, 0.8, 0.9);
-  planeTitle = makeText(0.25, 0.25, 0.3);
+  planeTitle = makeText(0.75, 0.8, 0.9);
   statusText->GetTextProperty()->SetVerticalJustificationToTop();
   for (auto* title : {sceneTitle.Get(), sphereTitle.Get(), planeTitle.Get()}) {
     title->GetTextProperty()->SetVerticalJustificationToTop();
@@ -366,25 +370,18 @@ Studio::Impl::Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowIntera
   colorBar->VisibilityOff();
   overlay->AddViewProp(colorBar);
 
-  jointLegend->SetNumberOfEntries(3);
+  // Joint status legend: each status's name in its colour.
   const std::array<std::pair<const char*, Rgb>, 3> statuses{
-      {{"accepted", kAccepted}, {"proposed", kProposed}, {"rejected", kRejected}}};
-  // The legend's symbol: a unit square, drawn in the entry's colour.
-  MeshBuilder square;
-  square.addTube({{0, 0, 0}, {0, 0, 1e-3}}, 0.7, kNeutral, -1, 4);
-  vtkSmartPointer<vtkPolyData> swatch = square.build();
-  for (int i = 0; i < 3; ++i) {
-    const Rgb& color = statuses[static_cast<std::size_t>(i)].second;
-    double rgb[3] = {color[0] / 255.0, color[1] / 255.0, color[2] / 255.0};
-    jointLegend->SetEntry(i, swatch, statuses[static_cast<std::size_t>(i)].first, rgb);
+      {{"joint accepted", kAccepted}, {"joint proposed", kProposed}, {"joint rejected", kRejected}}};
+  for (const auto& [label, color] : statuses) {
+    auto text = makeText(color[0] / 255.0, color[1] / 255.0, color[2] / 255.0);
+    text->SetInput(label);
+    text->GetTextProperty()->BoldOn();
+    text->GetTextProperty()->SetJustificationToRight();
+    text->GetTextProperty()->SetVerticalJustificationToTop();
+    overlay->AddViewProp(text);
+    jointLegend.push_back(text);
   }
-  jointLegend->UseBackgroundOn();
-  jointLegend->SetBackgroundColor(0.05, 0.05, 0.08);
-  jointLegend->GetEntryTextProperty()->ShadowOff();
-  jointLegend->GetPositionCoordinate()->SetCoordinateSystemToDisplay();
-  jointLegend->GetPosition2Coordinate()->SetCoordinateSystemToDisplay();
-  jointLegend->VisibilityOff();
-  overlay->AddViewProp(jointLegend);
 
   stageBar = std::make_unique<StageBar>(
       interactor, overlay,
@@ -669,9 +666,10 @@ void Studio::Impl::buildNetworkLayers() {
   auto confidenceMap = scalarMap(0.0, 1.0);
   MeshBuilder pipes;
   for (const auto& pipe : network.pipes) {
-    const Rgb color = pipeColor == PipeColor::Run      ? categoryColor(pipe.runId)
-                      : pipeColor == PipeColor::Radius ? mapColor(radiusMap, pipe.radius)
-                                                       : mapColor(confidenceMap, pipe.confidence);
+    const Rgb color = pipeColor == PipeColor::Run          ? categoryColor(pipe.runId)
+                      : pipeColor == PipeColor::Radius     ? mapColor(radiusMap, pipe.radius)
+                      : pipeColor == PipeColor::Confidence ? mapColor(confidenceMap, pipe.confidence)
+                                                           : Rgb{185, 190, 200};
     pipes.addTube({pipe.start - displayOrigin, pipe.end - displayOrigin}, pipe.radius, color, pipe.id);
   }
   setLayer("network/pipes", scene, meshActor(pipes.build()), true);
@@ -682,9 +680,15 @@ void Studio::Impl::buildNetworkLayers() {
     for (const auto& point : joint.axis) axis.push_back(point - displayOrigin);
     // Slightly fatter than the pipes so the joint's colour shows where they overlap.
     joints.addTube(axis, joint.radius * 1.06, statusColor(joint.status), joint.id);
+    // A tee's branch segment hides inside its main pipe: a collar around the main pipe shows it.
+    const Pipe* main = joint.type == JointType::Tee && !joint.pipeIds.empty() ? network.findPipe(joint.pipeIds[0]) : nullptr;
+    if (main) {
+      const Eigen::Vector3d centre = joint.position() - displayOrigin;
+      const Eigen::Vector3d along = main->direction() * (1.2 * joint.radius);
+      joints.addTube({centre - along, centre + along}, main->radius * 1.1, statusColor(joint.status), joint.id);
+    }
   }
   setLayer("network/joints", scene, meshActor(joints.build()), true);
-  jointLegend->SetVisibility(!network.joints.empty() && layerVisible("network/joints"));
 }
 
 void Studio::Impl::buildSelectionLayer() {
@@ -701,7 +705,9 @@ void Studio::Impl::buildSelectionLayer() {
   }
   auto actor = meshActor(highlight.build());
   actor->PickableOff();
-  setLayer("selection/highlight", scene, actor, true);
+  actor->GetProperty()->SetOpacity(0.8);
+  // Drawn over the scene (its own layer, same camera) so a selection inside other pipes shows.
+  setLayer("selection/highlight", highlightLayer, actor, true);
 }
 
 void Studio::Impl::buildSphereLayers() {
@@ -811,7 +817,7 @@ void Studio::Impl::buildPlaneLayers() {
   for (std::uint32_t point : chosen.stripe) {
     const Eigen::Vector3d p = kept.positions[point].cast<double>();
     projected.emplace_back(static_cast<float>(p.dot(u)), static_cast<float>(p.dot(v)), 0.0f);
-    pointColors.push_back({60, 60, 70});
+    pointColors.push_back({175, 175, 185});
   }
   auto pointActor = meshActor(makePointSet(projected, pointColors));
   pointActor->GetMapper()->SetScalarModeToUsePointData();
@@ -824,7 +830,7 @@ void Studio::Impl::buildPlaneLayers() {
   if (projection)
     for (const auto& candidate : projection->candidates) {
       candidates.emplace_back(candidate.center.x(), candidate.center.y(), 0.001f);
-      candidateColors.push_back(candidate.circle >= 0 ? categoryColor(candidate.circle) : Rgb{175, 175, 185});
+      candidateColors.push_back(candidate.circle >= 0 ? categoryColor(candidate.circle) : Rgb{95, 95, 110});
     }
   auto candidateActor = meshActor(makePointSet(candidates, candidateColors));
   candidateActor->GetMapper()->SetScalarModeToUsePointData();
@@ -839,7 +845,7 @@ void Studio::Impl::buildPlaneLayers() {
     const Eigen::Vector3d center(cylinder.point.dot(u), cylinder.point.dot(v), 0.002);
     const bool selected = selection.kind == Selection::Kind::Pipe && pipeOfCylinder(ref, static_cast<int>(c)) == selection.id;
     circles.addPolyline(circlePoints(center, Eigen::Vector3d::UnitZ(), cylinder.radius),
-                        selected ? Rgb{230, 160, 0} : Rgb{200, 30, 30}, static_cast<int>(c), true);
+                        selected ? kHighlight : Rgb{255, 60, 60}, static_cast<int>(c), true);
   }
   auto circleActor = meshActor(circles.build());
   circleActor->GetProperty()->SetLineWidth(2.5f);
@@ -861,10 +867,11 @@ void Studio::Impl::updateColorBar() {
       title = "intensity";
     } else if (pointColor == PointColor::Qa) {
       map = scalarMap(0.0, kQaReach, true);
-      title = "distance to surface (m)";
+      title = "QA distance (m)";
     }
   }
-  if (!map && layerVisible("network/pipes") && !document.network().pipes.empty() && pipeColor != PipeColor::Run) {
+  if (!map && layerVisible("network/pipes") && !document.network().pipes.empty() &&
+      (pipeColor == PipeColor::Radius || pipeColor == PipeColor::Confidence)) {
     const auto& pipes = document.network().pipes;
     if (pipeColor == PipeColor::Radius) {
       const auto [low, high] = std::minmax_element(pipes.begin(), pipes.end(),
@@ -876,7 +883,8 @@ void Studio::Impl::updateColorBar() {
       title = "pipe confidence";
     }
   }
-  colorBar->SetVisibility(map != nullptr);
+  const bool sceneShown = viewMode == ViewMode::All || viewMode == ViewMode::Scene;
+  colorBar->SetVisibility(map != nullptr && sceneShown);
   if (map) {
     colorBar->SetLookupTable(map);
     colorBar->SetTitle(title.c_str());
@@ -891,7 +899,7 @@ void Studio::Impl::layout() {
   const int width = std::max(1, size[0]), height = std::max(1, size[1]);
   const double scale = options.uiScale;
   const bool bar = stageBar->enabled();
-  const double barHeight = bar ? 44.0 * scale : 0.0;
+  const double barHeight = bar ? 54.0 * scale : 0.0;
   const double bottom = barHeight / height;
   const double split = 0.64;
   struct Rect {
@@ -909,6 +917,8 @@ void Studio::Impl::layout() {
     if (shown) renderer->SetViewport(rect.x0, rect.y0, rect.x1, rect.y1);
   };
   apply(scene, sceneRect);
+  apply(highlightLayer, sceneRect);
+  highlightLayer->SetInteractive(false);
   apply(sphere, sphereRect);
   apply(plane, planeRect);
   overlay->SetViewport(0, 0, 1, 1);
@@ -934,13 +944,15 @@ void Studio::Impl::layout() {
   helpKeysText->SetPosition(width * 0.62, height - pad * 6);
 
   const double barRight = textRect.x1 * width - pad;
-  colorBar->GetPositionCoordinate()->SetValue(barRight - 70.0 * scale, textRect.y0 * height + 60.0 * scale);
+  colorBar->GetPositionCoordinate()->SetValue(barRight - 90.0 * scale, textRect.y0 * height + 60.0 * scale);
   colorBar->GetPosition2Coordinate()->SetValue(60.0 * scale, std::min(260.0 * scale, (textRect.y1 - textRect.y0) * height * 0.5));
   colorBar->SetBarRatio(0.3);
   colorBar->GetLabelTextProperty()->SetFontSize(static_cast<int>(11 * scale));
   colorBar->GetTitleTextProperty()->SetFontSize(static_cast<int>(11 * scale));
-  jointLegend->GetPositionCoordinate()->SetValue(barRight - 110.0 * scale, textRect.y1 * height - 80.0 * scale);
-  jointLegend->GetPosition2Coordinate()->SetValue(105.0 * scale, 66.0 * scale);
+  for (std::size_t i = 0; i < jointLegend.size(); ++i) {
+    jointLegend[i]->SetPosition(barRight, textRect.y1 * height - pad - 17.0 * scale * static_cast<double>(i));
+    jointLegend[i]->GetTextProperty()->SetFontSize(static_cast<int>(12 * scale));
+  }
   if (bar) stageBar->layout(width, static_cast<int>(barHeight), scale);
   laidOutWidth = width;
   laidOutHeight = height;
@@ -1093,7 +1105,9 @@ void Studio::Impl::updateOverlays() {
   helpKeysText->SetVisibility(helpShown);
 
   if (document.hasPipeline() && stageBar->enabled()) stageBar->setStates(stageStates());
-  jointLegend->SetVisibility(!network.joints.empty() && layerVisible("network/joints"));
+  for (auto& line : jointLegend)
+    line->SetVisibility(!network.joints.empty() && layerVisible("network/joints") &&
+                        (viewMode == ViewMode::All || viewMode == ViewMode::Scene));
   updateColorBar();
 }
 
@@ -1321,14 +1335,14 @@ void Studio::Impl::registerCommands() {
       flyTo(0.5 * (pipe.start + pipe.end), std::max(pipe.length() / 2.0, 4.0 * pipe.radius));
     } else if (selection.kind == Selection::Kind::Joint) {
       const Joint& joint = *network.findJoint(selection.id);
-      flyTo(joint.position(), std::max(joint.length(), 6.0 * joint.radius));
+      flyTo(joint.position(), std::max(joint.length(), 12.0 * joint.radius));
     } else {
       throw CommandError("nothing selected to fly to");
     }
     return std::string("camera on the selection");
   });
 
-  commands.add("color", "points height|intensity|rgb|segment|element|qa | pipes run|radius|confidence",
+  commands.add("color", "points height|intensity|rgb|segment|element|qa | pipes run|radius|confidence|plain",
                "colour the input points or the pipes", [this](const std::vector<std::string>& args) {
                  expectArguments(args, 2, 2, "color points MODE | color pipes MODE");
                  if (args[0] == "points") {
@@ -1575,7 +1589,10 @@ std::string Studio::command(const std::string& line) {
   return impl_->message;
 }
 
-void Studio::runScript(const std::filesystem::path& path) { impl_->commands.runScript(path); }
+void Studio::runScript(const std::filesystem::path& path) {
+  impl_->message = impl_->commands.runScript(path);
+  impl_->updateOverlays();
+}
 
 const CommandRegistry& Studio::commands() const { return impl_->commands; }
 

@@ -35,9 +35,9 @@ class CommandRegistry {
   /// Runs one line: words separated by blanks; an empty line or one starting with '#' does nothing.
   std::string run(const std::string& line) const;
 
-  /// Runs a script, one command a line. Stops at the first failing line with a CommandError
-  /// "<file>:<line>: <message>".
-  void runScript(const std::filesystem::path& path) const;
+  /// Runs a script, one command a line; returns the last non-empty message. Stops at the first
+  /// failing line with a CommandError "<file>:<line>: <message>".
+  std::string runScript(const std::filesystem::path& path) const;
 
   /// The commands in name order.
   std::vector<const Command*> list() const;
