@@ -16,11 +16,14 @@ class FunctionCommand : public vtkCommand {
   void Execute(vtkObject* caller, unsigned long event, void* data) override { function(caller, event, data); }
 };
 
-/// Calls `function` on `event` of `object`; higher priorities run first. Returns the observer tag.
+/// Calls `function` on `event` of `object`; higher priorities run first. A passive observer sees
+/// every event, even while a widget or the camera style holds the focus. Returns the observer tag.
 inline unsigned long observe(vtkObject* object, unsigned long event,
-                             std::function<void(vtkObject*, unsigned long, void*)> function, float priority = 0.0f) {
+                             std::function<void(vtkObject*, unsigned long, void*)> function, float priority = 0.0f,
+                             bool passive = false) {
   vtkNew<FunctionCommand> command;
   command->function = std::move(function);
+  command->SetPassiveObserver(passive);
   return object->AddObserver(event, command, priority);
 }
 

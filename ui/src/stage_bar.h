@@ -14,7 +14,6 @@ class vtkButtonWidget;
 class vtkRenderer;
 class vtkRenderWindowInteractor;
 class vtkSliderWidget;
-class vtkTextActor;
 
 namespace piperun::ui {
 
@@ -49,7 +48,6 @@ class StageBar {
   struct Button {
     Stage stage;
     vtkSmartPointer<vtkButtonWidget> widget;
-    vtkSmartPointer<vtkTextActor> label;
   };
   void applyStates();
 
@@ -63,6 +61,8 @@ class StageBar {
   Stage selected_ = Stage::Preprocess;
   bool enabled_ = false;
   bool sliderShown_ = false;
+  int faceWidth_ = 96, faceHeight_ = 28;  ///< Button face size in pixels (the faces carry the labels).
+  double scale_ = 1.0;
 };
 
 }  // namespace piperun::ui

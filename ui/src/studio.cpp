@@ -302,14 +302,14 @@ struct Studio::Impl {
 Studio::Impl::Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowInteractor* interactor,
                    const StudioOptions& options)
     : owner(owner), window(window), interactor(interactor), options(options) {
-  window->SetNumberOfLayers(2);
+  window->SetNumberOfLayers(3);
   window->SetMultiSamples(0);
   scene->SetBackground(0.10, 0.11, 0.13);
   scene->SetBackground2(0.22, 0.24, 0.28);
   scene->GradientBackgroundOn();
   sphere->SetBackground(0.07, 0.08, 0.09);
   plane->SetBackground(0.13, 0.14, 0.16);
-  overlay->SetLayer(1);
+  overlay->SetLayer(2);
   overlay->InteractiveOff();
   highlightLayer->SetLayer(1);
   highlightLayer->InteractiveOff();
@@ -330,10 +330,12 @@ Studio::Impl::Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowIntera
     this->window->Render();
   });
   observe(interactor, vtkCommand::KeyPressEvent, [this](vtkObject*, unsigned long, void*) { onKey(); });
-  // Below the widgets' priority, so clicks on the stage bar do not also pick.
-  observe(interactor, vtkCommand::LeftButtonPressEvent, [this](vtkObject*, unsigned long, void*) { onLeftPress(); }, -1.0f);
+  // Passive: the camera style grabs the focus on a press, and the release must still reach picking.
+  // (Clicks on the stage bar fall outside every view, so they pick nothing.)
+  observe(interactor, vtkCommand::LeftButtonPressEvent, [this](vtkObject*, unsigned long, void*) { onLeftPress(); }, 0.0f,
+          true);
   observe(interactor, vtkCommand::LeftButtonReleaseEvent, [this](vtkObject*, unsigned long, void*) { onLeftRelease(); },
-          -1.0f);
+          0.0f, true);
 
   statusText = makeText(0.92, 0.92, 0.92);
   infoText = makeText(1.0, 0.9, 0.45);
@@ -1524,6 +1526,30 @@ void Studio::Impl::registerCommands() {
     return "wrote " + args[0];
   });
 
+  commands.add("click", "X Y [double]",
+               "click at window pixel (X, Y), origin bottom left: picks like the mouse (double: also flies)",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 2, 3, "click X Y [double]");
+                 if (args.size() == 3 && args[2] != "double") throw CommandError("usage: click X Y [double]");
+                 owner.render();  // Picking needs the current layout and camera.
+                 message.clear();
+                 pick(parseInt(args[0], "X"), parseInt(args[1], "Y"), args.size() == 3);
+                 return message.empty() ? std::string("nothing there") : message;
+               });
+
+  commands.add("open", "FILE", "open a scan or a network (.json) in place of the current document",
+               [this](const std::vector<std::string>& args) {
+                 if (args.empty()) throw CommandError("usage: open FILE");
+                 std::string path = args[0];
+                 for (std::size_t i = 1; i < args.size(); ++i) path += " " + args[i];  // Names with blanks.
+                 try {
+                   open(Document::open(path));
+                 } catch (const InputError& error) {
+                   throw CommandError(error.what());
+                 }
+                 return "opened " + path;
+               });
+
   commands.add("quit", "", "close the studio", [this](const std::vector<std::string>& args) {
     expectArguments(args, 0, 0, "quit");
     quit = true;
@@ -1618,5 +1644,7 @@ std::string Studio::title() const {
 }
 
 bool Studio::quitRequested() const { return impl_->quit; }
+
+const std::string& Studio::message() const { return impl_->message; }
 
 }  // namespace piperun::ui

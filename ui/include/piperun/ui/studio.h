@@ -63,6 +63,8 @@ class Studio {
   std::string title() const;
   /// Set by the `quit` command; the window backend closes when it sees it.
   bool quitRequested() const;
+  /// The status line: the last command's message, or how the last background run ended.
+  const std::string& message() const;
 
  private:
   struct Impl;
