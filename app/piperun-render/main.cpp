@@ -60,7 +60,10 @@ int main(int argc, char** argv) {
       studio.command("widgets off");
       studio.command("view " + view);
     }
-    if (!script.empty()) studio.runScript(script);
+    if (!script.empty()) {
+      studio.runScript(script);
+      std::printf("%s\n", studio.message().c_str());
+    }
     studio.command("screenshot " + output);
     std::printf("wrote %s (%dx%d)\n", output.c_str(), width, height);
   } catch (const piperun::InputError& error) {

@@ -1537,6 +1537,36 @@ void Studio::Impl::registerCommands() {
                  return message.empty() ? std::string("nothing there") : message;
                });
 
+  commands.add("frames", "N",
+               "time N frames turning the 3-D camera once around, drawn as while dragging and as when still",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 1, 1, "frames N");
+                 const int count = parseInt(args[0], "the frame count");
+                 if (count < 1) throw CommandError("frames needs at least 1 frame");
+                 vtkNew<vtkCamera> saved;
+                 saved->DeepCopy(scene->GetActiveCamera());
+                 auto timeFrames = [&](bool moving) {
+                   interacting = moving;
+                   for (auto& [name, lod] : pointLods) lod.mapper->SetInputData(moving ? lod.coarse : lod.full);
+                   owner.render();  // Uploads the points; not timed.
+                   const auto start = std::chrono::steady_clock::now();
+                   for (int i = 0; i < count; ++i) {
+                     scene->GetActiveCamera()->Azimuth(360.0 / count);
+                     window->Render();
+                   }
+                   const std::chrono::duration<double, std::milli> elapsed = std::chrono::steady_clock::now() - start;
+                   vtkIdType points = 0;
+                   for (auto& [name, lod] : pointLods)
+                     if (layerVisible(name)) points += (moving ? lod.coarse : lod.full)->GetNumberOfPoints();
+                   return format("%.1f ms/frame", elapsed.count() / count) + " (" + std::to_string(points) + " points)";
+                 };
+                 const std::string moving = timeFrames(true);
+                 const std::string still = timeFrames(false);
+                 scene->GetActiveCamera()->DeepCopy(saved);
+                 scene->ResetCameraClippingRange();
+                 return "moving " + moving + ", still " + still;
+               });
+
   commands.add("open", "FILE", "open a scan or a network (.json) in place of the current document",
                [this](const std::vector<std::string>& args) {
                  if (args.empty()) throw CommandError("usage: open FILE");

@@ -24,7 +24,7 @@ struct StudioOptions {
   /// Scale of text and widgets (the window's content scale on HiDPI screens).
   double uiScale = 1.0;
   /// Points drawn while the camera moves; the whole cloud is drawn when it stops.
-  std::size_t interactivePoints = 250000;
+  std::size_t interactivePoints = 120000;
 };
 
 class Studio {
