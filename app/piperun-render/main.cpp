@@ -24,16 +24,21 @@ int main(int argc, char** argv) {
                "piperun-render"};
   app.set_version_flag("--version", "piperun-render " PIPERUN_VERSION);
   std::string input, script, output, view = "all", size = "1280x800";
-  bool noRun = false;
-  app.add_option("input", input, "Scan (.ply .pcd .xyz .pts .las .e57 ...) or network (.json)")->required();
+  bool noRun = false, listCommands = false;
+  app.add_option("input", input, "Scan (.ply .pcd .xyz .pts .las .e57 ...) or network (.json)");
+  app.add_flag("--commands", listCommands, "List the studio's commands and key bindings, then exit");
   app.add_option("--script", script, "Commands to run after opening, one a line (# comments)");
   app.add_option("--view", view, "What to draw: the whole window or one view")
       ->check(CLI::IsMember({"all", "scene", "sphere", "plane"}))
       ->capture_default_str();
   app.add_option("--size", size, "Image size WIDTHxHEIGHT in pixels")->capture_default_str();
   app.add_flag("--no-run", noRun, "Show the scan without running the pipeline");
-  app.add_option("-o,--output", output, "PNG to write")->required();
+  app.add_option("-o,--output", output, "PNG to write");
   CLI11_PARSE(app, argc, argv);
+  if (!listCommands && (input.empty() || output.empty())) {
+    std::fprintf(stderr, "piperun-render: error: INPUT and -o OUT.png are required (see --help)\n");
+    return 1;
+  }
 
   std::smatch match;
   const std::regex sizePattern("([0-9]+)x([0-9]+)");
@@ -54,6 +59,13 @@ int main(int argc, char** argv) {
     interactor->Initialize();
 
     piperun::ui::Studio studio(window, interactor);
+    if (listCommands) {
+      std::printf("Commands:\n");
+      for (const auto& line : studio.commands().helpLines()) std::printf("  %s\n", line.c_str());
+      std::printf("Keys (piperun-studio):\n");
+      for (const auto& line : studio.keyHelpLines()) std::printf("  %s\n", line.c_str());
+      return 0;
+    }
     studio.open(input);
     if (studio.document().hasPipeline() && !noRun) studio.command("run");
     if (view != "all") {

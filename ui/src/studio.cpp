@@ -1298,15 +1298,20 @@ void Studio::Impl::registerCommands() {
                  return "view " + args[0];
                });
 
-  commands.add("select", "pipe ID | joint ID | direction N | none",
+  commands.add("select", "pipe ID | joint ID | direction N|next|previous | none",
                "select an element (highlighted, described bottom left) or a principal direction (the plane view follows)",
                [this](const std::vector<std::string>& args) {
                  expectArguments(args, 1, 2, "select pipe ID | joint ID | direction N | none");
                  if (args[0] == "none") {
                    selection = {};
                  } else {
-                   expectArguments(args, 2, 2, "select pipe ID | joint ID | direction N | none");
-                   const int id = parseInt(args[1], "the id");
+                   expectArguments(args, 2, 2, "select pipe ID | joint ID | direction N|next|previous | none");
+                   const int directionCount = static_cast<int>(directions.size());
+                   const bool step = args[0] == "direction" && (args[1] == "next" || args[1] == "previous");
+                   if (step && directionCount == 0) throw CommandError("no directions yet: run the directions stage");
+                   const int id = !step                 ? parseInt(args[1], "the id")
+                                  : args[1] == "next"   ? (selectedDirection + 1) % directionCount
+                                                        : (selectedDirection + directionCount - 1) % directionCount;
                    if (args[0] == "pipe") {
                      if (!document.network().findPipe(id)) throw CommandError("no pipe " + args[1]);
                      selection = {Selection::Kind::Pipe, id};
@@ -1326,7 +1331,9 @@ void Studio::Impl::registerCommands() {
                  buildPlaneLayers();
                  if (args[0] == "direction") resetPlaneCamera();
                  updateOverlays();
-                 return args[0] == "none" ? std::string("selection cleared") : "selected " + args[0] + " " + args[1];
+                 return args[0] == "none"        ? std::string("selection cleared")
+                        : args[0] == "direction" ? "selected direction " + std::to_string(selectedDirection)
+                                                 : "selected " + args[0] + " " + args[1];
                });
 
   commands.add("fly", "", "move the 3-D camera to the selected pipe or joint", [this](const std::vector<std::string>& args) {
@@ -1594,6 +1601,8 @@ void Studio::Impl::registerCommands() {
                  {"return", "run"},
                  {"escape", "cancel"},
                  {"home", "camera reset"},
+                 {"right", "select direction next"},
+                 {"left", "select direction previous"},
                  {"f", "fly"},
                  {"c", "color points height"},
                  {"q", "color points qa"},
