@@ -41,7 +41,6 @@
 #include <cstdio>
 #include <map>
 #include <mutex>
-#include <set>
 #include <sstream>
 #include <thread>
 
@@ -327,7 +326,6 @@ Studio::Impl::Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowIntera
   observe(style, vtkCommand::EndInteractionEvent, [this](vtkObject*, unsigned long, void*) {
     interacting = false;
     for (auto& [name, lod] : pointLods) lod.mapper->SetInputData(lod.full);
-    this->window->Render();
   });
   observe(interactor, vtkCommand::KeyPressEvent, [this](vtkObject*, unsigned long, void*) { onKey(); });
   // Passive: the camera style grabs the focus on a press, and the release must still reach picking.
@@ -943,7 +941,7 @@ void Studio::Impl::layout() {
   progressText->GetTextProperty()->SetFontSize(static_cast<int>(13 * scale));
   for (auto* help : {helpCommandsText.Get(), helpKeysText.Get()}) help->GetTextProperty()->SetFontSize(static_cast<int>(11 * scale));
   helpCommandsText->SetPosition(pad * 2, height - pad * 6);
-  helpKeysText->SetPosition(width * 0.62, height - pad * 6);
+  helpKeysText->SetPosition(width * 0.55, height - pad * 6);
 
   const double barRight = textRect.x1 * width - pad;
   colorBar->GetPositionCoordinate()->SetValue(barRight - 90.0 * scale, textRect.y0 * height + 60.0 * scale);
@@ -1097,10 +1095,13 @@ void Studio::Impl::updateOverlays() {
     progressText->VisibilityOff();
   }
 
+  // Usage only: the descriptions are in docs/STUDIO.md and `piperun-render --commands`.
   std::string commandHelp = "Commands\n";
-  for (const auto& line : commands.helpLines()) commandHelp += "  " + line + "\n";
+  for (const auto* command : commands.list()) commandHelp += "  " + command->name + " " + command->arguments + "\n";
   std::string keyHelp = "Keys\n";
   for (const auto& line : keyHelpLines()) keyHelp += "  " + line + "\n";
+  keyHelp += "\nLayers ([x] shown)\n";
+  for (const auto& entry : layers) keyHelp += std::string("  [") + (layerVisible(entry.first) ? "x" : " ") + "] " + entry.first + "\n";
   helpCommandsText->SetInput(commandHelp.c_str());
   helpKeysText->SetInput(keyHelp.c_str());
   helpCommandsText->SetVisibility(helpShown);
@@ -1158,8 +1159,7 @@ void Studio::Impl::finishRun() {
   document.refreshNetwork();
   takeResults();
   rebuildAll();
-  if (!layers.count("plane/points")) return;
-  resetPlaneCamera();
+  if (layers.count("plane/points")) resetPlaneCamera();
 }
 
 bool Studio::Impl::poll() {
@@ -1195,7 +1195,6 @@ void Studio::Impl::onKey() {
       message = error.what();
     }
     updateOverlays();
-    window->Render();
     return;
   }
 }
@@ -1217,7 +1216,6 @@ void Studio::Impl::onLeftRelease() {
   lastClickY = position[1];
   pick(position[0], position[1], doubleClick);
   updateOverlays();
-  window->Render();
 }
 
 void Studio::Impl::pick(int x, int y, bool doubleClick) {
@@ -1256,6 +1254,7 @@ void Studio::Impl::pick(int x, int y, bool doubleClick) {
       const Eigen::Vector2d clicked(world[0] / world[3], world[1] / world[3]);
       const DirectionRef& ref = directions[static_cast<std::size_t>(selectedDirection)];
       const PlacementResult* placement = placementOf(ref);
+      if (ref.index >= static_cast<int>(placement->projections.size())) return;
       const auto& projection = placement->projections[static_cast<std::size_t>(ref.index)];
       int best = -1;
       double bestGap = 1e9;
