@@ -210,25 +210,26 @@ int main(int argc, char** argv) {
     piperun::ui::StudioOptions options;
     options.backgroundStages = true;
     options.uiScale = std::max(1.0f, scaleX);
+    const piperun::ui::Studio* studioForCallback = nullptr;
+    options.runFinished = [&studioForCallback](const std::string& message) {
+      // Scripts and tests wait for this line.
+      const auto& network = studioForCallback->document().network();
+      std::printf("piperun-studio: %s: %zu pipes, %zu joints\n", message.c_str(), network.pipes.size(),
+                  network.joints.size());
+      std::fflush(stdout);
+    };
     piperun::ui::Studio studio(renderWindow, interactor, options);
+    studioForCallback = &studio;
 
     StudioWindow state{window, renderWindow, interactor, &studio};
     glfwSetWindowUserPointer(window, &state);
     installCallbacks(window);
     if (!input.empty()) state.open(input);
     bool scriptPending = !script.empty();
-    bool wasBusy = studio.busy();
 
     while (!glfwWindowShouldClose(window) && !studio.quitRequested()) {
       glfwWaitEventsTimeout(studio.busy() ? 0.05 : 0.5);
       if (studio.poll()) state.redraw = true;
-      if (wasBusy && !studio.busy()) {
-        // Scripts and tests wait for this line.
-        std::printf("piperun-studio: %s: %zu pipes, %zu joints\n", studio.message().c_str(),
-                    studio.document().network().pipes.size(), studio.document().network().joints.size());
-        std::fflush(stdout);
-      }
-      wasBusy = studio.busy();
       if (scriptPending && !studio.busy()) {
         scriptPending = false;
         try {

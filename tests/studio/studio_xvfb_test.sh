@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The studio in a real X window (Xvfb): opens a generated scene, a click selects the pipe at the
-# centre of the 3-D view, a key re-runs the placement stage, and screenshots of the X screen show
-# the selection highlight appear there while the Gaussian-sphere view stays as it was.
+# centre of the 3-D view, a click on the stale merge stage's button runs it, a key re-runs the
+# placement stage, and screenshots of the X screen show the selection highlight appear where the
+# click was (the Gaussian-sphere view staying as it was) and the merge button turn from stale to fresh.
 # Usage: studio_xvfb_test.sh PIPERUN_STUDIO SCENE WORK_DIR
 set -euo pipefail
 studio=$1 scene=$2 work=$3
@@ -27,13 +28,15 @@ done
 [[ "$display" =~ ^[0-9]+$ ]] || { cat "$work/xvfb.log"; echo "Xvfb did not start" >&2; exit 1; }
 export DISPLAY=":$display"
 
-# Hide the points and grey the pipes so that only the highlight is yellow; centre the view on pipe 1.
+# Hide the points and grey the pipes so that only the highlight is yellow; centre the view on pipe 1;
+# make the merge stage stale.
 cat >"$work/setup.txt" <<'SCRIPT'
 layer input/points off
 color pipes plain
 select pipe 1
 fly
 select none
+set merge.max_gap=0.051
 SCRIPT
 "$studio" "$scene" --size 1200x760 --script "$work/setup.txt" >"$work/studio.log" 2>&1 &
 studio_pid=$!
@@ -82,9 +85,22 @@ echo "yellow share at the click: before $before, after $selected; sphere pixels 
 awk -v b="$before" -v a="$selected" 'BEGIN { exit !(b < 0.01 && a > 0.05) }' || { echo "the click did not highlight a pipe" >&2; exit 1; }
 [[ "$sphere_changed" -lt 200 ]] || { echo "the sphere view changed on a click in the 3-D view" >&2; exit 1; }
 
+# The stage bar along the bottom (54 pixels): buttons 96 wide, 6 apart; the fifth is merge.
+# Sample its face left of the label: grey (90,90,96) when stale, green (40,130,70) when fresh.
+merge_x=$((6 + 4 * 102 + 48)) merge_y=$((HEIGHT - 27))
+face_colour() { convert "$1" -format "%[pixel:p{$((X + merge_x - 42)),$((Y + merge_y + 8))}]" info:; }
+stale=$(face_colour "$work/selected.png")
+xdotool mousemove "$((X + merge_x))" "$((Y + merge_y))" click 1
+wait_for_line "finished:" 2
+sleep 1
+import -window root "$work/merged.png"
+fresh=$(face_colour "$work/merged.png")
+echo "merge button: $stale before the click, $fresh after the run"
+[[ "$stale" == "srgb(90,90,96)" && "$fresh" == "srgb(40,130,70)" ]] || { echo "the merge button did not run merge" >&2; exit 1; }
+
 # L re-runs placement (and the stages after it) in the background; the selection survives.
 xdotool key --window "$window" l
-wait_for_line "finished:" 2
+wait_for_line "finished:" 3
 sleep 1
 import -window root "$work/rerun.png"
 rerun=$(yellow_share "$work/rerun.png" "$centre")

@@ -1175,6 +1175,7 @@ bool Studio::Impl::poll() {
       message = std::string("run failed: ") + error.what();
     }
     finishRun();
+    if (options.runFinished) options.runFinished(message);
     changed = true;
   }
   if (changed) updateOverlays();

@@ -8,6 +8,7 @@
 #include "piperun/ui/document.h"
 
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -25,6 +26,8 @@ struct StudioOptions {
   double uiScale = 1.0;
   /// Points drawn while the camera moves; the whole cloud is drawn when it stops.
   std::size_t interactivePoints = 120000;
+  /// Called on the window's thread (from poll()) when a background run has ended, with how it ended.
+  std::function<void(const std::string& message)> runFinished;
 };
 
 class Studio {
