@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The studio in a real X window (Xvfb): opens a generated scene, a click selects the pipe at the
 # centre of the 3-D view, a click on the stale merge stage's button runs it, a key re-runs the
-# placement stage, and screenshots of the X screen show the selection highlight appear where the
+# placement stage, and screenshots of the X screen show the magenta selection highlight appear where the
 # click was (the Gaussian-sphere view staying as it was) and the merge button turn from stale to fresh.
 # Usage: studio_xvfb_test.sh PIPERUN_STUDIO SCENE WORK_DIR
 set -euo pipefail
@@ -28,7 +28,7 @@ done
 [[ "$display" =~ ^[0-9]+$ ]] || { cat "$work/xvfb.log"; echo "Xvfb did not start" >&2; exit 1; }
 export DISPLAY=":$display"
 
-# Hide the points and grey the pipes so that only the highlight is yellow; centre the view on pipe 1;
+# Hide the points and grey the pipes so that only the highlight is magenta; centre the view on pipe 1;
 # make the merge stage stale.
 cat >"$work/setup.txt" <<'SCRIPT'
 layer input/points off
@@ -63,8 +63,8 @@ click_x=$((WIDTH * 32 / 100)) click_y=$(((HEIGHT - 54) / 2))
 centre="200x200+$((X + click_x - 100))+$((Y + click_y - 100))"
 sphere="300x250+$((X + WIDTH * 70 / 100))+$((Y + 40))"
 
-yellow_share() {  # IMAGE CROP: share of yellow pixels (the highlight) in the crop
-  convert "$1" -crop "$2" +repage -fx "r>0.4 && g>0.3 && b<0.2" -format "%[fx:mean]" info:
+highlight_share() {  # IMAGE CROP: share of magenta pixels (the highlight) in the crop
+  convert "$1" -crop "$2" +repage -fx "r>0.4 && b>0.4 && g<0.3" -format "%[fx:mean]" info:
 }
 differing_pixels() {  # IMAGE IMAGE CROP: pixels that differ by more than 10 % in the crop
   convert "$1" -crop "$3" +repage "$work/crop1.png"
@@ -78,10 +78,10 @@ xdotool mousemove "$((X + click_x))" "$((Y + click_y))" click 1
 sleep 1
 import -window root "$work/selected.png"
 
-before=$(yellow_share "$work/before.png" "$centre")
-selected=$(yellow_share "$work/selected.png" "$centre")
+before=$(highlight_share "$work/before.png" "$centre")
+selected=$(highlight_share "$work/selected.png" "$centre")
 sphere_changed=$(differing_pixels "$work/before.png" "$work/selected.png" "$sphere")
-echo "yellow share at the click: before $before, after $selected; sphere pixels changed: $sphere_changed"
+echo "highlight share at the click: before $before, after $selected; sphere pixels changed: $sphere_changed"
 awk -v b="$before" -v a="$selected" 'BEGIN { exit !(b < 0.01 && a > 0.05) }' || { echo "the click did not highlight a pipe" >&2; exit 1; }
 [[ "$sphere_changed" -lt 200 ]] || { echo "the sphere view changed on a click in the 3-D view" >&2; exit 1; }
 
@@ -103,7 +103,7 @@ xdotool key --window "$window" l
 wait_for_line "finished:" 3
 sleep 1
 import -window root "$work/rerun.png"
-rerun=$(yellow_share "$work/rerun.png" "$centre")
-echo "yellow share after the re-run: $rerun"
+rerun=$(highlight_share "$work/rerun.png" "$centre")
+echo "highlight share after the re-run: $rerun"
 awk -v a="$rerun" 'BEGIN { exit !(a > 0.05) }' || { echo "the selection was lost by the re-run" >&2; exit 1; }
 grep -c "finished:" "$work/studio.log"

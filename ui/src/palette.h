@@ -19,7 +19,7 @@ using Rgb = std::array<std::uint8_t, 3>;
 Rgb categoryColor(int index);
 
 constexpr Rgb kNeutral{150, 150, 150};      ///< Points and pipes with no category.
-constexpr Rgb kHighlight{255, 215, 0};      ///< The selected element.
+constexpr Rgb kHighlight{255, 40, 255};     ///< The selected element: magenta, in no colour map.
 constexpr Rgb kAccepted{60, 180, 75};
 constexpr Rgb kProposed{245, 160, 30};
 constexpr Rgb kRejected{220, 40, 40};

@@ -705,7 +705,6 @@ void Studio::Impl::buildSelectionLayer() {
   }
   auto actor = meshActor(highlight.build());
   actor->PickableOff();
-  actor->GetProperty()->SetOpacity(0.8);
   // Drawn over the scene (its own layer, same camera) so a selection inside other pipes shows.
   setLayer("selection/highlight", highlightLayer, actor, true);
 }
@@ -1248,24 +1247,28 @@ void Studio::Impl::pick(int x, int y, bool doubleClick) {
       const int element = pickedElement(sphere, {"sphere/directions"}, layer);
       if (element >= 0) message = commands.run("select direction " + std::to_string(element));
     } else if (plane->GetDraw() && plane->IsInViewport(x, y) && selectedDirection >= 0) {
-      // The circle whose outline passes nearest to the click, within a quarter of its radius.
+      // The circle the click falls in (the smallest, if several), else the one whose outline passes
+      // nearest, within a quarter of its radius or 6 pixels.
       plane->SetDisplayPoint(x, y, 0.0);
       plane->DisplayToWorld();
       const double* world = plane->GetWorldPoint();
       const Eigen::Vector2d clicked(world[0] / world[3], world[1] / world[3]);
+      const int* viewportSize = plane->GetSize();
+      const double metresPerPixel = 2.0 * plane->GetActiveCamera()->GetParallelScale() / std::max(1, viewportSize[1]);
       const DirectionRef& ref = directions[static_cast<std::size_t>(selectedDirection)];
       const PlacementResult* placement = placementOf(ref);
       if (ref.index >= static_cast<int>(placement->projections.size())) return;
       const auto& projection = placement->projections[static_cast<std::size_t>(ref.index)];
       int best = -1;
-      double bestGap = 1e9;
+      std::pair<double, double> bestScore{1e9, 1e9};  // (distance outside the circle, radius)
       for (std::size_t c = 0; c < placement->cylinders.size(); ++c) {
         const Cylinder& cylinder = placement->cylinders[c];
         if (cylinder.directionIndex != ref.index) continue;
         const Eigen::Vector2d center(cylinder.point.dot(projection.u), cylinder.point.dot(projection.v));
-        const double gap = std::abs((clicked - center).norm() - cylinder.radius);
-        if (gap < std::max(0.25 * cylinder.radius, 0.005) && gap < bestGap) {
-          bestGap = gap;
+        const double outside = std::max(0.0, (clicked - center).norm() - cylinder.radius);
+        const std::pair<double, double> score{outside, cylinder.radius};
+        if (outside <= std::max(0.25 * cylinder.radius, 6.0 * metresPerPixel) && score < bestScore) {
+          bestScore = score;
           best = static_cast<int>(c);
         }
       }
