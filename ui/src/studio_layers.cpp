@@ -73,7 +73,7 @@ void Studio::Impl::setPointLayer(const std::string& name, const std::vector<Eige
   lod.mapper->SetColorModeToDirectScalars();
   auto actor = vtkSmartPointer<vtkActor>::New();
   actor->SetMapper(lod.mapper);
-  actor->GetProperty()->SetPointSize(static_cast<float>(pointSize));
+  actor->GetProperty()->SetPointSize(static_cast<float>(pointSize * options.uiScale));
   actor->GetProperty()->SetColor(kNeutral[0] / 255.0, kNeutral[1] / 255.0, kNeutral[2] / 255.0);
   actor->PickableOff();
   setLayer(name, scene, actor, defaultVisible);
@@ -254,7 +254,7 @@ void Studio::Impl::buildSphereLayers() {
   }
   auto normalActor = meshActor(makePointSet(normalPoints, normalColors));
   normalActor->GetMapper()->SetScalarModeToUsePointData();
-  normalActor->GetProperty()->SetPointSize(1.0f);
+  normalActor->GetProperty()->SetPointSize(static_cast<float>(1.0 * options.uiScale));
   normalActor->PickableOff();
   setLayer("sphere/normals", sphere, normalActor, true);
 
@@ -283,7 +283,7 @@ void Studio::Impl::buildSphereLayers() {
   }
   auto densityActor = meshActor(makePointSet(densityPoints, densityColors));
   densityActor->GetMapper()->SetScalarModeToUsePointData();
-  densityActor->GetProperty()->SetPointSize(2.0f);
+  densityActor->GetProperty()->SetPointSize(static_cast<float>(2.0 * options.uiScale));
   densityActor->PickableOff();
   setLayer("sphere/density", sphere, densityActor, true);
 
@@ -297,7 +297,7 @@ void Studio::Impl::buildSphereLayers() {
     arrows.addPolyline(circlePoints(Eigen::Vector3d::Zero(), axis, 1.005), color, static_cast<int>(k), true);
   }
   auto arrowActor = meshActor(arrows.build());
-  arrowActor->GetProperty()->SetLineWidth(2.0f);
+  arrowActor->GetProperty()->SetLineWidth(static_cast<float>(2.0 * options.uiScale));
   setLayer("sphere/directions", sphere, arrowActor, true);
 }
 
@@ -330,7 +330,7 @@ void Studio::Impl::buildPlaneLayers() {
   }
   auto pointActor = meshActor(makePointSet(projected, pointColors));
   pointActor->GetMapper()->SetScalarModeToUsePointData();
-  pointActor->GetProperty()->SetPointSize(2.0f);
+  pointActor->GetProperty()->SetPointSize(static_cast<float>(2.0 * options.uiScale));
   pointActor->PickableOff();
   setLayer("plane/points", plane, pointActor, true);
 
@@ -343,7 +343,7 @@ void Studio::Impl::buildPlaneLayers() {
     }
   auto candidateActor = meshActor(makePointSet(candidates, candidateColors));
   candidateActor->GetMapper()->SetScalarModeToUsePointData();
-  candidateActor->GetProperty()->SetPointSize(3.0f);
+  candidateActor->GetProperty()->SetPointSize(static_cast<float>(3.0 * options.uiScale));
   candidateActor->PickableOff();
   setLayer("plane/candidates", plane, candidateActor, true);
 
@@ -357,7 +357,7 @@ void Studio::Impl::buildPlaneLayers() {
                         selected ? kHighlight : Rgb{255, 60, 60}, static_cast<int>(c), true);
   }
   auto circleActor = meshActor(circles.build());
-  circleActor->GetProperty()->SetLineWidth(2.5f);
+  circleActor->GetProperty()->SetLineWidth(static_cast<float>(2.5 * options.uiScale));
   setLayer("plane/circles", plane, circleActor, true);
 }
 
