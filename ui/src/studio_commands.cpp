@@ -301,8 +301,8 @@ void Studio::Impl::registerCommands() {
                    const std::chrono::duration<double, std::milli> elapsed = std::chrono::steady_clock::now() - start;
                    vtkIdType points = 0;
                    for (auto& [name, lod] : pointLods)
-                     if (layerVisible(name)) points += (moving ? lod.coarse : lod.full)->GetNumberOfPoints();
-                   return format("%.1f ms/frame", elapsed.count() / count) + " (" + std::to_string(points) + " points)";
+                     if (layerVisible(name) && layers[name].renderer->GetDraw()) points += (moving ? lod.coarse : lod.full)->GetNumberOfPoints();
+                   return format("%.1f ms/frame", elapsed.count() / count) + " (" + std::to_string(points) + " points drawn)";
                  };
                  const std::string moving = timeFrames(true);
                  const std::string still = timeFrames(false);

@@ -157,8 +157,9 @@ struct Studio::Impl {
   void setLayer(const std::string& name, vtkRenderer* renderer, vtkSmartPointer<vtkProp> prop, bool defaultVisible);
   void removeLayer(const std::string& name);
   bool layerVisible(const std::string& name) const;
-  void setPointLayer(const std::string& name, const std::vector<Eigen::Vector3f>& positions, const std::vector<Rgb>& colors,
-                     double pointSize, bool defaultVisible);
+  /// A points layer that shows a subsample while the camera moves.
+  void setPointLayer(const std::string& name, vtkRenderer* renderer, const std::vector<Eigen::Vector3f>& positions,
+                     const std::vector<Rgb>& colors, double pointSize, bool defaultVisible);
   void buildPointLayers();
   std::vector<Rgb> inputPointColors();
   void buildNetworkLayers();

@@ -60,12 +60,14 @@ bool Studio::Impl::layerVisible(const std::string& name) const {
   return found != visibility.end() && found->second && layers.count(name);
 }
 
-void Studio::Impl::setPointLayer(const std::string& name, const std::vector<Eigen::Vector3f>& positions,
-                                 const std::vector<Rgb>& colors, double pointSize, bool defaultVisible) {
+void Studio::Impl::setPointLayer(const std::string& name, vtkRenderer* renderer,
+                                 const std::vector<Eigen::Vector3f>& positions, const std::vector<Rgb>& colors,
+                                 double pointSize, bool defaultVisible) {
+  // The 3-D scene gets the interactive budget; the sphere and plane views, redrawn with it, an eighth each.
+  const std::size_t budget = std::max<std::size_t>(1, renderer == scene ? options.interactivePoints : options.interactivePoints / 8);
   PointLayerLod lod;
   lod.full = makePointSet(positions, colors);
-  const std::size_t stride =
-      std::max<std::size_t>(1, (positions.size() + options.interactivePoints - 1) / std::max<std::size_t>(1, options.interactivePoints));
+  const std::size_t stride = std::max<std::size_t>(1, (positions.size() + budget - 1) / budget);
   lod.coarse = stride > 1 ? subsamplePointSet(lod.full, stride) : lod.full;
   lod.mapper = vtkSmartPointer<vtkPolyDataMapper>::New();
   lod.mapper->SetInputData(interacting ? lod.coarse : lod.full);
@@ -76,7 +78,7 @@ void Studio::Impl::setPointLayer(const std::string& name, const std::vector<Eige
   actor->GetProperty()->SetPointSize(static_cast<float>(pointSize * options.uiScale));
   actor->GetProperty()->SetColor(kNeutral[0] / 255.0, kNeutral[1] / 255.0, kNeutral[2] / 255.0);
   actor->PickableOff();
-  setLayer(name, scene, actor, defaultVisible);
+  setLayer(name, renderer, actor, defaultVisible);
   pointLods[name] = lod;
 }
 
@@ -126,7 +128,7 @@ void Studio::Impl::buildPointLayers() {
     std::vector<Eigen::Vector3f> positions(cloud.size());
     const Eigen::Vector3f shift = (cloud.origin - displayOrigin).cast<float>();
     for (std::size_t i = 0; i < cloud.size(); ++i) positions[i] = cloud.positions[i] + shift;
-    setPointLayer("input/points", positions, inputPointColors(), 2.0, true);
+    setPointLayer("input/points", scene, positions, inputPointColors(), 2.0, true);
   } else {
     removeLayer("input/points");
   }
@@ -144,7 +146,7 @@ void Studio::Impl::buildPointLayers() {
     positions[i] = kept.positions[i] + shift;
     colors[i] = categoryColor(segmentCache[i]);
   }
-  setPointLayer("preprocess/points", positions, colors, 3.0, false);
+  setPointLayer("preprocess/points", scene, positions, colors, 3.0, false);
 
   // Normal glyphs: a short line per point, for a bounded number of points.
   MeshBuilder normals;
@@ -162,7 +164,7 @@ void Studio::Impl::buildPointLayers() {
   std::vector<Eigen::Vector3f> planePositions(planes.size());
   const Eigen::Vector3f planeShift = (planes.origin - displayOrigin).cast<float>();
   for (std::size_t i = 0; i < planes.size(); ++i) planePositions[i] = planes.positions[i] + planeShift;
-  setPointLayer("preprocess/planes", planePositions, std::vector<Rgb>(planes.size(), Rgb{110, 110, 125}), 2.0, false);
+  setPointLayer("preprocess/planes", scene, planePositions, std::vector<Rgb>(planes.size(), Rgb{110, 110, 125}), 2.0, false);
 }
 
 void Studio::Impl::buildNetworkLayers() {
@@ -252,11 +254,7 @@ void Studio::Impl::buildSphereLayers() {
     normalPoints.push_back(-kept.normals[i]);
     normalColors.insert(normalColors.end(), {color, color});
   }
-  auto normalActor = meshActor(makePointSet(normalPoints, normalColors));
-  normalActor->GetMapper()->SetScalarModeToUsePointData();
-  normalActor->GetProperty()->SetPointSize(static_cast<float>(1.0 * options.uiScale));
-  normalActor->PickableOff();
-  setLayer("sphere/normals", sphere, normalActor, true);
+  setPointLayer("sphere/normals", sphere, normalPoints, normalColors, 1.0, true);
 
   // Direction samples (n_i × n_j) coloured by their density: counts in equal-area cells of the
   // upper hemisphere (uniform in z and in longitude).
@@ -281,11 +279,7 @@ void Studio::Impl::buildSphereLayers() {
     densityPoints.push_back(samples[i] * 1.015f);
     densityColors.push_back(mapColor(densityMap, std::log1p(static_cast<double>(counts[static_cast<std::size_t>(cellOf(samples[i]))]))));
   }
-  auto densityActor = meshActor(makePointSet(densityPoints, densityColors));
-  densityActor->GetMapper()->SetScalarModeToUsePointData();
-  densityActor->GetProperty()->SetPointSize(static_cast<float>(2.0 * options.uiScale));
-  densityActor->PickableOff();
-  setLayer("sphere/density", sphere, densityActor, true);
+  setPointLayer("sphere/density", sphere, densityPoints, densityColors, 2.0, true);
 
   // Principal directions: arrows with their great circles (where the stripe's normals lie).
   MeshBuilder arrows;
@@ -328,11 +322,7 @@ void Studio::Impl::buildPlaneLayers() {
     projected.emplace_back(static_cast<float>(p.dot(u)), static_cast<float>(p.dot(v)), 0.0f);
     pointColors.push_back({175, 175, 185});
   }
-  auto pointActor = meshActor(makePointSet(projected, pointColors));
-  pointActor->GetMapper()->SetScalarModeToUsePointData();
-  pointActor->GetProperty()->SetPointSize(static_cast<float>(2.0 * options.uiScale));
-  pointActor->PickableOff();
-  setLayer("plane/points", plane, pointActor, true);
+  setPointLayer("plane/points", plane, projected, pointColors, 2.0, true);
 
   std::vector<Eigen::Vector3f> candidates;
   std::vector<Rgb> candidateColors;
@@ -341,11 +331,7 @@ void Studio::Impl::buildPlaneLayers() {
       candidates.emplace_back(candidate.center.x(), candidate.center.y(), 0.001f);
       candidateColors.push_back(candidate.circle >= 0 ? categoryColor(candidate.circle) : Rgb{95, 95, 110});
     }
-  auto candidateActor = meshActor(makePointSet(candidates, candidateColors));
-  candidateActor->GetMapper()->SetScalarModeToUsePointData();
-  candidateActor->GetProperty()->SetPointSize(static_cast<float>(3.0 * options.uiScale));
-  candidateActor->PickableOff();
-  setLayer("plane/candidates", plane, candidateActor, true);
+  setPointLayer("plane/candidates", plane, candidates, candidateColors, 3.0, true);
 
   MeshBuilder circles;
   for (std::size_t c = 0; c < placement->cylinders.size(); ++c) {
