@@ -277,6 +277,21 @@ int Studio::Impl::pipeOfCylinder(const DirectionRef& ref, int cylinderIndex) con
   return best;
 }
 
+int Studio::Impl::directionShowingPipe(int pipeId) const {
+  auto shows = [&](int k) {
+    const DirectionRef& ref = directions[static_cast<std::size_t>(k)];
+    const PlacementResult* placement = placementOf(ref);
+    for (std::size_t c = 0; c < placement->cylinders.size(); ++c)
+      if (placement->cylinders[c].directionIndex == ref.index && pipeOfCylinder(ref, static_cast<int>(c)) == pipeId)
+        return true;
+    return false;
+  };
+  if (selectedDirection >= 0 && shows(selectedDirection)) return selectedDirection;
+  for (int k = 0; k < static_cast<int>(directions.size()); ++k)
+    if (shows(k)) return k;
+  return -1;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Views and overlays
 

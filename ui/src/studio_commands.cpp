@@ -39,6 +39,7 @@ void Studio::Impl::registerCommands() {
                "select an element (highlighted, described bottom left) or a principal direction (the plane view follows)",
                [this](const std::vector<std::string>& args) {
                  expectArguments(args, 1, 2, "select pipe ID | joint ID | direction N | none");
+                 bool directionChanged = false;
                  if (args[0] == "none") {
                    selection = {};
                  } else {
@@ -52,6 +53,13 @@ void Studio::Impl::registerCommands() {
                    if (args[0] == "pipe") {
                      if (!document.network().findPipe(id)) throw CommandError("no pipe " + args[1]);
                      selection = {Selection::Kind::Pipe, id};
+                     // The plane view follows to a direction where the pipe's circle was found.
+                     const int direction = directionShowingPipe(id);
+                     if (direction >= 0 && direction != selectedDirection) {
+                       selectedDirection = direction;
+                       buildSphereLayers();
+                       directionChanged = true;
+                     }
                    } else if (args[0] == "joint") {
                      if (!document.network().findJoint(id)) throw CommandError("no joint " + args[1]);
                      selection = {Selection::Kind::Joint, id};
@@ -66,7 +74,7 @@ void Studio::Impl::registerCommands() {
                  }
                  buildSelectionLayer();
                  buildPlaneLayers();
-                 if (args[0] == "direction") resetPlaneCamera();
+                 if (args[0] == "direction" || directionChanged) resetPlaneCamera();
                  updateOverlays();
                  return args[0] == "none"        ? std::string("selection cleared")
                         : args[0] == "direction" ? "selected direction " + std::to_string(selectedDirection)

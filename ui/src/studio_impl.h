@@ -152,6 +152,9 @@ struct Studio::Impl {
   const PrincipalDirection& direction(const DirectionRef& ref) const;
   std::vector<int> keptPointSegments() const;
   int pipeOfCylinder(const DirectionRef& ref, int cylinder) const;
+  /// The selected direction if one of its circles became pipe `pipeId`, else the first direction
+  /// with such a circle, else -1.
+  int directionShowingPipe(int pipeId) const;
 
   // Layers.
   void setLayer(const std::string& name, vtkRenderer* renderer, vtkSmartPointer<vtkProp> prop, bool defaultVisible);
