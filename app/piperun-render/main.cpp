@@ -1,27 +1,26 @@
 // piperun-render: draws PipeRun Studio's window without a display, through OSMesa, and writes a PNG.
 // The same ui::Studio as the studio; only the context provider differs (see osmesa_context.cpp).
 
-#include "osmesa_context.h"
-
-#include "piperun/error.h"
-#include "piperun/progress.h"
-#include "piperun/ui/studio.h"
-
-#include <CLI/CLI.hpp>
-
 #include <vtkGenericOpenGLRenderWindow.h>
 #include <vtkGenericRenderWindowInteractor.h>
 #include <vtkNew.h>
 
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <exception>
 #include <regex>
 
+#include "osmesa_context.h"
+#include "piperun/error.h"
+#include "piperun/progress.h"
+#include "piperun/ui/studio.h"
+
 int main(int argc, char** argv) {
-  CLI::App app{"Render a PipeRun Studio view of a scan or a network to a PNG, without a display.\n"
-               "Given a scan it runs the reconstruction pipeline first. Exit codes: 0 ok, 1 usage,\n"
-               "2 bad input or output file or failing script line, 3 internal error.",
-               "piperun-render"};
+  CLI::App app{
+      "Render a PipeRun Studio view of a scan or a network to a PNG, without a display.\n"
+      "Given a scan it runs the reconstruction pipeline first. Exit codes: 0 ok, 1 usage,\n"
+      "2 bad input or output file or failing script line, 3 internal error.",
+      "piperun-render"};
   app.set_version_flag("--version", "piperun-render " PIPERUN_VERSION);
   std::string input, script, output, view = "all", size = "1280x800";
   bool noRun = false, listCommands = false;

@@ -2,22 +2,21 @@
 // them to ui::Studio through a vtkGenericOpenGLRenderWindow, and forwards GLFW's input events to
 // VTK's interactor. Everything the user sees and does lives in ui/.
 
-#include "piperun/ui/studio.h"
-
-#include <CLI/CLI.hpp>
 #include <GLFW/glfw3.h>
-
 #include <vtkCallbackCommand.h>
 #include <vtkCommand.h>
 #include <vtkGenericOpenGLRenderWindow.h>
 #include <vtkGenericRenderWindowInteractor.h>
 #include <vtkNew.h>
 
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <exception>
 #include <map>
 #include <regex>
 #include <string>
+
+#include "piperun/ui/studio.h"
 
 namespace {
 
@@ -69,10 +68,9 @@ StudioWindow& self(GLFWwindow* window) { return *static_cast<StudioWindow*>(glfw
 /// X11 keysym names for the keys the studio binds (VTK's interactors use them).
 std::string keySym(int key) {
   static const std::map<int, std::string> kNames{
-      {GLFW_KEY_ESCAPE, "Escape"}, {GLFW_KEY_ENTER, "Return"}, {GLFW_KEY_KP_ENTER, "Return"},
-      {GLFW_KEY_HOME, "Home"},     {GLFW_KEY_LEFT, "Left"},    {GLFW_KEY_RIGHT, "Right"},
-      {GLFW_KEY_UP, "Up"},         {GLFW_KEY_DOWN, "Down"},    {GLFW_KEY_SPACE, "space"},
-      {GLFW_KEY_DELETE, "Delete"}, {GLFW_KEY_TAB, "Tab"}};
+      {GLFW_KEY_ESCAPE, "Escape"}, {GLFW_KEY_ENTER, "Return"},  {GLFW_KEY_KP_ENTER, "Return"}, {GLFW_KEY_HOME, "Home"},
+      {GLFW_KEY_LEFT, "Left"},     {GLFW_KEY_RIGHT, "Right"},   {GLFW_KEY_UP, "Up"},           {GLFW_KEY_DOWN, "Down"},
+      {GLFW_KEY_SPACE, "space"},   {GLFW_KEY_DELETE, "Delete"}, {GLFW_KEY_TAB, "Tab"}};
   if (key >= GLFW_KEY_A && key <= GLFW_KEY_Z) return std::string(1, static_cast<char>('a' + key - GLFW_KEY_A));
   if (key >= GLFW_KEY_0 && key <= GLFW_KEY_9) return std::string(1, static_cast<char>('0' + key - GLFW_KEY_0));
   const auto found = kNames.find(key);
@@ -91,10 +89,12 @@ void installCallbacks(GLFWwindow* window) {
     app.setEventInformation(mods);
     const bool press = action == GLFW_PRESS;
     unsigned long event = 0;
-    if (button == GLFW_MOUSE_BUTTON_LEFT) event = press ? vtkCommand::LeftButtonPressEvent : vtkCommand::LeftButtonReleaseEvent;
+    if (button == GLFW_MOUSE_BUTTON_LEFT)
+      event = press ? vtkCommand::LeftButtonPressEvent : vtkCommand::LeftButtonReleaseEvent;
     if (button == GLFW_MOUSE_BUTTON_MIDDLE)
       event = press ? vtkCommand::MiddleButtonPressEvent : vtkCommand::MiddleButtonReleaseEvent;
-    if (button == GLFW_MOUSE_BUTTON_RIGHT) event = press ? vtkCommand::RightButtonPressEvent : vtkCommand::RightButtonReleaseEvent;
+    if (button == GLFW_MOUSE_BUTTON_RIGHT)
+      event = press ? vtkCommand::RightButtonPressEvent : vtkCommand::RightButtonReleaseEvent;
     if (event) app.interactor->InvokeEvent(event);
     app.redraw = true;
   });
@@ -132,13 +132,16 @@ void installCallbacks(GLFWwindow* window) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"PipeRun Studio: inspect a scan's reconstruction stage by stage, or a pipe network.\n"
-               "Press H in the window for the keys and commands (docs/STUDIO.md).",
-               "piperun-studio"};
+  CLI::App app{
+      "PipeRun Studio: inspect a scan's reconstruction stage by stage, or a pipe network.\n"
+      "Press H in the window for the keys and commands (docs/STUDIO.md).",
+      "piperun-studio"};
   app.set_version_flag("--version", "piperun-studio " PIPERUN_VERSION);
   std::string input, script, size = "1400x860";
-  app.add_option("input", input, "Scan (.ply .pcd .xyz .pts .las .e57 ...) or network (.json); or drop one on the window");
-  app.add_option("--script", script, "Commands to run once the first pipeline run has finished (one a line, # comments)");
+  app.add_option("input", input,
+                 "Scan (.ply .pcd .xyz .pts .las .e57 ...) or network (.json); or drop one on the window");
+  app.add_option("--script", script,
+                 "Commands to run once the first pipeline run has finished (one a line, # comments)");
   app.add_option("--size", size, "Window size WIDTHxHEIGHT in screen units")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   std::smatch match;
@@ -149,7 +152,8 @@ int main(int argc, char** argv) {
     return 1;
   }
 
-  glfwSetErrorCallback([](int, const char* description) { std::fprintf(stderr, "piperun-studio: GLFW: %s\n", description); });
+  glfwSetErrorCallback(
+      [](int, const char* description) { std::fprintf(stderr, "piperun-studio: GLFW: %s\n", description); });
   if (!glfwInit()) {
     std::fprintf(stderr, "piperun-studio: error: no display to open a window on (piperun-render draws without one)\n");
     return 2;
@@ -195,9 +199,8 @@ int main(int argc, char** argv) {
     renderWindow->AddObserver(vtkCommand::WindowIsCurrentEvent, isCurrent);
     vtkNew<vtkCallbackCommand> frame;
     frame->SetClientData(window);
-    frame->SetCallback([](vtkObject*, unsigned long, void* client, void*) {
-      glfwSwapBuffers(static_cast<GLFWwindow*>(client));
-    });
+    frame->SetCallback(
+        [](vtkObject*, unsigned long, void* client, void*) { glfwSwapBuffers(static_cast<GLFWwindow*>(client)); });
     renderWindow->AddObserver(vtkCommand::WindowFrameEvent, frame);
 
     vtkNew<vtkGenericRenderWindowInteractor> interactor;

@@ -39,8 +39,8 @@ int main(int argc, char** argv) {
   output->GetOutput()->GetDimensions(outputSize);
   baseline->GetOutput()->GetDimensions(baselineSize);
   if (outputSize[0] != baselineSize[0] || outputSize[1] != baselineSize[1]) {
-    std::fprintf(stderr, "compare-images: %s is %dx%d, the baseline %s is %dx%d\n", argv[1], outputSize[0], outputSize[1],
-                 argv[2], baselineSize[0], baselineSize[1]);
+    std::fprintf(stderr, "compare-images: %s is %dx%d, the baseline %s is %dx%d\n", argv[1], outputSize[0],
+                 outputSize[1], argv[2], baselineSize[0], baselineSize[1]);
     return 1;
   }
   vtkNew<vtkImageDifference> difference;

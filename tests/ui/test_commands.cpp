@@ -1,9 +1,9 @@
-#include "piperun/ui/commands.h"
-
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <fstream>
+
+#include "piperun/ui/commands.h"
 
 namespace piperun::ui {
 namespace {
@@ -14,9 +14,8 @@ CommandRegistry registryRecording(std::vector<std::vector<std::string>>& calls) 
     calls.push_back(args);
     return "selected " + args.at(1);
   });
-  registry.add("fail", "", "always fails", [](const std::vector<std::string>&) -> std::string {
-    throw CommandError("it failed");
-  });
+  registry.add("fail", "", "always fails",
+               [](const std::vector<std::string>&) -> std::string { throw CommandError("it failed"); });
   return registry;
 }
 

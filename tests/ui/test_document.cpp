@@ -1,12 +1,11 @@
-#include "piperun/ui/document.h"
+#include <gtest/gtest.h>
+
+#include <filesystem>
 
 #include "piperun/error.h"
 #include "piperun/io/network_io.h"
 #include "piperun/io/point_writer.h"
-
-#include <gtest/gtest.h>
-
-#include <filesystem>
+#include "piperun/ui/document.h"
 
 namespace piperun::ui {
 namespace {

@@ -11,7 +11,6 @@
 #include <vtkUnsignedCharArray.h>
 
 #include <Eigen/Geometry>
-
 #include <cmath>
 
 namespace piperun::ui {
@@ -29,7 +28,8 @@ vtkSmartPointer<vtkUnsignedCharArray> colorArray(const std::vector<Rgb>& colors)
 
 }  // namespace
 
-vtkSmartPointer<vtkPolyData> makePointSet(const std::vector<Eigen::Vector3f>& positions, const std::vector<Rgb>& colors) {
+vtkSmartPointer<vtkPolyData> makePointSet(const std::vector<Eigen::Vector3f>& positions,
+                                          const std::vector<Rgb>& colors) {
   const auto count = static_cast<vtkIdType>(positions.size());
   auto coordinates = vtkSmartPointer<vtkFloatArray>::New();
   coordinates->SetNumberOfComponents(3);
@@ -163,7 +163,8 @@ void MeshBuilder::addArrow(const Eigen::Vector3d& from, const Eigen::Vector3d& d
     ring.push_back(addPoint(headBase + 2.5 * shaftRadius * (std::cos(angle) * u + std::sin(angle) * v)));
   }
   for (int s = 0; s < sides; ++s) {
-    addTriangle(ring[static_cast<std::size_t>(s)], ring[static_cast<std::size_t>((s + 1) % sides)], tip, color, element);
+    addTriangle(ring[static_cast<std::size_t>(s)], ring[static_cast<std::size_t>((s + 1) % sides)], tip, color,
+                element);
     addTriangle(baseCenter, ring[static_cast<std::size_t>((s + 1) % sides)], ring[static_cast<std::size_t>(s)], color,
                 element);
   }

@@ -3,12 +3,12 @@
 // Everything is in the display frame (world minus the document's display origin), so float
 // vertex coordinates keep millimetres far from (0, 0, 0).
 
-#include "palette.h"
-
-#include <Eigen/Core>
 #include <vtkSmartPointer.h>
 
+#include <Eigen/Core>
 #include <vector>
+
+#include "palette.h"
 
 class vtkPolyData;
 class vtkUnsignedCharArray;
@@ -22,7 +22,8 @@ namespace piperun::ui {
 constexpr const char* kElementArray = "element";
 
 /// Points as vertices with an RGB array; `colors` empty for a uniform colour set on the actor.
-vtkSmartPointer<vtkPolyData> makePointSet(const std::vector<Eigen::Vector3f>& positions, const std::vector<Rgb>& colors);
+vtkSmartPointer<vtkPolyData> makePointSet(const std::vector<Eigen::Vector3f>& positions,
+                                          const std::vector<Rgb>& colors);
 
 /// Every `stride`-th point of a point set made by makePointSet (colours kept).
 vtkSmartPointer<vtkPolyData> subsamplePointSet(vtkPolyData* points, std::size_t stride);

@@ -10,26 +10,29 @@ namespace piperun::ui {
 Rgb categoryColor(int index) {
   // Twelve well-separated hues (after ColorBrewer "Paired"/"Set1"), cycled.
   static constexpr std::array<Rgb, 12> kColors{{{31, 119, 180},
-                                                 {255, 127, 14},
-                                                 {44, 160, 44},
-                                                 {214, 39, 40},
-                                                 {148, 103, 189},
-                                                 {140, 86, 75},
-                                                 {227, 119, 194},
-                                                 {23, 190, 207},
-                                                 {188, 189, 34},
-                                                 {0, 90, 50},
-                                                 {120, 20, 120},
-                                                 {250, 190, 190}}};
+                                                {255, 127, 14},
+                                                {44, 160, 44},
+                                                {214, 39, 40},
+                                                {148, 103, 189},
+                                                {140, 86, 75},
+                                                {227, 119, 194},
+                                                {23, 190, 207},
+                                                {188, 189, 34},
+                                                {0, 90, 50},
+                                                {120, 20, 120},
+                                                {250, 190, 190}}};
   if (index < 0) return kNeutral;
   return kColors[static_cast<std::size_t>(index) % kColors.size()];
 }
 
 Rgb statusColor(JointStatus status) {
   switch (status) {
-    case JointStatus::Accepted: return kAccepted;
-    case JointStatus::Proposed: return kProposed;
-    case JointStatus::Rejected: return kRejected;
+    case JointStatus::Accepted:
+      return kAccepted;
+    case JointStatus::Proposed:
+      return kProposed;
+    case JointStatus::Rejected:
+      return kRejected;
   }
   return kNeutral;
 }

@@ -1,12 +1,12 @@
 #pragma once
 // Colours shared by the layers: a categorical palette for ids, scalar maps, review statuses.
 
-#include "piperun/pipe_network.h"
-
 #include <vtkSmartPointer.h>
 
 #include <array>
 #include <cstdint>
+
+#include "piperun/pipe_network.h"
 
 class vtkLookupTable;
 
@@ -18,8 +18,8 @@ using Rgb = std::array<std::uint8_t, 3>;
 /// other negative indices get kNeutral.
 Rgb categoryColor(int index);
 
-constexpr Rgb kNeutral{150, 150, 150};      ///< Points and pipes with no category.
-constexpr Rgb kHighlight{255, 40, 255};     ///< The selected element: magenta, in no colour map.
+constexpr Rgb kNeutral{150, 150, 150};   ///< Points and pipes with no category.
+constexpr Rgb kHighlight{255, 40, 255};  ///< The selected element: magenta, in no colour map.
 constexpr Rgb kAccepted{60, 180, 75};
 constexpr Rgb kProposed{245, 160, 30};
 constexpr Rgb kRejected{220, 40, 40};

@@ -4,7 +4,6 @@
 #include <tbb/parallel_for.h>
 
 #include <Eigen/Geometry>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -31,8 +30,8 @@ struct Surface {
 
 std::int64_t cellKey(const Eigen::Vector3i& cell) {
   // 21 bits per axis: scans up to ~2 million cells across.
-  return (static_cast<std::int64_t>(cell.x() & 0x1FFFFF) << 42) | (static_cast<std::int64_t>(cell.y() & 0x1FFFFF) << 21) |
-         static_cast<std::int64_t>(cell.z() & 0x1FFFFF);
+  return (static_cast<std::int64_t>(cell.x() & 0x1FFFFF) << 42) |
+         (static_cast<std::int64_t>(cell.y() & 0x1FFFFF) << 21) | static_cast<std::int64_t>(cell.z() & 0x1FFFFF);
 }
 
 }  // namespace
@@ -51,28 +50,30 @@ SurfaceDistances surfaceDistances(const PointCloud& cloud, const PipeNetwork& ne
   SurfaceDistances result;
   result.distance.assign(cloud.size(), std::numeric_limits<float>::infinity());
   result.element.assign(cloud.size(), -1);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cloud.size(), 4096), [&](const tbb::blocked_range<std::size_t>& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      const Eigen::Vector3d p = cloud.worldPosition(i);
-      double best = reach;
-      int bestId = -1;
-      for (const auto& surface : surfaces) {
-        if ((p.array() < surface.reachBox.min.array()).any() || (p.array() > surface.reachBox.max.array()).any()) continue;
-        double axisDistance = std::numeric_limits<double>::infinity();
-        for (std::size_t k = 0; k + 1 < surface.axis.size(); ++k)
-          axisDistance = std::min(axisDistance, distanceToSegment(p, surface.axis[k], surface.axis[k + 1]));
-        const double distance = std::abs(axisDistance - surface.radius);
-        if (distance <= best) {
-          best = distance;
-          bestId = surface.id;
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, cloud.size(), 4096), [&](const tbb::blocked_range<std::size_t>& range) {
+        for (std::size_t i = range.begin(); i != range.end(); ++i) {
+          const Eigen::Vector3d p = cloud.worldPosition(i);
+          double best = reach;
+          int bestId = -1;
+          for (const auto& surface : surfaces) {
+            if ((p.array() < surface.reachBox.min.array()).any() || (p.array() > surface.reachBox.max.array()).any())
+              continue;
+            double axisDistance = std::numeric_limits<double>::infinity();
+            for (std::size_t k = 0; k + 1 < surface.axis.size(); ++k)
+              axisDistance = std::min(axisDistance, distanceToSegment(p, surface.axis[k], surface.axis[k + 1]));
+            const double distance = std::abs(axisDistance - surface.radius);
+            if (distance <= best) {
+              best = distance;
+              bestId = surface.id;
+            }
+          }
+          if (bestId >= 0) {
+            result.distance[i] = static_cast<float>(best);
+            result.element[i] = bestId;
+          }
         }
-      }
-      if (bestId >= 0) {
-        result.distance[i] = static_cast<float>(best);
-        result.element[i] = bestId;
-      }
-    }
-  });
+      });
   return result;
 }
 
@@ -89,27 +90,28 @@ std::vector<int> nearestKeptPoint(const PointCloud& input, const PointCloud& pre
   for (std::size_t k = 0; k < preprocessed.size(); ++k)
     grid[cellKey(cellOf(preprocessed.worldPosition(k)))].push_back(static_cast<int>(k));
 
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, input.size(), 4096), [&](const tbb::blocked_range<std::size_t>& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      const Eigen::Vector3d p = input.worldPosition(i);
-      const Eigen::Vector3i cell = cellOf(p);
-      double best = reach * reach;
-      for (int dx = -1; dx <= 1; ++dx)
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dz = -1; dz <= 1; ++dz) {
-            const auto found = grid.find(cellKey(cell + Eigen::Vector3i(dx, dy, dz)));
-            if (found == grid.end()) continue;
-            for (int k : found->second) {
-              const double d = (preprocessed.worldPosition(static_cast<std::size_t>(k)) - p).squaredNorm();
-              // Ties go to the lower index so the result does not depend on the grid's order.
-              if (d < best || (d == best && nearest[i] >= 0 && k < nearest[i])) {
-                best = d;
-                nearest[i] = k;
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, input.size(), 4096), [&](const tbb::blocked_range<std::size_t>& range) {
+        for (std::size_t i = range.begin(); i != range.end(); ++i) {
+          const Eigen::Vector3d p = input.worldPosition(i);
+          const Eigen::Vector3i cell = cellOf(p);
+          double best = reach * reach;
+          for (int dx = -1; dx <= 1; ++dx)
+            for (int dy = -1; dy <= 1; ++dy)
+              for (int dz = -1; dz <= 1; ++dz) {
+                const auto found = grid.find(cellKey(cell + Eigen::Vector3i(dx, dy, dz)));
+                if (found == grid.end()) continue;
+                for (int k : found->second) {
+                  const double d = (preprocessed.worldPosition(static_cast<std::size_t>(k)) - p).squaredNorm();
+                  // Ties go to the lower index so the result does not depend on the grid's order.
+                  if (d < best || (d == best && nearest[i] >= 0 && k < nearest[i])) {
+                    best = d;
+                    nearest[i] = k;
+                  }
+                }
               }
-            }
-          }
-    }
-  });
+        }
+      });
   return nearest;
 }
 

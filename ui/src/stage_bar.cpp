@@ -1,39 +1,39 @@
 #include "stage_bar.h"
 
-#include "observe.h"
-#include "palette.h"
-
 #include <vtkButtonWidget.h>
 #include <vtkCallbackCommand.h>
 #include <vtkCommand.h>
 #include <vtkImageData.h>
 #include <vtkProperty2D.h>
-#include <vtkRenderer.h>
 #include <vtkRenderWindowInteractor.h>
+#include <vtkRenderer.h>
 #include <vtkSliderRepresentation2D.h>
 #include <vtkSliderWidget.h>
 #include <vtkStdString.h>
 #include <vtkTextProperty.h>
 #include <vtkTextRenderer.h>
-#include <vtkTextProperty.h>
 #include <vtkTexturedButtonRepresentation2D.h>
 
 #include <algorithm>
 #include <array>
+
+#include "observe.h"
+#include "palette.h"
 
 namespace piperun::ui {
 
 namespace {
 
 const std::array<StageParameter, 5> kMainParameters{{{"preprocess.voxel_size", 0.003, 0.05},
-                                                         {"directions.bandwidth_deg", 0.5, 10.0},
-                                                         {"placement.center_bandwidth", 0.002, 0.05},
-                                                         {"extents.section_length", 0.01, 0.2},
-                                                         {"merge.max_gap", 0.0, 0.5}}};
+                                                     {"directions.bandwidth_deg", 0.5, 10.0},
+                                                     {"placement.center_bandwidth", 0.002, 0.05},
+                                                     {"extents.section_length", 0.01, 0.2},
+                                                     {"merge.max_gap", 0.0, 0.5}}};
 
 /// A flat button face of width × height pixels with a darker border (a light one when `selected`)
 /// and the stage's name drawn in the middle.
-vtkSmartPointer<vtkImageData> buttonFace(const char* label, Rgb fill, bool selected, int width, int height, double scale) {
+vtkSmartPointer<vtkImageData> buttonFace(const char* label, Rgb fill, bool selected, int width, int height,
+                                         double scale) {
   const int border = std::max(2, static_cast<int>(2 * scale));
   auto image = vtkSmartPointer<vtkImageData>::New();
   image->SetDimensions(width, height, 1);
@@ -52,7 +52,8 @@ vtkSmartPointer<vtkImageData> buttonFace(const char* label, Rgb fill, bool selec
   font->SetColor(1.0, 1.0, 1.0);
   vtkNew<vtkImageData> text;
   int textSize[2] = {0, 0};
-  if (!vtkTextRenderer::GetInstance()->RenderString(font.Get(), vtkStdString(label), text.Get(), textSize, 72)) return image;
+  if (!vtkTextRenderer::GetInstance()->RenderString(font.Get(), vtkStdString(label), text.Get(), textSize, 72))
+    return image;
   // Alpha-blend the white text (RGBA) centred on the face.
   const int x0 = (width - textSize[0]) / 2, y0 = (height - textSize[1]) / 2;
   int textExtent[6];

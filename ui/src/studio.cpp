@@ -1,13 +1,3 @@
-#include "studio_impl.h"
-
-#include "mesh.h"
-#include "observe.h"
-#include "palette.h"
-
-#include "piperun/error.h"
-
-#include <nlohmann/json.hpp>
-
 #include <vtkCallbackCommand.h>
 #include <vtkCamera.h>
 #include <vtkCellData.h>
@@ -21,7 +11,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <nlohmann/json.hpp>
 #include <sstream>
+
+#include "mesh.h"
+#include "observe.h"
+#include "palette.h"
+#include "piperun/error.h"
+#include "studio_impl.h"
 
 namespace piperun::ui {
 
@@ -82,10 +79,12 @@ Studio::Impl::Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowIntera
   observe(interactor, vtkCommand::KeyPressEvent, [this](vtkObject*, unsigned long, void*) { onKey(); });
   // Passive: the camera style grabs the focus on a press, and the release must still reach picking.
   // (Clicks on the stage bar fall outside every view, so they pick nothing.)
-  observe(interactor, vtkCommand::LeftButtonPressEvent, [this](vtkObject*, unsigned long, void*) { onLeftPress(); }, 0.0f,
-          true);
-  observe(interactor, vtkCommand::LeftButtonReleaseEvent, [this](vtkObject*, unsigned long, void*) { onLeftRelease(); },
-          0.0f, true);
+  observe(
+      interactor, vtkCommand::LeftButtonPressEvent, [this](vtkObject*, unsigned long, void*) { onLeftPress(); }, 0.0f,
+      true);
+  observe(
+      interactor, vtkCommand::LeftButtonReleaseEvent, [this](vtkObject*, unsigned long, void*) { onLeftRelease(); },
+      0.0f, true);
 
   statusText = makeText(0.92, 0.92, 0.92);
   infoText = makeText(1.0, 0.9, 0.45);
@@ -149,7 +148,7 @@ Studio::Impl::Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowIntera
       [this](const std::string& key, double value) {
         try {
           message = this->owner.command(std::string("rerun ") + stageName(selectedStage) + " " + key + "=" +
-                                  format("%.6g", value));
+                                        format("%.6g", value));
         } catch (const std::exception& error) {
           message = error.what();
         }
@@ -218,9 +217,8 @@ void Studio::Impl::takeResults() {
   if (selectedDirection < 0 && !directions.empty()) selectedDirection = 0;
   if (selection.kind == Selection::Kind::Pipe && !document.network().findPipe(selection.id)) selection = {};
   if (selection.kind == Selection::Kind::Joint && !document.network().findJoint(selection.id)) selection = {};
-  if (pipeColor == PipeColor::Run &&
-      std::none_of(document.network().pipes.begin(), document.network().pipes.end(),
-                   [](const Pipe& pipe) { return pipe.runId >= 0; }))
+  if (pipeColor == PipeColor::Run && std::none_of(document.network().pipes.begin(), document.network().pipes.end(),
+                                                  [](const Pipe& pipe) { return pipe.runId >= 0; }))
     pipeColor = PipeColor::Radius;
 }
 
@@ -306,7 +304,8 @@ void Studio::Impl::layout() {
   struct Rect {
     double x0, y0, x1, y1;
   };
-  Rect sceneRect{0, bottom, split, 1}, sphereRect{split, (1 + bottom) / 2, 1, 1}, planeRect{split, bottom, 1, (1 + bottom) / 2};
+  Rect sceneRect{0, bottom, split, 1}, sphereRect{split, (1 + bottom) / 2, 1, 1},
+      planeRect{split, bottom, 1, (1 + bottom) / 2};
   const Rect full{0, bottom, 1, 1}, none{0, 0, 0, 0};
   if (viewMode == ViewMode::Scene) sceneRect = full, sphereRect = none, planeRect = none;
   if (viewMode == ViewMode::Sphere) sceneRect = none, sphereRect = full, planeRect = none;
@@ -340,13 +339,15 @@ void Studio::Impl::layout() {
   infoText->GetTextProperty()->SetFontSize(static_cast<int>(13 * scale));
   progressText->SetPosition(textRect.x0 * width + pad, textRect.y0 * height + pad);
   progressText->GetTextProperty()->SetFontSize(static_cast<int>(13 * scale));
-  for (auto* help : {helpCommandsText.Get(), helpKeysText.Get()}) help->GetTextProperty()->SetFontSize(static_cast<int>(11 * scale));
+  for (auto* help : {helpCommandsText.Get(), helpKeysText.Get()})
+    help->GetTextProperty()->SetFontSize(static_cast<int>(11 * scale));
   helpCommandsText->SetPosition(pad * 2, height - pad * 6);
   helpKeysText->SetPosition(width * 0.55, height - pad * 6);
 
   const double barRight = textRect.x1 * width - pad;
   colorBar->GetPositionCoordinate()->SetValue(barRight - 90.0 * scale, textRect.y0 * height + 60.0 * scale);
-  colorBar->GetPosition2Coordinate()->SetValue(60.0 * scale, std::min(260.0 * scale, (textRect.y1 - textRect.y0) * height * 0.5));
+  colorBar->GetPosition2Coordinate()->SetValue(60.0 * scale,
+                                               std::min(260.0 * scale, (textRect.y1 - textRect.y0) * height * 0.5));
   colorBar->SetBarRatio(0.3);
   colorBar->GetLabelTextProperty()->SetFontSize(static_cast<int>(11 * scale));
   colorBar->GetTitleTextProperty()->SetFontSize(static_cast<int>(11 * scale));
@@ -396,7 +397,8 @@ void Studio::Impl::flyTo(const Eigen::Vector3d& world, double size) {
   camera->GetPosition(position);
   camera->GetFocalPoint(focal);
   const Eigen::Vector3d viewDirection =
-      (Eigen::Vector3d(position[0], position[1], position[2]) - Eigen::Vector3d(focal[0], focal[1], focal[2])).normalized();
+      (Eigen::Vector3d(position[0], position[1], position[2]) - Eigen::Vector3d(focal[0], focal[1], focal[2]))
+          .normalized();
   const Eigen::Vector3d target = world - displayOrigin;
   const double distance = std::max(size, 0.05) * 1.2 / std::tan(camera->GetViewAngle() * M_PI / 360.0);
   const Eigen::Vector3d eye = target + distance * viewDirection;
@@ -411,9 +413,9 @@ std::vector<StageState> Studio::Impl::stageStates() const {
   for (Stage stage : kAllStages) {
     const auto index = static_cast<std::size_t>(stage);
     if (worker.joinable()) {
-      states.push_back(freshBeforeRun[index]                                       ? StageState::Fresh
-                       : static_cast<int>(stage) <= static_cast<int>(runLast)       ? StageState::Running
-                                                                                    : StageState::Stale);
+      states.push_back(freshBeforeRun[index]                                  ? StageState::Fresh
+                       : static_cast<int>(stage) <= static_cast<int>(runLast) ? StageState::Running
+                                                                              : StageState::Stale);
     } else {
       states.push_back(pipeline && pipeline->isFresh(stage) ? StageState::Fresh : StageState::Stale);
     }
@@ -454,9 +456,9 @@ std::string Studio::Impl::selectionInfo() const {
                                          [&](const Cylinder& c) { return c.directionIndex == ref.index; });
     if (selection.kind != Selection::Kind::None) info << "\n";
     info << "direction " << selectedDirection << " (tile " << (*tiles)[static_cast<std::size_t>(ref.tile)].tileId
-         << ", round " << ref.round << ")  axis (" << chosen.axis.x() << ", " << chosen.axis.y() << ", " << chosen.axis.z()
-         << ")  support " << chosen.support * 100.0 << " %  stripe " << chosen.stripe.size() << " points  "
-         << cylinders << " cylinders";
+         << ", round " << ref.round << ")  axis (" << chosen.axis.x() << ", " << chosen.axis.y() << ", "
+         << chosen.axis.z() << ")  support " << chosen.support * 100.0 << " %  stripe " << chosen.stripe.size()
+         << " points  " << cylinders << " cylinders";
   }
   return info.str();
 }
@@ -470,7 +472,8 @@ void Studio::Impl::updateOverlays() {
   } else {
     status << document.path().filename().string();
     if (document.input()) status << "  " << document.input()->size() << " points";
-    status << "\n" << network.pipes.size() << " pipes  " << network.joints.size() << " joints  " << network.runs.size()
+    status << "\n"
+           << network.pipes.size() << " pipes  " << network.joints.size() << " joints  " << network.runs.size()
            << " runs";
     if (pipeline) status << "  " << directions.size() << " directions";
   }
@@ -478,7 +481,9 @@ void Studio::Impl::updateOverlays() {
   statusText->SetInput(status.str().c_str());
   infoText->SetInput(selectionInfo().c_str());
 
-  sceneTitle->SetInput(("3-D scene  [points: " + nameOf(kPointColors, pointColor) + ", pipes: " + nameOf(kPipeColors, pipeColor) + "]").c_str());
+  sceneTitle->SetInput(
+      ("3-D scene  [points: " + nameOf(kPointColors, pointColor) + ", pipes: " + nameOf(kPipeColors, pipeColor) + "]")
+          .c_str());
   sphereTitle->SetInput("Gaussian sphere");
   std::string planeCaption = "Projection plane";
   if (selectedDirection >= 0) planeCaption += " - direction " + std::to_string(selectedDirection);
@@ -502,7 +507,8 @@ void Studio::Impl::updateOverlays() {
   std::string keyHelp = "Keys\n";
   for (const auto& line : keyHelpLines()) keyHelp += "  " + line + "\n";
   keyHelp += "\nLayers ([x] shown)\n";
-  for (const auto& entry : layers) keyHelp += std::string("  [") + (layerVisible(entry.first) ? "x" : " ") + "] " + entry.first + "\n";
+  for (const auto& entry : layers)
+    keyHelp += std::string("  [") + (layerVisible(entry.first) ? "x" : " ") + "] " + entry.first + "\n";
   helpCommandsText->SetInput(commandHelp.c_str());
   helpKeysText->SetInput(keyHelp.c_str());
   helpCommandsText->SetVisibility(helpShown);
@@ -588,7 +594,8 @@ bool Studio::Impl::poll() {
 
 void Studio::Impl::onKey() {
   std::string key = interactor->GetKeySym() ? interactor->GetKeySym() : "";
-  std::transform(key.begin(), key.end(), key.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::transform(key.begin(), key.end(), key.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   for (const auto& [boundKey, line] : keyBindings) {
     if (boundKey != key) continue;
     try {
@@ -611,8 +618,8 @@ void Studio::Impl::onLeftRelease() {
   const int* position = interactor->GetEventPosition();
   if (std::abs(position[0] - pressX) > 3 || std::abs(position[1] - pressY) > 3) return;  // A drag, not a click.
   const auto now = std::chrono::steady_clock::now();
-  const bool doubleClick = now - lastClickTime < std::chrono::milliseconds(400) && std::abs(position[0] - lastClickX) < 6 &&
-                           std::abs(position[1] - lastClickY) < 6;
+  const bool doubleClick = now - lastClickTime < std::chrono::milliseconds(400) &&
+                           std::abs(position[0] - lastClickX) < 6 && std::abs(position[1] - lastClickY) < 6;
   lastClickTime = now;
   lastClickX = position[0];
   lastClickY = position[1];

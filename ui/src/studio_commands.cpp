@@ -1,9 +1,5 @@
 // The studio's named commands and the keys bound to them.
 
-#include "studio_impl.h"
-
-#include "piperun/error.h"
-
 #include <vtkCamera.h>
 #include <vtkNew.h>
 #include <vtkPNGWriter.h>
@@ -13,6 +9,9 @@
 
 #include <algorithm>
 #include <cctype>
+
+#include "piperun/error.h"
+#include "studio_impl.h"
 
 namespace piperun::ui {
 
@@ -35,66 +34,68 @@ void Studio::Impl::registerCommands() {
                  return "view " + args[0];
                });
 
-  commands.add("select", "pipe ID | joint ID | direction N|next|previous | none",
-               "select an element (highlighted, described bottom left) or a principal direction (the plane view follows)",
-               [this](const std::vector<std::string>& args) {
-                 expectArguments(args, 1, 2, "select pipe ID | joint ID | direction N | none");
-                 bool directionChanged = false;
-                 if (args[0] == "none") {
-                   selection = {};
-                 } else {
-                   expectArguments(args, 2, 2, "select pipe ID | joint ID | direction N|next|previous | none");
-                   const int directionCount = static_cast<int>(directions.size());
-                   const bool step = args[0] == "direction" && (args[1] == "next" || args[1] == "previous");
-                   if (step && directionCount == 0) throw CommandError("no directions yet: run the directions stage");
-                   const int id = !step                 ? parseInt(args[1], "the id")
-                                  : args[1] == "next"   ? (selectedDirection + 1) % directionCount
-                                                        : (selectedDirection + directionCount - 1) % directionCount;
-                   if (args[0] == "pipe") {
-                     if (!document.network().findPipe(id)) throw CommandError("no pipe " + args[1]);
-                     selection = {Selection::Kind::Pipe, id};
-                     // The plane view follows to a direction where the pipe's circle was found.
-                     const int direction = directionShowingPipe(id);
-                     if (direction >= 0 && direction != selectedDirection) {
-                       selectedDirection = direction;
-                       buildSphereLayers();
-                       directionChanged = true;
-                     }
-                   } else if (args[0] == "joint") {
-                     if (!document.network().findJoint(id)) throw CommandError("no joint " + args[1]);
-                     selection = {Selection::Kind::Joint, id};
-                   } else if (args[0] == "direction") {
-                     if (id < 0 || id >= static_cast<int>(directions.size()))
-                       throw CommandError("no direction " + args[1] + " (there are " + std::to_string(directions.size()) + ")");
-                     selectedDirection = id;
-                     buildSphereLayers();
-                   } else {
-                     throw CommandError("usage: select pipe ID | joint ID | direction N | none");
-                   }
-                 }
-                 buildSelectionLayer();
-                 buildPlaneLayers();
-                 if (args[0] == "direction" || directionChanged) resetPlaneCamera();
-                 updateOverlays();
-                 return args[0] == "none"        ? std::string("selection cleared")
-                        : args[0] == "direction" ? "selected direction " + std::to_string(selectedDirection)
-                                                 : "selected " + args[0] + " " + args[1];
-               });
+  commands.add(
+      "select", "pipe ID | joint ID | direction N|next|previous | none",
+      "select an element (highlighted, described bottom left) or a principal direction (the plane view follows)",
+      [this](const std::vector<std::string>& args) {
+        expectArguments(args, 1, 2, "select pipe ID | joint ID | direction N | none");
+        bool directionChanged = false;
+        if (args[0] == "none") {
+          selection = {};
+        } else {
+          expectArguments(args, 2, 2, "select pipe ID | joint ID | direction N|next|previous | none");
+          const int directionCount = static_cast<int>(directions.size());
+          const bool step = args[0] == "direction" && (args[1] == "next" || args[1] == "previous");
+          if (step && directionCount == 0) throw CommandError("no directions yet: run the directions stage");
+          const int id = !step               ? parseInt(args[1], "the id")
+                         : args[1] == "next" ? (selectedDirection + 1) % directionCount
+                                             : (selectedDirection + directionCount - 1) % directionCount;
+          if (args[0] == "pipe") {
+            if (!document.network().findPipe(id)) throw CommandError("no pipe " + args[1]);
+            selection = {Selection::Kind::Pipe, id};
+            // The plane view follows to a direction where the pipe's circle was found.
+            const int direction = directionShowingPipe(id);
+            if (direction >= 0 && direction != selectedDirection) {
+              selectedDirection = direction;
+              buildSphereLayers();
+              directionChanged = true;
+            }
+          } else if (args[0] == "joint") {
+            if (!document.network().findJoint(id)) throw CommandError("no joint " + args[1]);
+            selection = {Selection::Kind::Joint, id};
+          } else if (args[0] == "direction") {
+            if (id < 0 || id >= static_cast<int>(directions.size()))
+              throw CommandError("no direction " + args[1] + " (there are " + std::to_string(directions.size()) + ")");
+            selectedDirection = id;
+            buildSphereLayers();
+          } else {
+            throw CommandError("usage: select pipe ID | joint ID | direction N | none");
+          }
+        }
+        buildSelectionLayer();
+        buildPlaneLayers();
+        if (args[0] == "direction" || directionChanged) resetPlaneCamera();
+        updateOverlays();
+        return args[0] == "none"        ? std::string("selection cleared")
+               : args[0] == "direction" ? "selected direction " + std::to_string(selectedDirection)
+                                        : "selected " + args[0] + " " + args[1];
+      });
 
-  commands.add("fly", "", "move the 3-D camera to the selected pipe or joint", [this](const std::vector<std::string>& args) {
-    expectArguments(args, 0, 0, "fly");
-    const PipeNetwork& network = document.network();
-    if (selection.kind == Selection::Kind::Pipe) {
-      const Pipe& pipe = *network.findPipe(selection.id);
-      flyTo(0.5 * (pipe.start + pipe.end), std::max(pipe.length() / 2.0, 4.0 * pipe.radius));
-    } else if (selection.kind == Selection::Kind::Joint) {
-      const Joint& joint = *network.findJoint(selection.id);
-      flyTo(joint.position(), std::max(joint.length(), 12.0 * joint.radius));
-    } else {
-      throw CommandError("nothing selected to fly to");
-    }
-    return std::string("camera on the selection");
-  });
+  commands.add("fly", "", "move the 3-D camera to the selected pipe or joint",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 0, 0, "fly");
+                 const PipeNetwork& network = document.network();
+                 if (selection.kind == Selection::Kind::Pipe) {
+                   const Pipe& pipe = *network.findPipe(selection.id);
+                   flyTo(0.5 * (pipe.start + pipe.end), std::max(pipe.length() / 2.0, 4.0 * pipe.radius));
+                 } else if (selection.kind == Selection::Kind::Joint) {
+                   const Joint& joint = *network.findJoint(selection.id);
+                   flyTo(joint.position(), std::max(joint.length(), 12.0 * joint.radius));
+                 } else {
+                   throw CommandError("nothing selected to fly to");
+                 }
+                 return std::string("camera on the selection");
+               });
 
   commands.add("color", "points height|intensity|rgb|segment|element|qa | pipes run|radius|confidence|plain",
                "colour the input points or the pipes", [this](const std::vector<std::string>& args) {
@@ -103,7 +104,8 @@ void Studio::Impl::registerCommands() {
                    const PointColor mode = parseName(kPointColors, args[1], "point colour");
                    const PointCloud* cloud = document.input().get();
                    if (!cloud) throw CommandError("no points: this document is a network");
-                   if (mode == PointColor::Intensity && !cloud->hasIntensity()) throw CommandError("the scan has no intensity");
+                   if (mode == PointColor::Intensity && !cloud->hasIntensity())
+                     throw CommandError("the scan has no intensity");
                    if (mode == PointColor::Rgb && !cloud->hasColors()) throw CommandError("the scan has no colours");
                    if (mode == PointColor::Segment && directions.empty())
                      throw CommandError("no segments yet: run the directions stage");
@@ -124,33 +126,40 @@ void Studio::Impl::registerCommands() {
                  expectArguments(args, 2, 2, "layer NAME on|off|toggle");
                  if (!layers.count(args[0])) throw CommandError("no layer '" + args[0] + "' (layers lists them)");
                  bool& shown = visibility[args[0]];
-                 if (args[1] == "on") shown = true;
-                 else if (args[1] == "off") shown = false;
-                 else if (args[1] == "toggle") shown = !shown;
-                 else throw CommandError("usage: layer NAME on|off|toggle");
+                 if (args[1] == "on")
+                   shown = true;
+                 else if (args[1] == "off")
+                   shown = false;
+                 else if (args[1] == "toggle")
+                   shown = !shown;
+                 else
+                   throw CommandError("usage: layer NAME on|off|toggle");
                  layers[args[0]].prop->SetVisibility(shown);
                  updateOverlays();
                  return args[0] + (shown ? " on" : " off");
                });
 
-  commands.add("layers", "", "list the layers and whether they are shown", [this](const std::vector<std::string>& args) {
-    expectArguments(args, 0, 0, "layers");
-    std::string list;
-    for (const auto& [name, layer] : layers) list += (list.empty() ? "" : "  ") + name + (visibility[name] ? "" : " (off)");
-    return list;
-  });
+  commands.add("layers", "", "list the layers and whether they are shown",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 0, 0, "layers");
+                 std::string list;
+                 for (const auto& [name, layer] : layers)
+                   list += (list.empty() ? "" : "  ") + name + (visibility[name] ? "" : " (off)");
+                 return list;
+               });
 
-  commands.add("run", "[STAGE]", "run the stale stages up to STAGE (default: all)", [this](const std::vector<std::string>& args) {
-    expectArguments(args, 0, 1, "run [STAGE]");
-    Stage last = kAllStages.back();
-    if (!args.empty()) {
-      const auto stage = stageFromName(args[0]);
-      if (!stage) throw CommandError("unknown stage '" + args[0] + "'");
-      last = *stage;
-    }
-    startRun(last);
-    return std::string(options.backgroundStages ? "running" : "ran") + " up to " + stageName(last);
-  });
+  commands.add("run", "[STAGE]", "run the stale stages up to STAGE (default: all)",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 0, 1, "run [STAGE]");
+                 Stage last = kAllStages.back();
+                 if (!args.empty()) {
+                   const auto stage = stageFromName(args[0]);
+                   if (!stage) throw CommandError("unknown stage '" + args[0] + "'");
+                   last = *stage;
+                 }
+                 startRun(last);
+                 return std::string(options.backgroundStages ? "running" : "ran") + " up to " + stageName(last);
+               });
 
   commands.add("rerun", "STAGE [section.key=value ...]",
                "set parameters, mark STAGE and the later stages stale and run them all",
@@ -205,12 +214,13 @@ void Studio::Impl::registerCommands() {
     return "stage " + args[0] + (parameter ? ": slider edits " + parameter->key : std::string());
   });
 
-  commands.add("cancel", "", "stop the running stages at their next safe point", [this](const std::vector<std::string>& args) {
-    expectArguments(args, 0, 0, "cancel");
-    if (!worker.joinable()) return std::string("nothing is running");
-    runProgress->cancel();
-    return std::string("cancelling");
-  });
+  commands.add("cancel", "", "stop the running stages at their next safe point",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 0, 0, "cancel");
+                 if (!worker.joinable()) return std::string("nothing is running");
+                 runProgress->cancel();
+                 return std::string("cancelling");
+               });
 
   commands.add("camera", "reset | azimuth DEG | elevation DEG | zoom FACTOR", "move the camera of the 3-D scene",
                [this](const std::vector<std::string>& args) {
@@ -225,7 +235,8 @@ void Studio::Impl::registerCommands() {
                  }
                  expectArguments(args, 2, 2, "camera azimuth DEG | elevation DEG | zoom FACTOR");
                  const double value = parseDouble(args[1], args[0].c_str());
-                 if (args[0] == "azimuth") camera->Azimuth(value);
+                 if (args[0] == "azimuth")
+                   camera->Azimuth(value);
                  else if (args[0] == "elevation") {
                    camera->Elevation(value);
                    camera->OrthogonalizeViewUp();
@@ -239,18 +250,23 @@ void Studio::Impl::registerCommands() {
                  return "camera " + args[0] + " " + args[1];
                });
 
-  commands.add("joint", "ID accept|reject|propose", "set a joint's review status", [this](const std::vector<std::string>& args) {
-    expectArguments(args, 2, 2, "joint ID accept|reject|propose");
-    Joint* joint = document.network().findJoint(parseInt(args[0], "the joint id"));
-    if (!joint) throw CommandError("no joint " + args[0]);
-    if (args[1] == "accept") joint->status = JointStatus::Accepted;
-    else if (args[1] == "reject") joint->status = JointStatus::Rejected;
-    else if (args[1] == "propose") joint->status = JointStatus::Proposed;
-    else throw CommandError("usage: joint ID accept|reject|propose");
-    buildNetworkLayers();
-    updateOverlays();
-    return "joint " + args[0] + " " + toString(joint->status);
-  });
+  commands.add("joint", "ID accept|reject|propose", "set a joint's review status",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 2, 2, "joint ID accept|reject|propose");
+                 Joint* joint = document.network().findJoint(parseInt(args[0], "the joint id"));
+                 if (!joint) throw CommandError("no joint " + args[0]);
+                 if (args[1] == "accept")
+                   joint->status = JointStatus::Accepted;
+                 else if (args[1] == "reject")
+                   joint->status = JointStatus::Rejected;
+                 else if (args[1] == "propose")
+                   joint->status = JointStatus::Proposed;
+                 else
+                   throw CommandError("usage: joint ID accept|reject|propose");
+                 buildNetworkLayers();
+                 updateOverlays();
+                 return "joint " + args[0] + " " + toString(joint->status);
+               });
 
   commands.add("widgets", "on|off", "show or hide the stage bar and the parameter slider",
                [this](const std::vector<std::string>& args) {
@@ -263,20 +279,21 @@ void Studio::Impl::registerCommands() {
                  return "widgets " + args[0];
                });
 
-  commands.add("screenshot", "FILE.png", "write the window as a PNG image", [this](const std::vector<std::string>& args) {
-    expectArguments(args, 1, 1, "screenshot FILE.png");
-    owner.render();
-    vtkNew<vtkWindowToImageFilter> capture;
-    capture->SetInput(window);
-    capture->ReadFrontBufferOff();
-    capture->Update();
-    vtkNew<vtkPNGWriter> writer;
-    writer->SetFileName(args[0].c_str());
-    writer->SetInputConnection(capture->GetOutputPort());
-    writer->Write();
-    if (writer->GetErrorCode() != 0) throw CommandError(args[0] + ": cannot write the image");
-    return "wrote " + args[0];
-  });
+  commands.add("screenshot", "FILE.png", "write the window as a PNG image",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 1, 1, "screenshot FILE.png");
+                 owner.render();
+                 vtkNew<vtkWindowToImageFilter> capture;
+                 capture->SetInput(window);
+                 capture->ReadFrontBufferOff();
+                 capture->Update();
+                 vtkNew<vtkPNGWriter> writer;
+                 writer->SetFileName(args[0].c_str());
+                 writer->SetInputConnection(capture->GetOutputPort());
+                 writer->Write();
+                 if (writer->GetErrorCode() != 0) throw CommandError(args[0] + ": cannot write the image");
+                 return "wrote " + args[0];
+               });
 
   commands.add("click", "X Y [double]",
                "click at window pixel (X, Y), origin bottom left: picks like the mouse (double: also flies)",
@@ -289,35 +306,36 @@ void Studio::Impl::registerCommands() {
                  return message.empty() ? std::string("nothing there") : message;
                });
 
-  commands.add("frames", "N",
-               "time N frames turning the 3-D camera once around, drawn as while dragging and as when still",
-               [this](const std::vector<std::string>& args) {
-                 expectArguments(args, 1, 1, "frames N");
-                 const int count = parseInt(args[0], "the frame count");
-                 if (count < 1) throw CommandError("frames needs at least 1 frame");
-                 vtkNew<vtkCamera> saved;
-                 saved->DeepCopy(scene->GetActiveCamera());
-                 auto timeFrames = [&](bool moving) {
-                   interacting = moving;
-                   for (auto& [name, lod] : pointLods) lod.mapper->SetInputData(moving ? lod.coarse : lod.full);
-                   owner.render();  // Uploads the points; not timed.
-                   const auto start = std::chrono::steady_clock::now();
-                   for (int i = 0; i < count; ++i) {
-                     scene->GetActiveCamera()->Azimuth(360.0 / count);
-                     window->Render();
-                   }
-                   const std::chrono::duration<double, std::milli> elapsed = std::chrono::steady_clock::now() - start;
-                   vtkIdType points = 0;
-                   for (auto& [name, lod] : pointLods)
-                     if (layerVisible(name) && layers[name].renderer->GetDraw()) points += (moving ? lod.coarse : lod.full)->GetNumberOfPoints();
-                   return format("%.1f ms/frame", elapsed.count() / count) + " (" + std::to_string(points) + " points drawn)";
-                 };
-                 const std::string moving = timeFrames(true);
-                 const std::string still = timeFrames(false);
-                 scene->GetActiveCamera()->DeepCopy(saved);
-                 scene->ResetCameraClippingRange();
-                 return "moving " + moving + ", still " + still;
-               });
+  commands.add(
+      "frames", "N", "time N frames turning the 3-D camera once around, drawn as while dragging and as when still",
+      [this](const std::vector<std::string>& args) {
+        expectArguments(args, 1, 1, "frames N");
+        const int count = parseInt(args[0], "the frame count");
+        if (count < 1) throw CommandError("frames needs at least 1 frame");
+        vtkNew<vtkCamera> saved;
+        saved->DeepCopy(scene->GetActiveCamera());
+        auto timeFrames = [&](bool moving) {
+          interacting = moving;
+          for (auto& [name, lod] : pointLods) lod.mapper->SetInputData(moving ? lod.coarse : lod.full);
+          owner.render();  // Uploads the points; not timed.
+          const auto start = std::chrono::steady_clock::now();
+          for (int i = 0; i < count; ++i) {
+            scene->GetActiveCamera()->Azimuth(360.0 / count);
+            window->Render();
+          }
+          const std::chrono::duration<double, std::milli> elapsed = std::chrono::steady_clock::now() - start;
+          vtkIdType points = 0;
+          for (auto& [name, lod] : pointLods)
+            if (layerVisible(name) && layers[name].renderer->GetDraw())
+              points += (moving ? lod.coarse : lod.full)->GetNumberOfPoints();
+          return format("%.1f ms/frame", elapsed.count() / count) + " (" + std::to_string(points) + " points drawn)";
+        };
+        const std::string moving = timeFrames(true);
+        const std::string still = timeFrames(false);
+        scene->GetActiveCamera()->DeepCopy(saved);
+        scene->ResetCameraClippingRange();
+        return "moving " + moving + ", still " + still;
+      });
 
   commands.add("open", "FILE", "open a scan or a network (.json) in place of the current document",
                [this](const std::vector<std::string>& args) {

@@ -2,14 +2,6 @@
 // Inside ui::Studio: the state behind the public class, shared by studio.cpp (document, views,
 // overlays, runs, interaction), studio_layers.cpp (building the layers) and studio_commands.cpp.
 
-#include "piperun/ui/studio.h"
-
-#include "palette.h"
-#include "point_measures.h"
-#include "stage_bar.h"
-
-#include "piperun/params.h"
-
 #include <vtkInteractorStyleTrackballCamera.h>
 #include <vtkNew.h>
 #include <vtkPolyDataMapper.h>
@@ -19,16 +11,22 @@
 #include <vtkTextActor.h>
 
 #include <Eigen/Core>
-
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <cstdio>
 #include <map>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include "palette.h"
+#include "piperun/params.h"
+#include "piperun/ui/studio.h"
+#include "point_measures.h"
+#include "stage_bar.h"
 
 class vtkActor;
 class vtkPolyData;
@@ -56,11 +54,13 @@ enum class PipeColor { Run, Radius, Confidence, Plain };
 
 inline const std::map<std::string, ViewMode> kViewModes{
     {"all", ViewMode::All}, {"scene", ViewMode::Scene}, {"sphere", ViewMode::Sphere}, {"plane", ViewMode::Plane}};
-inline const std::map<std::string, PointColor> kPointColors{{"height", PointColor::Height},   {"intensity", PointColor::Intensity},
-                                                     {"rgb", PointColor::Rgb},         {"segment", PointColor::Segment},
-                                                     {"element", PointColor::Element}, {"qa", PointColor::Qa}};
-inline const std::map<std::string, PipeColor> kPipeColors{
-    {"run", PipeColor::Run}, {"radius", PipeColor::Radius}, {"confidence", PipeColor::Confidence}, {"plain", PipeColor::Plain}};
+inline const std::map<std::string, PointColor> kPointColors{
+    {"height", PointColor::Height},   {"intensity", PointColor::Intensity}, {"rgb", PointColor::Rgb},
+    {"segment", PointColor::Segment}, {"element", PointColor::Element},     {"qa", PointColor::Qa}};
+inline const std::map<std::string, PipeColor> kPipeColors{{"run", PipeColor::Run},
+                                                          {"radius", PipeColor::Radius},
+                                                          {"confidence", PipeColor::Confidence},
+                                                          {"plain", PipeColor::Plain}};
 
 template <typename Value>
 std::string nameOf(const std::map<std::string, Value>& names, Value value) {
@@ -98,7 +98,8 @@ inline double parseDouble(const std::string& word, const char* what) {
   throw CommandError(std::string("expected ") + what + " as a number, got '" + word + "'");
 }
 
-inline void expectArguments(const std::vector<std::string>& args, std::size_t minimum, std::size_t maximum, const char* usage) {
+inline void expectArguments(const std::vector<std::string>& args, std::size_t minimum, std::size_t maximum,
+                            const char* usage) {
   if (args.size() < minimum || args.size() > maximum) throw CommandError(std::string("usage: ") + usage);
 }
 
@@ -110,9 +111,9 @@ inline std::string format(const char* pattern, double value) {
 
 /// A principal direction of one tile's round, numbered across all tiles for the views.
 struct DirectionRef {
-  int tile = 0;       ///< Index into the pipeline's tile results.
+  int tile = 0;  ///< Index into the pipeline's tile results.
   int round = 0;
-  int index = 0;      ///< Index into the round's DirectionsResult::directions.
+  int index = 0;  ///< Index into the round's DirectionsResult::directions.
 };
 
 struct Selection {
@@ -137,7 +138,8 @@ vtkSmartPointer<vtkActor> meshActor(vtkPolyData* polyData);
 /// A text overlay in the studio's font.
 vtkSmartPointer<vtkTextActor> makeText(double r, double g, double b);
 
-inline constexpr double kQaReach = 0.02;  ///< Points farther than this from every surface are not coloured by the QA map (m).
+inline constexpr double kQaReach =
+    0.02;  ///< Points farther than this from every surface are not coloured by the QA map (m).
 
 struct Studio::Impl {
   Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowInteractor* interactor, const StudioOptions& options);

@@ -1,10 +1,5 @@
 // Building the studio's layers from the document: points, network, selection, sphere, plane.
 
-#include "studio_impl.h"
-
-#include "mesh.h"
-#include "palette.h"
-
 #include <vtkActor.h>
 #include <vtkLookupTable.h>
 #include <vtkPolyData.h>
@@ -14,6 +9,10 @@
 
 #include <algorithm>
 #include <cmath>
+
+#include "mesh.h"
+#include "palette.h"
+#include "studio_impl.h"
 
 namespace piperun::ui {
 
@@ -64,7 +63,8 @@ void Studio::Impl::setPointLayer(const std::string& name, vtkRenderer* renderer,
                                  const std::vector<Eigen::Vector3f>& positions, const std::vector<Rgb>& colors,
                                  double pointSize, bool defaultVisible) {
   // The 3-D scene gets the interactive budget; the sphere and plane views, redrawn with it, an eighth each.
-  const std::size_t budget = std::max<std::size_t>(1, renderer == scene ? options.interactivePoints : options.interactivePoints / 8);
+  const std::size_t budget =
+      std::max<std::size_t>(1, renderer == scene ? options.interactivePoints : options.interactivePoints / 8);
   PointLayerLod lod;
   lod.full = makePointSet(positions, colors);
   const std::size_t stride = std::max<std::size_t>(1, (positions.size() + budget - 1) / budget);
@@ -99,7 +99,8 @@ std::vector<Rgb> Studio::Impl::inputPointColors() {
       break;
     }
     case PointColor::Rgb:
-      for (std::size_t i = 0; i < cloud.size(); ++i) colors[i] = {cloud.colors[i][0], cloud.colors[i][1], cloud.colors[i][2]};
+      for (std::size_t i = 0; i < cloud.size(); ++i)
+        colors[i] = {cloud.colors[i][0], cloud.colors[i][1], cloud.colors[i][2]};
       break;
     case PointColor::Segment: {
       if (inputToKept.empty())
@@ -164,7 +165,8 @@ void Studio::Impl::buildPointLayers() {
   std::vector<Eigen::Vector3f> planePositions(planes.size());
   const Eigen::Vector3f planeShift = (planes.origin - displayOrigin).cast<float>();
   for (std::size_t i = 0; i < planes.size(); ++i) planePositions[i] = planes.positions[i] + planeShift;
-  setPointLayer("preprocess/planes", scene, planePositions, std::vector<Rgb>(planes.size(), Rgb{110, 110, 125}), 2.0, false);
+  setPointLayer("preprocess/planes", scene, planePositions, std::vector<Rgb>(planes.size(), Rgb{110, 110, 125}), 2.0,
+                false);
 }
 
 void Studio::Impl::buildNetworkLayers() {
@@ -193,7 +195,8 @@ void Studio::Impl::buildNetworkLayers() {
     // Slightly fatter than the pipes so the joint's colour shows where they overlap.
     joints.addTube(axis, joint.radius * 1.06, statusColor(joint.status), joint.id);
     // A tee's branch segment hides inside its main pipe: a collar around the main pipe shows it.
-    const Pipe* main = joint.type == JointType::Tee && !joint.pipeIds.empty() ? network.findPipe(joint.pipeIds[0]) : nullptr;
+    const Pipe* main =
+        joint.type == JointType::Tee && !joint.pipeIds.empty() ? network.findPipe(joint.pipeIds[0]) : nullptr;
     if (main) {
       const Eigen::Vector3d centre = joint.position() - displayOrigin;
       const Eigen::Vector3d along = main->direction() * (1.2 * joint.radius);
@@ -261,11 +264,13 @@ void Studio::Impl::buildSphereLayers() {
   constexpr int kZCells = 40, kLongitudeCells = 120;
   std::vector<Eigen::Vector3f> samples;
   for (const auto& tile : *tiles)
-    for (const auto& round : tile.rounds) samples.insert(samples.end(), round.directions.samples.begin(), round.directions.samples.end());
+    for (const auto& round : tile.rounds)
+      samples.insert(samples.end(), round.directions.samples.begin(), round.directions.samples.end());
   auto cellOf = [&](const Eigen::Vector3f& s) {
     const int zCell = std::clamp(static_cast<int>(s.z() * kZCells), 0, kZCells - 1);
     const double longitude = std::atan2(s.y(), s.x()) + M_PI;
-    const int longitudeCell = std::clamp(static_cast<int>(longitude / (2.0 * M_PI) * kLongitudeCells), 0, kLongitudeCells - 1);
+    const int longitudeCell =
+        std::clamp(static_cast<int>(longitude / (2.0 * M_PI) * kLongitudeCells), 0, kLongitudeCells - 1);
     return zCell * kLongitudeCells + longitudeCell;
   };
   std::vector<int> counts(kZCells * kLongitudeCells, 0);
@@ -277,7 +282,8 @@ void Studio::Impl::buildSphereLayers() {
   const std::size_t sampleStride = std::max<std::size_t>(1, samples.size() / 40000);
   for (std::size_t i = 0; i < samples.size(); i += sampleStride) {
     densityPoints.push_back(samples[i] * 1.015f);
-    densityColors.push_back(mapColor(densityMap, std::log1p(static_cast<double>(counts[static_cast<std::size_t>(cellOf(samples[i]))]))));
+    densityColors.push_back(
+        mapColor(densityMap, std::log1p(static_cast<double>(counts[static_cast<std::size_t>(cellOf(samples[i]))]))));
   }
   setPointLayer("sphere/density", sphere, densityPoints, densityColors, 2.0, true);
 
@@ -307,9 +313,9 @@ void Studio::Impl::buildPlaneLayers() {
 
   std::vector<Eigen::Vector3f> projected;
   std::vector<Rgb> pointColors;
-  const PlacementResult::Projection* projection =
-      ref.index < static_cast<int>(placement->projections.size()) ? &placement->projections[static_cast<std::size_t>(ref.index)]
-                                                                  : nullptr;
+  const PlacementResult::Projection* projection = ref.index < static_cast<int>(placement->projections.size())
+                                                      ? &placement->projections[static_cast<std::size_t>(ref.index)]
+                                                      : nullptr;
   Eigen::Vector3d u, v;
   if (projection) {
     u = projection->u;
@@ -338,7 +344,8 @@ void Studio::Impl::buildPlaneLayers() {
     const Cylinder& cylinder = placement->cylinders[c];
     if (cylinder.directionIndex != ref.index) continue;
     const Eigen::Vector3d center(cylinder.point.dot(u), cylinder.point.dot(v), 0.002);
-    const bool selected = selection.kind == Selection::Kind::Pipe && pipeOfCylinder(ref, static_cast<int>(c)) == selection.id;
+    const bool selected =
+        selection.kind == Selection::Kind::Pipe && pipeOfCylinder(ref, static_cast<int>(c)) == selection.id;
     circles.addPolyline(circlePoints(center, Eigen::Vector3d::UnitZ(), cylinder.radius),
                         selected ? kHighlight : Rgb{255, 60, 60}, static_cast<int>(c), true);
   }
