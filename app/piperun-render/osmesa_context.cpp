@@ -22,19 +22,15 @@ namespace piperun::render {
 
 OsMesaContext::OsMesaContext(int width, int height)
     : width_(width), height_(height), buffer_(static_cast<std::size_t>(width) * height * 4) {
-  const int attributes[] = {OSMESA_FORMAT,
-                            OSMESA_RGBA,
-                            OSMESA_DEPTH_BITS,
-                            24,
-                            OSMESA_STENCIL_BITS,
-                            8,
-                            OSMESA_PROFILE,
-                            OSMESA_CORE_PROFILE,
-                            OSMESA_CONTEXT_MAJOR_VERSION,
-                            3,
-                            OSMESA_CONTEXT_MINOR_VERSION,
-                            2,
+  // clang-format off
+  const int attributes[] = {OSMESA_FORMAT, OSMESA_RGBA,  // key, value pairs, then 0
+                            OSMESA_DEPTH_BITS, 24,
+                            OSMESA_STENCIL_BITS, 8,
+                            OSMESA_PROFILE, OSMESA_CORE_PROFILE,
+                            OSMESA_CONTEXT_MAJOR_VERSION, 3,
+                            OSMESA_CONTEXT_MINOR_VERSION, 2,
                             0};
+  // clang-format on
   context_ = OSMesaCreateContextAttribs(attributes, nullptr);
   if (!context_) throw std::runtime_error("OSMesa cannot create a 3.2 core-profile context");
   if (!OSMesaMakeCurrent(context_, buffer_.data(), GL_UNSIGNED_BYTE, width, height))
