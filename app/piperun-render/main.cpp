@@ -1,19 +1,21 @@
 // piperun-render: draws PipeRun Studio's window without a display, through OSMesa, and writes a PNG.
 // The same ui::Studio as the studio; only the context provider differs (see osmesa_context.cpp).
 
+#include "osmesa_context.h"
+
+#include "piperun/error.h"
+#include "piperun/progress.h"
+#include "piperun/ui/studio.h"
+
+#include <CLI/CLI.hpp>
+
 #include <vtkGenericOpenGLRenderWindow.h>
 #include <vtkGenericRenderWindowInteractor.h>
 #include <vtkNew.h>
 
-#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <exception>
 #include <regex>
-
-#include "osmesa_context.h"
-#include "piperun/error.h"
-#include "piperun/progress.h"
-#include "piperun/ui/studio.h"
 
 int main(int argc, char** argv) {
   CLI::App app{

@@ -2,21 +2,22 @@
 // them to ui::Studio through a vtkGenericOpenGLRenderWindow, and forwards GLFW's input events to
 // VTK's interactor. Everything the user sees and does lives in ui/.
 
+#include "piperun/ui/studio.h"
+
+#include <CLI/CLI.hpp>
 #include <GLFW/glfw3.h>
+
 #include <vtkCallbackCommand.h>
 #include <vtkCommand.h>
 #include <vtkGenericOpenGLRenderWindow.h>
 #include <vtkGenericRenderWindowInteractor.h>
 #include <vtkNew.h>
 
-#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <exception>
 #include <map>
 #include <regex>
 #include <string>
-
-#include "piperun/ui/studio.h"
 
 namespace {
 

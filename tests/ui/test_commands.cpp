@@ -1,9 +1,9 @@
+#include "piperun/ui/commands.h"
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <fstream>
-
-#include "piperun/ui/commands.h"
 
 namespace piperun::ui {
 namespace {

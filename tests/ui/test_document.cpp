@@ -1,11 +1,12 @@
-#include <gtest/gtest.h>
-
-#include <filesystem>
+#include "piperun/ui/document.h"
 
 #include "piperun/error.h"
 #include "piperun/io/network_io.h"
 #include "piperun/io/point_writer.h"
-#include "piperun/ui/document.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
 
 namespace piperun::ui {
 namespace {

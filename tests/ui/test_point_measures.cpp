@@ -1,8 +1,8 @@
+#include "point_measures.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
-
-#include "point_measures.h"
 
 namespace piperun::ui {
 namespace {

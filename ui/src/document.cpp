@@ -1,9 +1,9 @@
 #include "piperun/ui/document.h"
 
+#include "piperun/io/point_reader.h"
+
 #include <algorithm>
 #include <cctype>
-
-#include "piperun/io/point_reader.h"
 
 namespace piperun::ui {
 

@@ -11,6 +11,7 @@
 #include <vtkUnsignedCharArray.h>
 
 #include <Eigen/Geometry>
+
 #include <cmath>
 
 namespace piperun::ui {

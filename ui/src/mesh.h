@@ -3,12 +3,12 @@
 // Everything is in the display frame (world minus the document's display origin), so float
 // vertex coordinates keep millimetres far from (0, 0, 0).
 
-#include <vtkSmartPointer.h>
+#include "palette.h"
 
 #include <Eigen/Core>
-#include <vector>
+#include <vtkSmartPointer.h>
 
-#include "palette.h"
+#include <vector>
 
 class vtkPolyData;
 class vtkUnsignedCharArray;

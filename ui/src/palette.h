@@ -1,12 +1,12 @@
 #pragma once
 // Colours shared by the layers: a categorical palette for ids, scalar maps, review statuses.
 
+#include "piperun/pipe_network.h"
+
 #include <vtkSmartPointer.h>
 
 #include <array>
 #include <cstdint>
-
-#include "piperun/pipe_network.h"
 
 class vtkLookupTable;
 

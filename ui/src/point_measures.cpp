@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 
 #include <Eigen/Geometry>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>

@@ -2,11 +2,11 @@
 // Per-point figures behind the point colour modes: distance to the network's surfaces (QA map,
 // element assignment) and the preprocessed point each input point became (segment colours).
 
-#include <limits>
-#include <vector>
-
 #include "piperun/pipe_network.h"
 #include "piperun/point_cloud.h"
+
+#include <limits>
+#include <vector>
 
 namespace piperun::ui {
 

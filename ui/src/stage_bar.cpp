@@ -1,24 +1,25 @@
 #include "stage_bar.h"
 
+#include "observe.h"
+#include "palette.h"
+
 #include <vtkButtonWidget.h>
 #include <vtkCallbackCommand.h>
 #include <vtkCommand.h>
 #include <vtkImageData.h>
 #include <vtkProperty2D.h>
-#include <vtkRenderWindowInteractor.h>
 #include <vtkRenderer.h>
+#include <vtkRenderWindowInteractor.h>
 #include <vtkSliderRepresentation2D.h>
 #include <vtkSliderWidget.h>
 #include <vtkStdString.h>
 #include <vtkTextProperty.h>
 #include <vtkTextRenderer.h>
+#include <vtkTextProperty.h>
 #include <vtkTexturedButtonRepresentation2D.h>
 
 #include <algorithm>
 #include <array>
-
-#include "observe.h"
-#include "palette.h"
 
 namespace piperun::ui {
 

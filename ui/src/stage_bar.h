@@ -2,13 +2,13 @@
 // The stage bar: one VTK button per pipeline stage showing fresh / stale / running, and a slider
 // for the selected stage's main parameter. Generic over kAllStages, so new stages appear by themselves.
 
+#include "piperun/pipeline.h"
+
 #include <vtkSmartPointer.h>
 
 #include <functional>
 #include <string>
 #include <vector>
-
-#include "piperun/pipeline.h"
 
 class vtkButtonWidget;
 class vtkRenderer;

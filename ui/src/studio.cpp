@@ -1,3 +1,13 @@
+#include "studio_impl.h"
+
+#include "mesh.h"
+#include "observe.h"
+#include "palette.h"
+
+#include "piperun/error.h"
+
+#include <nlohmann/json.hpp>
+
 #include <vtkCallbackCommand.h>
 #include <vtkCamera.h>
 #include <vtkCellData.h>
@@ -11,14 +21,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <nlohmann/json.hpp>
 #include <sstream>
-
-#include "mesh.h"
-#include "observe.h"
-#include "palette.h"
-#include "piperun/error.h"
-#include "studio_impl.h"
 
 namespace piperun::ui {
 

@@ -1,5 +1,9 @@
 // The studio's named commands and the keys bound to them.
 
+#include "studio_impl.h"
+
+#include "piperun/error.h"
+
 #include <vtkCamera.h>
 #include <vtkNew.h>
 #include <vtkPNGWriter.h>
@@ -9,9 +13,6 @@
 
 #include <algorithm>
 #include <cctype>
-
-#include "piperun/error.h"
-#include "studio_impl.h"
 
 namespace piperun::ui {
 

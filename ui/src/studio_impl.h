@@ -2,6 +2,14 @@
 // Inside ui::Studio: the state behind the public class, shared by studio.cpp (document, views,
 // overlays, runs, interaction), studio_layers.cpp (building the layers) and studio_commands.cpp.
 
+#include "piperun/ui/studio.h"
+
+#include "palette.h"
+#include "point_measures.h"
+#include "stage_bar.h"
+
+#include "piperun/params.h"
+
 #include <vtkInteractorStyleTrackballCamera.h>
 #include <vtkNew.h>
 #include <vtkPolyDataMapper.h>
@@ -11,6 +19,7 @@
 #include <vtkTextActor.h>
 
 #include <Eigen/Core>
+
 #include <array>
 #include <atomic>
 #include <chrono>
@@ -21,12 +30,6 @@
 #include <string>
 #include <thread>
 #include <vector>
-
-#include "palette.h"
-#include "piperun/params.h"
-#include "piperun/ui/studio.h"
-#include "point_measures.h"
-#include "stage_bar.h"
 
 class vtkActor;
 class vtkPolyData;
@@ -138,8 +141,8 @@ vtkSmartPointer<vtkActor> meshActor(vtkPolyData* polyData);
 /// A text overlay in the studio's font.
 vtkSmartPointer<vtkTextActor> makeText(double r, double g, double b);
 
-inline constexpr double kQaReach =
-    0.02;  ///< Points farther than this from every surface are not coloured by the QA map (m).
+/// Points farther than this from every surface are not coloured by the QA map (m).
+inline constexpr double kQaReach = 0.02;
 
 struct Studio::Impl {
   Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowInteractor* interactor, const StudioOptions& options);

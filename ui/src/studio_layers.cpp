@@ -1,5 +1,10 @@
 // Building the studio's layers from the document: points, network, selection, sphere, plane.
 
+#include "studio_impl.h"
+
+#include "mesh.h"
+#include "palette.h"
+
 #include <vtkActor.h>
 #include <vtkLookupTable.h>
 #include <vtkPolyData.h>
@@ -9,10 +14,6 @@
 
 #include <algorithm>
 #include <cmath>
-
-#include "mesh.h"
-#include "palette.h"
-#include "studio_impl.h"
 
 namespace piperun::ui {
 

@@ -2,14 +2,14 @@
 // What the studio shows: a scan with its reconstruction pipeline, or a pipe network read from a file.
 // No VTK here: the document is plain core data; ui/src turns it into layers.
 
-#include <filesystem>
-#include <memory>
-
 #include "piperun/io/network_io.h"
 #include "piperun/pipe_network.h"
 #include "piperun/pipeline.h"
 #include "piperun/point_cloud.h"
 #include "piperun/progress.h"
+
+#include <filesystem>
+#include <memory>
 
 namespace piperun::ui {
 

@@ -4,13 +4,13 @@
 // text overlays and the named commands. The window backend (GLFW window or OSMesa buffer) creates
 // the vtkRenderWindow and its interactor and drives the frames; everything else lives here.
 
+#include "piperun/ui/commands.h"
+#include "piperun/ui/document.h"
+
 #include <filesystem>
 #include <functional>
 #include <memory>
 #include <string>
-
-#include "piperun/ui/commands.h"
-#include "piperun/ui/document.h"
 
 class vtkRenderWindow;
 class vtkRenderWindowInteractor;
