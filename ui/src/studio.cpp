@@ -345,7 +345,7 @@ void Studio::Impl::layout() {
   for (auto* help : {helpCommandsText.Get(), helpKeysText.Get()})
     help->GetTextProperty()->SetFontSize(static_cast<int>(11 * scale));
   helpCommandsText->SetPosition(pad * 2, height - pad * 6);
-  helpKeysText->SetPosition(width * 0.55, height - pad * 6);
+  placeKeysHelp();
 
   const double barRight = textRect.x1 * width - pad;
   colorBar->GetPositionCoordinate()->SetValue(barRight - 90.0 * scale, textRect.y0 * height + 60.0 * scale);
@@ -408,6 +408,15 @@ void Studio::Impl::flyTo(const Eigen::Vector3d& world, double size) {
   camera->SetFocalPoint(target.data());
   camera->SetPosition(eye.data());
   scene->ResetCameraClippingRange();
+}
+
+void Studio::Impl::placeKeysHelp() {
+  // Right of the commands box, whose width depends on the font and the text (the bounding box is
+  // relative to the text's position).
+  double box[4];
+  helpCommandsText->GetBoundingBox(overlay, box);
+  const double* position = helpCommandsText->GetPosition();
+  helpKeysText->SetPosition(position[0] + box[1] + 16.0 * options.uiScale, position[1]);
 }
 
 std::vector<StageState> Studio::Impl::stageStates() const {
@@ -516,6 +525,7 @@ void Studio::Impl::updateOverlays() {
   helpKeysText->SetInput(keyHelp.c_str());
   helpCommandsText->SetVisibility(helpShown);
   helpKeysText->SetVisibility(helpShown);
+  if (helpShown) placeKeysHelp();
 
   if (document.hasPipeline() && stageBar->enabled()) stageBar->setStates(stageStates());
   for (auto& line : jointLegend)
@@ -709,7 +719,13 @@ void Studio::open(const std::filesystem::path& path) { impl_->open(Document::ope
 const Document& Studio::document() const { return impl_->document; }
 
 std::string Studio::command(const std::string& line) {
-  impl_->message = impl_->commands.run(line);
+  try {
+    impl_->message = impl_->commands.run(line);
+  } catch (const std::exception& error) {
+    impl_->message = error.what();  // The status line shows what went wrong too.
+    impl_->updateOverlays();
+    throw;
+  }
   impl_->updateOverlays();
   return impl_->message;
 }

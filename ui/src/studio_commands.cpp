@@ -98,8 +98,10 @@ void Studio::Impl::registerCommands() {
                  return std::string("camera on the selection");
                });
 
-  commands.add("color", "points height|intensity|rgb|segment|element|qa | pipes run|radius|confidence|plain",
-               "colour the input points or the pipes", [this](const std::vector<std::string>& args) {
+  commands.add("color", "points MODE | pipes MODE",
+               "colour the input points (height|intensity|rgb|segment|element|qa) or the pipes "
+               "(run|radius|confidence|plain)",
+               [this](const std::vector<std::string>& args) {
                  expectArguments(args, 2, 2, "color points MODE | color pipes MODE");
                  if (args[0] == "points") {
                    const PointColor mode = parseName(kPointColors, args[1], "point colour");

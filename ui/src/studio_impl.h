@@ -183,6 +183,7 @@ struct Studio::Impl {
   void resetPlaneCamera();
   void flyTo(const Eigen::Vector3d& world, double size);
   void updateOverlays();
+  void placeKeysHelp();
   std::string selectionInfo() const;
   std::vector<StageState> stageStates() const;
   void selectStage(Stage stage);
