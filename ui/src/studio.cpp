@@ -344,7 +344,7 @@ void Studio::Impl::layout() {
   progressText->GetTextProperty()->SetFontSize(static_cast<int>(13 * scale));
   for (auto* help : {helpCommandsText.Get(), helpKeysText.Get()})
     help->GetTextProperty()->SetFontSize(static_cast<int>(11 * scale));
-  helpCommandsText->SetPosition(pad * 2, height - pad * 6);
+  helpCommandsText->SetPosition(pad * 2, height - 84.0 * scale);  // Below the status lines.
   placeKeysHelp();
 
   const double barRight = textRect.x1 * width - pad;
