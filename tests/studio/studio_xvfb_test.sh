@@ -72,11 +72,22 @@ differing_pixels() {  # IMAGE IMAGE CROP: pixels that differ by more than 10 % i
   compare -metric AE -fuzz 10% "$work/crop1.png" "$work/crop2.png" null: 2>&1 || true
 }
 
-sleep 0.5
-import -window root "$work/before.png"
+screenshot_until() {  # FILE CONDITION...: screenshots into FILE until CONDITION holds (at most 20 s)
+  local file=$1
+  shift
+  for _ in $(seq 40); do
+    import -window root "$file"
+    "$@" && return 0
+    sleep 0.5
+  done
+  return 0  # The checks below report what the last screenshot shows.
+}
+highlighted() { awk -v a="$(highlight_share "$1" "$centre")" 'BEGIN { exit !(a > 0.05) }'; }
+not_highlighted() { ! highlighted "$1"; }
+
+screenshot_until "$work/before.png" not_highlighted "$work/before.png"  # The script's last frame.
 xdotool mousemove "$((X + click_x))" "$((Y + click_y))" click 1
-sleep 1
-import -window root "$work/selected.png"
+screenshot_until "$work/selected.png" highlighted "$work/selected.png"
 
 before=$(highlight_share "$work/before.png" "$centre")
 selected=$(highlight_share "$work/selected.png" "$centre")
@@ -92,8 +103,8 @@ face_colour() { convert "$1" -format "%[pixel:p{$((X + merge_x - 42)),$((Y + mer
 stale=$(face_colour "$work/selected.png")
 xdotool mousemove "$((X + merge_x))" "$((Y + merge_y))" click 1
 wait_for_line "finished:" 2
-sleep 1
-import -window root "$work/merged.png"
+merge_fresh() { [[ $(face_colour "$1") == "srgb(40,130,70)" ]]; }
+screenshot_until "$work/merged.png" merge_fresh "$work/merged.png"
 fresh=$(face_colour "$work/merged.png")
 echo "merge button: $stale before the click, $fresh after the run"
 [[ "$stale" == "srgb(90,90,96)" && "$fresh" == "srgb(40,130,70)" ]] || { echo "the merge button did not run merge" >&2; exit 1; }
@@ -101,8 +112,8 @@ echo "merge button: $stale before the click, $fresh after the run"
 # L re-runs placement (and the stages after it) in the background; the selection survives.
 xdotool key --window "$window" l
 wait_for_line "finished:" 3
-sleep 1
-import -window root "$work/rerun.png"
+sleep 1  # The frame drawn from the new results.
+screenshot_until "$work/rerun.png" highlighted "$work/rerun.png"
 rerun=$(highlight_share "$work/rerun.png" "$centre")
 echo "highlight share after the re-run: $rerun"
 awk -v a="$rerun" 'BEGIN { exit !(a > 0.05) }' || { echo "the selection was lost by the re-run" >&2; exit 1; }
