@@ -243,9 +243,9 @@ int main(int argc, char** argv) {
           status = 2;
           break;
         }
+        studio.render();  // Announced once its result is on screen.
         std::printf("piperun-studio: script done\n");
         std::fflush(stdout);
-        state.redraw = true;
       }
       if (state.redraw) {
         state.redraw = false;
