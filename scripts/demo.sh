@@ -16,3 +16,11 @@ echo "== reconstruct its pipe network (pipes, elbows, tees, runs), export it and
 echo "== the metric's sanity check: the truth against itself (F1 = 1)"
 ./build/app/piperun eval example/truth.json example/truth.json
 echo "== outputs: example/scene.ply, example/truth.json, example/network.json, example/network.obj, example/network.pcf"
+if [ -n "${DISPLAY:-}" ] && xdpyinfo >/dev/null 2>&1; then
+  echo "== PipeRun Studio on the example (H lists the keys; docs/STUDIO.md)"
+  ./build/app/piperun-studio example/scene.ply
+else
+  echo "== no display: PipeRun Studio's window drawn headless"
+  ./build/app/piperun-render example/scene.ply -o example/studio.png
+  echo "== screenshot: example/studio.png (piperun-studio example/scene.ply opens the window on a display)"
+fi

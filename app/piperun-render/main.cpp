@@ -1,0 +1,93 @@
+// piperun-render: draws PipeRun Studio's window without a display, through OSMesa, and writes a PNG.
+// The same ui::Studio as the studio; only the context provider differs (see osmesa_context.cpp).
+
+#include "osmesa_context.h"
+
+#include "piperun/error.h"
+#include "piperun/progress.h"
+#include "piperun/ui/studio.h"
+
+#include <CLI/CLI.hpp>
+
+#include <vtkGenericOpenGLRenderWindow.h>
+#include <vtkGenericRenderWindowInteractor.h>
+#include <vtkNew.h>
+
+#include <cstdio>
+#include <exception>
+#include <regex>
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "Render a PipeRun Studio view of a scan or a network to a PNG, without a display.\n"
+      "Given a scan it runs the reconstruction pipeline first. Exit codes: 0 ok, 1 usage,\n"
+      "2 bad input or output file or failing script line, 3 internal error.",
+      "piperun-render"};
+  app.set_version_flag("--version", "piperun-render " PIPERUN_VERSION);
+  std::string input, script, output, view = "all", size = "1280x800";
+  bool noRun = false, listCommands = false;
+  app.add_option("input", input, "Scan (.ply .pcd .xyz .pts .las .e57 ...) or network (.json)");
+  app.add_flag("--commands", listCommands, "List the studio's commands and key bindings, then exit");
+  app.add_option("--script", script, "Commands to run after opening, one a line (# comments)");
+  app.add_option("--view", view, "What to draw: the whole window or one view")
+      ->check(CLI::IsMember({"all", "scene", "sphere", "plane"}))
+      ->capture_default_str();
+  app.add_option("--size", size, "Image size WIDTHxHEIGHT in pixels")->capture_default_str();
+  app.add_flag("--no-run", noRun, "Show the scan without running the pipeline");
+  app.add_option("-o,--output", output, "PNG to write");
+  CLI11_PARSE(app, argc, argv);
+  if (!listCommands && (input.empty() || output.empty())) {
+    std::fprintf(stderr, "piperun-render: error: INPUT and -o OUT.png are required (see --help)\n");
+    return 1;
+  }
+
+  std::smatch match;
+  const std::regex sizePattern("([0-9]+)x([0-9]+)");
+  if (!std::regex_match(size, match, sizePattern) || std::stoi(match[1]) < 64 || std::stoi(match[2]) < 64 ||
+      std::stoi(match[1]) > 8192 || std::stoi(match[2]) > 8192) {
+    std::fprintf(stderr, "piperun-render: error: --size: expected WIDTHxHEIGHT between 64 and 8192, got '%s'\n",
+                 size.c_str());
+    return 1;
+  }
+  const int width = std::stoi(match[1]), height = std::stoi(match[2]);
+
+  try {
+    piperun::render::OsMesaContext context(width, height);
+    vtkNew<vtkGenericOpenGLRenderWindow> window;
+    context.attach(window);
+    vtkNew<vtkGenericRenderWindowInteractor> interactor;
+    interactor->SetRenderWindow(window);
+    interactor->Initialize();
+
+    piperun::ui::Studio studio(window, interactor);
+    if (listCommands) {
+      std::printf("Commands:\n");
+      for (const auto& line : studio.commands().helpLines()) std::printf("  %s\n", line.c_str());
+      std::printf("Keys (piperun-studio):\n");
+      for (const auto& line : studio.keyHelpLines()) std::printf("  %s\n", line.c_str());
+      return 0;
+    }
+    studio.open(input);
+    if (studio.document().hasPipeline() && !noRun) studio.command("run");
+    if (view != "all") {
+      studio.command("widgets off");
+      studio.command("view " + view);
+    }
+    if (!script.empty()) {
+      studio.runScript(script);
+      std::printf("%s\n", studio.message().c_str());
+    }
+    studio.command("screenshot " + output);
+    std::printf("wrote %s (%dx%d)\n", output.c_str(), width, height);
+  } catch (const piperun::InputError& error) {
+    std::fprintf(stderr, "piperun-render: error: %s\n", error.what());
+    return 2;
+  } catch (const piperun::ui::CommandError& error) {
+    std::fprintf(stderr, "piperun-render: error: %s\n", error.what());
+    return 2;
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "piperun-render: internal error: %s\n", error.what());
+    return 3;
+  }
+  return 0;
+}

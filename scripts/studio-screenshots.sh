@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Regenerates the screenshots in docs/STUDIO.md with the headless renderer (no display needed).
+# Usage: scripts/studio-screenshots.sh   (after scripts/build.sh)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+render() { env -u DISPLAY build/app/piperun-render "$@"; }
+
+build/app/piperun generate --preset small --seed 1 -o "$work/scene.ply" --truth "$work/truth.json" >/dev/null
+printf 'select pipe 1\n' >"$work/window.txt"
+render "$work/scene.ply" --script "$work/window.txt" --size 1280x800 -o docs/images/studio-window.png
+printf 'color points qa\n' >"$work/qa.txt"
+render "$work/scene.ply" --script "$work/qa.txt" --view scene --size 800x500 -o docs/images/studio-scene-qa.png
+printf 'select direction 1\n' >"$work/sphere.txt"
+render "$work/scene.ply" --script "$work/sphere.txt" --view sphere --size 600x500 -o docs/images/studio-sphere.png
+printf 'select direction 0\n' >"$work/plane.txt"
+render "$work/scene.ply" --script "$work/plane.txt" --view plane --size 600x500 -o docs/images/studio-plane.png
+printf 'joint 19 reject\njoint 23 propose\njoint 26 propose\ncolor pipes plain\ncamera zoom 1.5\n' >"$work/joints.txt"
+render "$work/truth.json" --script "$work/joints.txt" --view scene --size 800x500 -o docs/images/studio-joints.png

@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# piperun-render's failures: exit code and a one-line message naming the file and the place.
+# Usage: render_errors_test.sh PIPERUN_RENDER SCENE WORK_DIR
+set -uo pipefail
+render=$1 scene=$2 work=$3
+mkdir -p "$work"
+failures=0
+
+expect() {  # CODE PATTERN COMMAND...: the command exits with CODE and its stderr matches PATTERN
+  local code=$1 pattern=$2
+  shift 2
+  local stderr
+  stderr=$(env -u DISPLAY "$@" 2>&1 >/dev/null)
+  local actual=$?
+  if [[ $actual -ne $code || ! "$stderr" =~ $pattern || $(printf '%s\n' "$stderr" | grep -c .) -ne 1 ]]; then
+    echo "FAIL: $* -> exit $actual, stderr: $stderr (expected exit $code matching '$pattern')" >&2
+    failures=$((failures + 1))
+  fi
+}
+
+printf 'view sphere\nselect pipe 999\n' >"$work/bad_pipe.txt"
+printf 'explode\n' >"$work/unknown.txt"
+expect 2 "piperun-render: error: .*missing\.ply" "$render" "$work/missing.ply" -o "$work/out.png"
+expect 2 "bad_pipe\.txt:2: no pipe 999" "$render" "$scene" --no-run --script "$work/bad_pipe.txt" -o "$work/out.png"
+expect 2 "unknown\.txt:1: unknown command 'explode'" "$render" "$scene" --no-run --script "$work/unknown.txt" -o "$work/out.png"
+expect 1 "--size: expected WIDTHxHEIGHT" "$render" "$scene" --size 12 -o "$work/out.png"
+expect 1 "INPUT and -o OUT.png are required" "$render" "$scene"
+exit $((failures > 0))

@@ -1,0 +1,77 @@
+#pragma once
+// PipeRun Studio's scene: the document's named layers in three views of one render window (3-D
+// scene, Gaussian sphere, projection plane), the stage bar and parameter slider, selection,
+// text overlays and the named commands. The window backend (GLFW window or OSMesa buffer) creates
+// the vtkRenderWindow and its interactor and drives the frames; everything else lives here.
+
+#include "piperun/ui/commands.h"
+#include "piperun/ui/document.h"
+
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <string>
+
+class vtkRenderWindow;
+class vtkRenderWindowInteractor;
+
+namespace piperun::ui {
+
+struct StudioOptions {
+  /// Run stages on a background thread (the window goes on drawing the previous layers; poll()
+  /// picks up the result). Off for scripts and the headless renderer: commands then finish before
+  /// they return.
+  bool backgroundStages = false;
+  /// Scale of text and widgets (the window's content scale on HiDPI screens).
+  double uiScale = 1.0;
+  /// Points drawn while the camera moves; the whole cloud is drawn when it stops.
+  std::size_t interactivePoints = 120000;
+  /// Called on the window's thread (from poll()) when a background run has ended, with how it ended.
+  std::function<void(const std::string& message)> runFinished;
+};
+
+class Studio {
+ public:
+  /// Adds the views, overlays and widgets to `window`, and binds picking and keys to `interactor`
+  /// (which must be attached to `window`).
+  Studio(vtkRenderWindow* window, vtkRenderWindowInteractor* interactor, const StudioOptions& options = {});
+  ~Studio();
+  Studio(const Studio&) = delete;
+  Studio& operator=(const Studio&) = delete;
+
+  /// Shows `document` (replacing what was open) and resets the cameras.
+  void open(Document document);
+  /// Opens a scan or a network file; throws InputError.
+  void open(const std::filesystem::path& path);
+
+  const Document& document() const;
+
+  /// Runs a named command (see commands().helpLines()); returns its message, throws CommandError.
+  std::string command(const std::string& line);
+  void runScript(const std::filesystem::path& path);
+  const CommandRegistry& commands() const;
+
+  /// Key bindings as "key - command" lines, for the help overlay and docs/STUDIO.md.
+  std::vector<std::string> keyHelpLines() const;
+
+  /// Picks up a finished background run and progress; true when the window should be redrawn.
+  bool poll();
+  /// Lays out the views for the window's current size and renders.
+  void render();
+  bool busy() const;
+  /// Asks a background run to stop at its next safe point.
+  void cancel();
+
+  /// "PipeRun Studio - <file name>".
+  std::string title() const;
+  /// Set by the `quit` command; the window backend closes when it sees it.
+  bool quitRequested() const;
+  /// The status line: the last command's message, or how the last background run ended.
+  const std::string& message() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace piperun::ui

@@ -1,0 +1,119 @@
+#include "point_measures.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <unordered_map>
+
+namespace piperun::ui {
+
+namespace {
+
+double distanceToSegment(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  const Eigen::Vector3d ab = b - a;
+  const double lengthSquared = ab.squaredNorm();
+  const double t = lengthSquared > 0.0 ? std::clamp((p - a).dot(ab) / lengthSquared, 0.0, 1.0) : 0.0;
+  return (p - (a + t * ab)).norm();
+}
+
+/// A pipe or joint as an axis polyline with a radius and a box that bounds everything in reach.
+struct Surface {
+  int id = 0;
+  double radius = 0.0;
+  std::vector<Eigen::Vector3d> axis;
+  BoundingBox reachBox;
+};
+
+std::int64_t cellKey(const Eigen::Vector3i& cell) {
+  // 21 bits per axis: scans up to ~2 million cells across.
+  return (static_cast<std::int64_t>(cell.x() & 0x1FFFFF) << 42) |
+         (static_cast<std::int64_t>(cell.y() & 0x1FFFFF) << 21) | static_cast<std::int64_t>(cell.z() & 0x1FFFFF);
+}
+
+}  // namespace
+
+SurfaceDistances surfaceDistances(const PointCloud& cloud, const PipeNetwork& network, double reach) {
+  std::vector<Surface> surfaces;
+  for (const auto& pipe : network.pipes) surfaces.push_back({pipe.id, pipe.radius, {pipe.start, pipe.end}, {}});
+  for (const auto& joint : network.joints) surfaces.push_back({joint.id, joint.radius, joint.axis, {}});
+  for (auto& surface : surfaces) {
+    for (const auto& point : surface.axis) surface.reachBox.extend(point);
+    const Eigen::Vector3d margin = Eigen::Vector3d::Constant(surface.radius + reach);
+    surface.reachBox.min -= margin;
+    surface.reachBox.max += margin;
+  }
+
+  SurfaceDistances result;
+  result.distance.assign(cloud.size(), std::numeric_limits<float>::infinity());
+  result.element.assign(cloud.size(), -1);
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, cloud.size(), 4096), [&](const tbb::blocked_range<std::size_t>& range) {
+        for (std::size_t i = range.begin(); i != range.end(); ++i) {
+          const Eigen::Vector3d p = cloud.worldPosition(i);
+          double best = reach;
+          int bestId = -1;
+          for (const auto& surface : surfaces) {
+            if ((p.array() < surface.reachBox.min.array()).any() || (p.array() > surface.reachBox.max.array()).any())
+              continue;
+            double axisDistance = std::numeric_limits<double>::infinity();
+            for (std::size_t k = 0; k + 1 < surface.axis.size(); ++k)
+              axisDistance = std::min(axisDistance, distanceToSegment(p, surface.axis[k], surface.axis[k + 1]));
+            const double distance = std::abs(axisDistance - surface.radius);
+            if (distance <= best) {
+              best = distance;
+              bestId = surface.id;
+            }
+          }
+          if (bestId >= 0) {
+            result.distance[i] = static_cast<float>(best);
+            result.element[i] = bestId;
+          }
+        }
+      });
+  return result;
+}
+
+std::vector<int> nearestKeptPoint(const PointCloud& input, const PointCloud& preprocessed, double reach) {
+  std::vector<int> nearest(input.size(), -1);
+  if (preprocessed.empty() || !(reach > 0.0)) return nearest;
+  // Hash grid of the kept points with cells of `reach`: the nearest one within reach is in the 27
+  // cells around the query's cell.
+  const Eigen::Vector3d origin = preprocessed.origin;
+  auto cellOf = [&](const Eigen::Vector3d& world) {
+    return Eigen::Vector3i(((world - origin) / reach).array().floor().cast<int>());
+  };
+  std::unordered_map<std::int64_t, std::vector<int>> grid;
+  for (std::size_t k = 0; k < preprocessed.size(); ++k)
+    grid[cellKey(cellOf(preprocessed.worldPosition(k)))].push_back(static_cast<int>(k));
+
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, input.size(), 4096), [&](const tbb::blocked_range<std::size_t>& range) {
+        for (std::size_t i = range.begin(); i != range.end(); ++i) {
+          const Eigen::Vector3d p = input.worldPosition(i);
+          const Eigen::Vector3i cell = cellOf(p);
+          double best = reach * reach;
+          for (int dx = -1; dx <= 1; ++dx)
+            for (int dy = -1; dy <= 1; ++dy)
+              for (int dz = -1; dz <= 1; ++dz) {
+                const auto found = grid.find(cellKey(cell + Eigen::Vector3i(dx, dy, dz)));
+                if (found == grid.end()) continue;
+                for (int k : found->second) {
+                  const double d = (preprocessed.worldPosition(static_cast<std::size_t>(k)) - p).squaredNorm();
+                  // Ties go to the lower index so the result does not depend on the grid's order.
+                  if (d < best || (d == best && nearest[i] >= 0 && k < nearest[i])) {
+                    best = d;
+                    nearest[i] = k;
+                  }
+                }
+              }
+        }
+      });
+  return nearest;
+}
+
+}  // namespace piperun::ui

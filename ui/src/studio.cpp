@@ -1,0 +1,765 @@
+#include "studio_impl.h"
+
+#include "mesh.h"
+#include "observe.h"
+#include "palette.h"
+
+#include "piperun/error.h"
+
+#include <nlohmann/json.hpp>
+
+#include <vtkCallbackCommand.h>
+#include <vtkCamera.h>
+#include <vtkCellData.h>
+#include <vtkCellPicker.h>
+#include <vtkIntArray.h>
+#include <vtkObjectFactory.h>
+#include <vtkPolyData.h>
+#include <vtkRenderWindow.h>
+#include <vtkRenderWindowInteractor.h>
+#include <vtkTextProperty.h>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace piperun::ui {
+
+vtkStandardNewMacro(StudioInteractorStyle);
+
+void StudioInteractorStyle::OnLeftButtonDown() {
+  const int* position = this->Interactor->GetEventPosition();
+  this->FindPokedRenderer(position[0], position[1]);
+  if (this->CurrentRenderer && this->CurrentRenderer == panOnly) {
+    this->GrabFocus(this->EventCallbackCommand);
+    this->StartPan();
+    return;
+  }
+  vtkInteractorStyleTrackballCamera::OnLeftButtonDown();
+}
+
+namespace {
+
+/// The value of "section.key" in the parameters.
+double parameterValue(const PipelineParams& params, const std::string& key) {
+  const nlohmann::json document = nlohmann::json::parse(paramsToJson(params));
+  const std::size_t dot = key.find('.');
+  const nlohmann::json& value = document.at(key.substr(0, dot)).at(key.substr(dot + 1));
+  return value.is_boolean() ? (value.get<bool>() ? 1.0 : 0.0) : value.get<double>();
+}
+
+}  // namespace
+
+Studio::Impl::Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowInteractor* interactor,
+                   const StudioOptions& options)
+    : owner(owner), window(window), interactor(interactor), options(options) {
+  window->SetNumberOfLayers(3);
+  window->SetMultiSamples(0);
+  scene->SetBackground(0.10, 0.11, 0.13);
+  scene->SetBackground2(0.22, 0.24, 0.28);
+  scene->GradientBackgroundOn();
+  sphere->SetBackground(0.07, 0.08, 0.09);
+  plane->SetBackground(0.13, 0.14, 0.16);
+  overlay->SetLayer(2);
+  overlay->InteractiveOff();
+  highlightLayer->SetLayer(1);
+  highlightLayer->InteractiveOff();
+  highlightLayer->SetActiveCamera(scene->GetActiveCamera());
+  for (vtkRenderer* renderer : {scene.Get(), sphere.Get(), plane.Get(), highlightLayer.Get(), overlay.Get()})
+    window->AddRenderer(renderer);
+  plane->GetActiveCamera()->ParallelProjectionOn();
+
+  style->panOnly = plane;
+  interactor->SetInteractorStyle(style);
+  observe(style, vtkCommand::StartInteractionEvent, [this](vtkObject*, unsigned long, void*) {
+    interacting = true;
+    for (auto& [name, lod] : pointLods) lod.mapper->SetInputData(lod.coarse);
+  });
+  observe(style, vtkCommand::EndInteractionEvent, [this](vtkObject*, unsigned long, void*) {
+    interacting = false;
+    for (auto& [name, lod] : pointLods) lod.mapper->SetInputData(lod.full);
+  });
+  observe(interactor, vtkCommand::KeyPressEvent, [this](vtkObject*, unsigned long, void*) { onKey(); });
+  // Passive: the camera style grabs the focus on a press, and the release must still reach picking.
+  // (Clicks on the stage bar fall outside every view, so they pick nothing.)
+  observe(
+      interactor, vtkCommand::LeftButtonPressEvent, [this](vtkObject*, unsigned long, void*) { onLeftPress(); }, 0.0f,
+      true);
+  observe(
+      interactor, vtkCommand::LeftButtonReleaseEvent, [this](vtkObject*, unsigned long, void*) { onLeftRelease(); },
+      0.0f, true);
+
+  statusText = makeText(0.92, 0.92, 0.92);
+  infoText = makeText(1.0, 0.9, 0.45);
+  progressText = makeText(1.0, 0.8, 0.3);
+  helpCommandsText = makeText(0.95, 0.95, 0.95);
+  helpKeysText = makeText(0.95, 0.95, 0.95);
+  for (auto* help : {helpCommandsText.Get(), helpKeysText.Get()}) {
+    help->GetTextProperty()->SetBackgroundColor(0.05, 0.05, 0.08);
+    help->GetTextProperty()->SetBackgroundOpacity(0.85);
+    help->GetTextProperty()->SetFontFamilyToCourier();
+    help->GetTextProperty()->SetVerticalJustificationToTop();
+  }
+  sceneTitle = makeText(0.75, 0.8, 0.9);
+  sphereTitle = makeText(0.75, 0.8, 0.9);
+  planeTitle = makeText(0.75, 0.8, 0.9);
+  statusText->GetTextProperty()->SetVerticalJustificationToTop();
+  for (auto* title : {sceneTitle.Get(), sphereTitle.Get(), planeTitle.Get()}) {
+    title->GetTextProperty()->SetVerticalJustificationToTop();
+    title->GetTextProperty()->BoldOn();
+  }
+  for (auto* text : {statusText.Get(), infoText.Get(), progressText.Get(), sceneTitle.Get(), sphereTitle.Get(),
+                     planeTitle.Get(), helpCommandsText.Get(), helpKeysText.Get()})
+    overlay->AddViewProp(text);
+
+  colorBar->SetNumberOfLabels(5);
+  colorBar->SetLabelFormat("%.3g");
+  colorBar->UnconstrainedFontSizeOn();
+  colorBar->GetLabelTextProperty()->ShadowOff();
+  colorBar->GetLabelTextProperty()->ItalicOff();
+  colorBar->GetTitleTextProperty()->ShadowOff();
+  colorBar->GetTitleTextProperty()->ItalicOff();
+  colorBar->GetPositionCoordinate()->SetCoordinateSystemToDisplay();
+  colorBar->GetPosition2Coordinate()->SetCoordinateSystemToDisplay();
+  colorBar->VisibilityOff();
+  overlay->AddViewProp(colorBar);
+
+  // Joint status legend: each status's name in its colour.
+  const std::array<std::pair<const char*, Rgb>, 3> statuses{
+      {{"joint accepted", kAccepted}, {"joint proposed", kProposed}, {"joint rejected", kRejected}}};
+  for (const auto& [label, color] : statuses) {
+    auto text = makeText(color[0] / 255.0, color[1] / 255.0, color[2] / 255.0);
+    text->SetInput(label);
+    text->GetTextProperty()->BoldOn();
+    text->GetTextProperty()->SetJustificationToRight();
+    text->GetTextProperty()->SetVerticalJustificationToTop();
+    overlay->AddViewProp(text);
+    jointLegend.push_back(text);
+  }
+
+  stageBar = std::make_unique<StageBar>(
+      interactor, overlay,
+      [this](Stage stage) {
+        try {
+          message = this->owner.command(std::string("stage ") + stageName(stage));
+          message = this->owner.command(std::string("run ") + stageName(stage));
+        } catch (const std::exception& error) {
+          message = error.what();
+        }
+        updateOverlays();
+      },
+      [this](const std::string& key, double value) {
+        try {
+          message = this->owner.command(std::string("rerun ") + stageName(selectedStage) + " " + key + "=" +
+                                        format("%.6g", value));
+        } catch (const std::exception& error) {
+          message = error.what();
+        }
+        updateOverlays();
+      });
+  registerCommands();
+  updateOverlays();
+}
+
+Studio::Impl::~Impl() {
+  if (worker.joinable()) {
+    runProgress->cancel();
+    worker.join();
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Document
+
+void Studio::Impl::open(Document opened) {
+  if (worker.joinable()) throw CommandError("a run is in progress (Esc cancels it)");
+  document = std::move(opened);
+  if (document.input()) {
+    displayOrigin = document.input()->origin;
+  } else {
+    BoundingBox bounds;
+    for (const auto& pipe : document.network().pipes) {
+      bounds.extend(pipe.start);
+      bounds.extend(pipe.end);
+    }
+    for (const auto& joint : document.network().joints)
+      for (const auto& point : joint.axis) bounds.extend(point);
+    displayOrigin = bounds.empty() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(bounds.min);
+  }
+  selection = {};
+  selectedDirection = -1;
+  viewMode = document.hasPipeline() ? ViewMode::All : ViewMode::Scene;
+  pipeColor = std::any_of(document.network().pipes.begin(), document.network().pipes.end(),
+                          [](const Pipe& pipe) { return pipe.runId >= 0; })
+                  ? PipeColor::Run
+                  : PipeColor::Radius;
+  takeResults();
+  rebuildAll();
+  resetSceneCamera();
+  resetSphereCamera();
+  resetPlaneCamera();
+}
+
+void Studio::Impl::takeResults() {
+  const Pipeline* pipeline = document.pipeline();
+  preprocessed = pipeline ? pipeline->preprocessResult() : nullptr;
+  tiles = pipeline ? pipeline->tileResults() : nullptr;
+  inputDistances.reset();
+  inputToKept.clear();
+  segmentCache.clear();
+  directions.clear();
+  if (tiles) {
+    for (std::size_t t = 0; t < tiles->size(); ++t) {
+      const auto& rounds = (*tiles)[t].rounds;
+      for (std::size_t r = 0; r < rounds.size(); ++r)
+        for (std::size_t d = 0; d < rounds[r].directions.directions.size(); ++d)
+          directions.push_back({static_cast<int>(t), static_cast<int>(r), static_cast<int>(d)});
+    }
+  }
+  if (selectedDirection >= static_cast<int>(directions.size())) selectedDirection = -1;
+  if (selectedDirection < 0 && !directions.empty()) selectedDirection = 0;
+  if (selection.kind == Selection::Kind::Pipe && !document.network().findPipe(selection.id)) selection = {};
+  if (selection.kind == Selection::Kind::Joint && !document.network().findJoint(selection.id)) selection = {};
+  if (pipeColor == PipeColor::Run && std::none_of(document.network().pipes.begin(), document.network().pipes.end(),
+                                                  [](const Pipe& pipe) { return pipe.runId >= 0; }))
+    pipeColor = PipeColor::Radius;
+}
+
+void Studio::Impl::rebuildAll() {
+  buildPointLayers();
+  buildNetworkLayers();
+  buildSelectionLayer();
+  buildSphereLayers();
+  buildPlaneLayers();
+  stageBar->setEnabled(widgetsShown && document.hasPipeline());
+  if (document.hasPipeline()) selectStage(selectedStage);
+  updateOverlays();
+}
+
+const DirectionsResult* Studio::Impl::directionsOf(const DirectionRef& ref) const {
+  return &(*tiles)[static_cast<std::size_t>(ref.tile)].rounds[static_cast<std::size_t>(ref.round)].directions;
+}
+
+const PlacementResult* Studio::Impl::placementOf(const DirectionRef& ref) const {
+  return &(*tiles)[static_cast<std::size_t>(ref.tile)].rounds[static_cast<std::size_t>(ref.round)].placement;
+}
+
+const PrincipalDirection& Studio::Impl::direction(const DirectionRef& ref) const {
+  return directionsOf(ref)->directions[static_cast<std::size_t>(ref.index)];
+}
+
+std::vector<int> Studio::Impl::keptPointSegments() const {
+  // Each kept point takes the number of the (last) direction whose stripe holds it.
+  std::vector<int> segments(preprocessed ? preprocessed->points.size() : 0, -1);
+  for (std::size_t k = 0; k < directions.size(); ++k)
+    for (std::uint32_t point : direction(directions[k]).stripe)
+      if (point < segments.size()) segments[point] = static_cast<int>(k);
+  return segments;
+}
+
+int Studio::Impl::pipeOfCylinder(const DirectionRef& ref, int cylinderIndex) const {
+  // Merging loses which tile's cylinder became which pipe: match by axis, position and radius.
+  const PlacementResult* placement = placementOf(ref);
+  const Cylinder& cylinder = placement->cylinders[static_cast<std::size_t>(cylinderIndex)];
+  const Eigen::Vector3d point = preprocessed->points.origin + cylinder.point;
+  int best = -1;
+  double bestDistance = std::max(2.0 * cylinder.radius, 0.03);
+  for (const auto& pipe : document.network().pipes) {
+    const Eigen::Vector3d axis = pipe.direction();
+    if (std::abs(axis.dot(cylinder.direction)) < std::cos(5.0 * M_PI / 180.0)) continue;
+    if (std::abs(pipe.radius - cylinder.radius) > 0.3 * cylinder.radius) continue;
+    const Eigen::Vector3d offset = point - pipe.start;
+    const double distance = (offset - offset.dot(axis) * axis).norm();
+    if (distance < bestDistance) {
+      bestDistance = distance;
+      best = pipe.id;
+    }
+  }
+  return best;
+}
+
+int Studio::Impl::directionShowingPipe(int pipeId) const {
+  auto shows = [&](int k) {
+    const DirectionRef& ref = directions[static_cast<std::size_t>(k)];
+    const PlacementResult* placement = placementOf(ref);
+    for (std::size_t c = 0; c < placement->cylinders.size(); ++c)
+      if (placement->cylinders[c].directionIndex == ref.index && pipeOfCylinder(ref, static_cast<int>(c)) == pipeId)
+        return true;
+    return false;
+  };
+  if (selectedDirection >= 0 && shows(selectedDirection)) return selectedDirection;
+  for (int k = 0; k < static_cast<int>(directions.size()); ++k)
+    if (shows(k)) return k;
+  return -1;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Views and overlays
+
+void Studio::Impl::layout() {
+  const int* size = window->GetSize();
+  const int width = std::max(1, size[0]), height = std::max(1, size[1]);
+  const double scale = options.uiScale;
+  const bool bar = stageBar->enabled();
+  const double barHeight = bar ? 54.0 * scale : 0.0;
+  const double bottom = barHeight / height;
+  const double split = 0.64;
+  struct Rect {
+    double x0, y0, x1, y1;
+  };
+  Rect sceneRect{0, bottom, split, 1}, sphereRect{split, (1 + bottom) / 2, 1, 1},
+      planeRect{split, bottom, 1, (1 + bottom) / 2};
+  const Rect full{0, bottom, 1, 1}, none{0, 0, 0, 0};
+  if (viewMode == ViewMode::Scene) sceneRect = full, sphereRect = none, planeRect = none;
+  if (viewMode == ViewMode::Sphere) sceneRect = none, sphereRect = full, planeRect = none;
+  if (viewMode == ViewMode::Plane) sceneRect = none, sphereRect = none, planeRect = full;
+  auto apply = [](vtkRenderer* renderer, const Rect& rect) {
+    const bool shown = rect.x1 > rect.x0;
+    renderer->SetDraw(shown);
+    renderer->SetInteractive(shown);
+    if (shown) renderer->SetViewport(rect.x0, rect.y0, rect.x1, rect.y1);
+  };
+  apply(scene, sceneRect);
+  apply(highlightLayer, sceneRect);
+  highlightLayer->SetInteractive(false);
+  apply(sphere, sphereRect);
+  apply(plane, planeRect);
+  overlay->SetViewport(0, 0, 1, 1);
+
+  const double pad = 8.0 * scale;
+  auto place = [&](vtkTextActor* title, const Rect& rect, int fontSize) {
+    title->SetVisibility(rect.x1 > rect.x0);
+    title->SetPosition(rect.x0 * width + pad, rect.y1 * height - pad);
+    title->GetTextProperty()->SetFontSize(static_cast<int>(fontSize * scale));
+  };
+  place(sceneTitle, sceneRect, 14);
+  place(sphereTitle, sphereRect, 14);
+  place(planeTitle, planeRect, 14);
+  const Rect textRect = viewMode == ViewMode::All ? sceneRect : full;
+  statusText->SetPosition(textRect.x0 * width + pad, textRect.y1 * height - pad - 22.0 * scale);
+  statusText->GetTextProperty()->SetFontSize(static_cast<int>(13 * scale));
+  infoText->SetPosition(textRect.x0 * width + pad, textRect.y0 * height + pad + 22.0 * scale);
+  infoText->GetTextProperty()->SetFontSize(static_cast<int>(13 * scale));
+  progressText->SetPosition(textRect.x0 * width + pad, textRect.y0 * height + pad);
+  progressText->GetTextProperty()->SetFontSize(static_cast<int>(13 * scale));
+  for (auto* help : {helpCommandsText.Get(), helpKeysText.Get()})
+    help->GetTextProperty()->SetFontSize(static_cast<int>(11 * scale));
+  helpCommandsText->SetPosition(pad * 2, height - 84.0 * scale);  // Below the status lines.
+  placeKeysHelp();
+
+  const double barRight = textRect.x1 * width - pad;
+  colorBar->GetPositionCoordinate()->SetValue(barRight - 90.0 * scale, textRect.y0 * height + 60.0 * scale);
+  colorBar->GetPosition2Coordinate()->SetValue(60.0 * scale,
+                                               std::min(260.0 * scale, (textRect.y1 - textRect.y0) * height * 0.5));
+  colorBar->SetBarRatio(0.3);
+  colorBar->GetLabelTextProperty()->SetFontSize(static_cast<int>(11 * scale));
+  colorBar->GetTitleTextProperty()->SetFontSize(static_cast<int>(11 * scale));
+  for (std::size_t i = 0; i < jointLegend.size(); ++i) {
+    jointLegend[i]->SetPosition(barRight, textRect.y1 * height - pad - 17.0 * scale * static_cast<double>(i));
+    jointLegend[i]->GetTextProperty()->SetFontSize(static_cast<int>(12 * scale));
+  }
+  if (bar) stageBar->layout(width, static_cast<int>(barHeight), scale);
+  laidOutWidth = width;
+  laidOutHeight = height;
+}
+
+void Studio::Impl::resetSceneCamera() {
+  vtkCamera* camera = scene->GetActiveCamera();
+  camera->SetFocalPoint(0, 0, 0);
+  camera->SetPosition(0.55, 1.0, 0.8);
+  camera->SetViewUp(0, 0, 1);
+  scene->ResetCamera();
+  scene->ResetCameraClippingRange();
+}
+
+void Studio::Impl::resetSphereCamera() {
+  vtkCamera* camera = sphere->GetActiveCamera();
+  camera->SetFocalPoint(0, 0, 0);
+  camera->SetPosition(2.4, -3.6, 2.4);
+  camera->SetViewUp(0, 0, 1);
+  camera->SetViewAngle(30.0);
+  sphere->ResetCameraClippingRange();
+}
+
+void Studio::Impl::resetPlaneCamera() {
+  vtkCamera* camera = plane->GetActiveCamera();
+  double bounds[6];
+  plane->ComputeVisiblePropBounds(bounds);
+  if (bounds[0] > bounds[1]) return;
+  const double cx = (bounds[0] + bounds[1]) / 2, cy = (bounds[2] + bounds[3]) / 2;
+  camera->SetFocalPoint(cx, cy, 0);
+  camera->SetPosition(cx, cy, 10);
+  camera->SetViewUp(0, 1, 0);
+  camera->SetParallelScale(0.55 * std::max(bounds[3] - bounds[2], bounds[1] - bounds[0]) + 1e-3);
+  plane->ResetCameraClippingRange();
+}
+
+void Studio::Impl::flyTo(const Eigen::Vector3d& world, double size) {
+  vtkCamera* camera = scene->GetActiveCamera();
+  double position[3], focal[3];
+  camera->GetPosition(position);
+  camera->GetFocalPoint(focal);
+  const Eigen::Vector3d viewDirection =
+      (Eigen::Vector3d(position[0], position[1], position[2]) - Eigen::Vector3d(focal[0], focal[1], focal[2]))
+          .normalized();
+  const Eigen::Vector3d target = world - displayOrigin;
+  const double distance = std::max(size, 0.05) * 1.2 / std::tan(camera->GetViewAngle() * M_PI / 360.0);
+  const Eigen::Vector3d eye = target + distance * viewDirection;
+  camera->SetFocalPoint(target.data());
+  camera->SetPosition(eye.data());
+  scene->ResetCameraClippingRange();
+}
+
+void Studio::Impl::placeKeysHelp() {
+  // Right of the commands box, whose width depends on the font and the text (the bounding box is
+  // relative to the text's position).
+  double box[4];
+  helpCommandsText->GetBoundingBox(overlay, box);
+  const double* position = helpCommandsText->GetPosition();
+  helpKeysText->SetPosition(position[0] + box[1] + 16.0 * options.uiScale, position[1]);
+}
+
+std::vector<StageState> Studio::Impl::stageStates() const {
+  std::vector<StageState> states;
+  const Pipeline* pipeline = document.pipeline();
+  for (Stage stage : kAllStages) {
+    const auto index = static_cast<std::size_t>(stage);
+    if (worker.joinable()) {
+      states.push_back(freshBeforeRun[index]                                  ? StageState::Fresh
+                       : static_cast<int>(stage) <= static_cast<int>(runLast) ? StageState::Running
+                                                                              : StageState::Stale);
+    } else {
+      states.push_back(pipeline && pipeline->isFresh(stage) ? StageState::Fresh : StageState::Stale);
+    }
+  }
+  return states;
+}
+
+void Studio::Impl::selectStage(Stage stage) {
+  selectedStage = stage;
+  const StageParameter* parameter = mainParameter(stage);
+  const Pipeline* pipeline = document.pipeline();
+  stageBar->setSelected(stage, parameter && pipeline ? parameterValue(pipeline->params(), parameter->key) : 0.0);
+}
+
+std::string Studio::Impl::selectionInfo() const {
+  const PipeNetwork& network = document.network();
+  std::ostringstream info;
+  info.precision(3);
+  if (selection.kind == Selection::Kind::Pipe) {
+    const Pipe& pipe = *network.findPipe(selection.id);
+    info << "pipe " << pipe.id << "  radius " << pipe.radius * 1000.0 << " mm  length " << pipe.length()
+         << " m\nconfidence " << pipe.confidence << "  fit RMS " << pipe.fitRms * 1000.0 << " mm  inliers "
+         << pipe.inlierCount << "  run " << (pipe.runId >= 0 ? std::to_string(pipe.runId) : "-") << "  "
+         << toString(pipe.status);
+  } else if (selection.kind == Selection::Kind::Joint) {
+    const Joint& joint = *network.findJoint(selection.id);
+    info << "joint " << joint.id << "  " << toString(joint.type) << "  " << toString(joint.status) << "  radius "
+         << joint.radius * 1000.0 << " mm  length " << joint.length() << " m";
+    if (joint.type == JointType::Elbow) info << "  bend radius " << joint.bendRadius << " m";
+    info << "\nconfidence " << joint.confidence << "  pipes";
+    for (int id : joint.pipeIds) info << " " << id;
+  }
+  if (selectedDirection >= 0) {
+    const DirectionRef& ref = directions[static_cast<std::size_t>(selectedDirection)];
+    const PrincipalDirection& chosen = direction(ref);
+    const PlacementResult* placement = placementOf(ref);
+    const auto cylinders = std::count_if(placement->cylinders.begin(), placement->cylinders.end(),
+                                         [&](const Cylinder& c) { return c.directionIndex == ref.index; });
+    if (selection.kind != Selection::Kind::None) info << "\n";
+    info << "direction " << selectedDirection << " (tile " << (*tiles)[static_cast<std::size_t>(ref.tile)].tileId
+         << ", round " << ref.round << ")  axis (" << chosen.axis.x() << ", " << chosen.axis.y() << ", "
+         << chosen.axis.z() << ")  support " << chosen.support * 100.0 << " %  stripe " << chosen.stripe.size()
+         << " points  " << cylinders << " cylinders";
+  }
+  return info.str();
+}
+
+void Studio::Impl::updateOverlays() {
+  const Pipeline* pipeline = document.pipeline();
+  const PipeNetwork& network = document.network();
+  std::ostringstream status;
+  if (document.empty()) {
+    status << "No file open: drop a scan or a network onto the window";
+  } else {
+    status << document.path().filename().string();
+    if (document.input()) status << "  " << document.input()->size() << " points";
+    status << "\n"
+           << network.pipes.size() << " pipes  " << network.joints.size() << " joints  " << network.runs.size()
+           << " runs";
+    if (pipeline) status << "  " << directions.size() << " directions";
+  }
+  if (!message.empty()) status << "\n" << message;
+  statusText->SetInput(status.str().c_str());
+  infoText->SetInput(selectionInfo().c_str());
+
+  sceneTitle->SetInput(
+      ("3-D scene  [points: " + nameOf(kPointColors, pointColor) + ", pipes: " + nameOf(kPipeColors, pipeColor) + "]")
+          .c_str());
+  sphereTitle->SetInput("Gaussian sphere");
+  std::string planeCaption = "Projection plane";
+  if (selectedDirection >= 0) planeCaption += " - direction " + std::to_string(selectedDirection);
+  planeTitle->SetInput(planeCaption.c_str());
+
+  if (worker.joinable()) {
+    std::lock_guard<std::mutex> lock(progressMutex);
+    const int filled = static_cast<int>(std::lround(progressFraction * 30));
+    progressText->SetInput(("running " + progressTask + " " + std::to_string(static_cast<int>(progressFraction * 100)) +
+                            "% [" + std::string(static_cast<std::size_t>(filled), '#') +
+                            std::string(static_cast<std::size_t>(30 - filled), '.') + "]  Esc cancels")
+                               .c_str());
+    progressText->VisibilityOn();
+  } else {
+    progressText->VisibilityOff();
+  }
+
+  // Usage only: the descriptions are in docs/STUDIO.md and `piperun-render --commands`.
+  std::string commandHelp = "Commands\n";
+  for (const auto* command : commands.list()) commandHelp += "  " + command->name + " " + command->arguments + "\n";
+  std::string keyHelp = "Keys\n";
+  for (const auto& line : keyHelpLines()) keyHelp += "  " + line + "\n";
+  keyHelp += "\nLayers ([x] shown)\n";
+  for (const auto& entry : layers)
+    keyHelp += std::string("  [") + (layerVisible(entry.first) ? "x" : " ") + "] " + entry.first + "\n";
+  helpCommandsText->SetInput(commandHelp.c_str());
+  helpKeysText->SetInput(keyHelp.c_str());
+  helpCommandsText->SetVisibility(helpShown);
+  helpKeysText->SetVisibility(helpShown);
+  if (helpShown) placeKeysHelp();
+
+  if (document.hasPipeline() && stageBar->enabled()) stageBar->setStates(stageStates());
+  for (auto& line : jointLegend)
+    line->SetVisibility(!network.joints.empty() && layerVisible("network/joints") &&
+                        (viewMode == ViewMode::All || viewMode == ViewMode::Scene));
+  updateColorBar();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Running stages
+
+void Studio::Impl::startRun(Stage last) {
+  if (worker.joinable()) throw CommandError("a run is in progress (Esc cancels it)");
+  Pipeline* pipeline = document.pipeline();
+  if (!pipeline) throw CommandError("stages run on scans; this document is a network");
+  if (!options.backgroundStages) {
+    try {
+      pipeline->run(Progress::none(), last);
+    } catch (const Cancelled&) {
+    }
+    finishRun();
+    return;
+  }
+  for (Stage stage : kAllStages) freshBeforeRun[static_cast<std::size_t>(stage)] = pipeline->isFresh(stage);
+  runLast = last;
+  finished = false;
+  runError = nullptr;
+  {
+    std::lock_guard<std::mutex> lock(progressMutex);
+    progressTask = stageName(last);
+    progressFraction = 0.0;
+  }
+  runProgress = std::make_unique<Progress>([this](const std::string& task, double fraction) {
+    std::lock_guard<std::mutex> lock(progressMutex);
+    progressTask = task;
+    progressFraction = fraction;
+    progressChanged = true;
+  });
+  worker = std::thread([this, pipeline, last] {
+    try {
+      pipeline->run(*runProgress, last);
+    } catch (...) {
+      runError = std::current_exception();
+    }
+    finished = true;
+  });
+  updateOverlays();
+}
+
+void Studio::Impl::finishRun() {
+  document.refreshNetwork();
+  takeResults();
+  rebuildAll();
+  if (layers.count("plane/points")) resetPlaneCamera();
+}
+
+bool Studio::Impl::poll() {
+  bool changed = progressChanged.exchange(false);
+  if (worker.joinable() && finished) {
+    worker.join();
+    try {
+      if (runError) std::rethrow_exception(runError);
+      message = "finished";
+    } catch (const Cancelled&) {
+      message = "cancelled: the stages that had finished are kept";
+    } catch (const std::exception& error) {
+      message = std::string("run failed: ") + error.what();
+    }
+    finishRun();
+    if (options.runFinished) options.runFinished(message);
+    changed = true;
+  }
+  if (changed) updateOverlays();
+  return changed;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Interaction
+
+void Studio::Impl::onKey() {
+  std::string key = interactor->GetKeySym() ? interactor->GetKeySym() : "";
+  std::transform(key.begin(), key.end(), key.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  for (const auto& [boundKey, line] : keyBindings) {
+    if (boundKey != key) continue;
+    try {
+      message = commands.run(line);
+    } catch (const std::exception& error) {
+      message = error.what();
+    }
+    updateOverlays();
+    return;
+  }
+}
+
+void Studio::Impl::onLeftPress() {
+  const int* position = interactor->GetEventPosition();
+  pressX = position[0];
+  pressY = position[1];
+}
+
+void Studio::Impl::onLeftRelease() {
+  const int* position = interactor->GetEventPosition();
+  if (std::abs(position[0] - pressX) > 3 || std::abs(position[1] - pressY) > 3) return;  // A drag, not a click.
+  const auto now = std::chrono::steady_clock::now();
+  const bool doubleClick = now - lastClickTime < std::chrono::milliseconds(400) &&
+                           std::abs(position[0] - lastClickX) < 6 && std::abs(position[1] - lastClickY) < 6;
+  lastClickTime = now;
+  lastClickX = position[0];
+  lastClickY = position[1];
+  pick(position[0], position[1], doubleClick);
+  updateOverlays();
+}
+
+void Studio::Impl::pick(int x, int y, bool doubleClick) {
+  vtkNew<vtkCellPicker> picker;
+  picker->SetTolerance(0.004);
+  auto pickedElement = [&](vtkRenderer* renderer, std::initializer_list<const char*> names, std::string& layer) {
+    picker->InitializePickList();
+    for (const char* name : names)
+      if (layerVisible(name)) picker->AddPickList(layers[name].prop);
+    picker->PickFromListOn();
+    if (!picker->Pick(x, y, 0, renderer)) return -1;
+    for (const char* name : names)
+      if (layers.count(name) && layers[name].prop == picker->GetActor()) layer = name;
+    auto* elements = vtkIntArray::SafeDownCast(picker->GetDataSet()->GetCellData()->GetArray(kElementArray));
+    return elements ? elements->GetValue(picker->GetCellId()) : -1;
+  };
+  try {
+    std::string layer;
+    if (scene->GetDraw() && scene->IsInViewport(x, y)) {
+      const int element = pickedElement(scene, {"network/joints", "network/pipes"}, layer);
+      if (element < 0) {
+        message = commands.run("select none");
+        return;
+      }
+      const std::string kind = layer == "network/joints" ? "joint" : "pipe";
+      message = commands.run("select " + kind + " " + std::to_string(element));
+      if (doubleClick) commands.run("fly");
+    } else if (sphere->GetDraw() && sphere->IsInViewport(x, y)) {
+      const int element = pickedElement(sphere, {"sphere/directions"}, layer);
+      if (element >= 0) message = commands.run("select direction " + std::to_string(element));
+    } else if (plane->GetDraw() && plane->IsInViewport(x, y) && selectedDirection >= 0) {
+      // The circle the click falls in (the smallest, if several), else the one whose outline passes
+      // nearest, within a quarter of its radius or 6 pixels.
+      plane->SetDisplayPoint(x, y, 0.0);
+      plane->DisplayToWorld();
+      const double* world = plane->GetWorldPoint();
+      const Eigen::Vector2d clicked(world[0] / world[3], world[1] / world[3]);
+      const int* viewportSize = plane->GetSize();
+      const double metresPerPixel = 2.0 * plane->GetActiveCamera()->GetParallelScale() / std::max(1, viewportSize[1]);
+      const DirectionRef& ref = directions[static_cast<std::size_t>(selectedDirection)];
+      const PlacementResult* placement = placementOf(ref);
+      if (ref.index >= static_cast<int>(placement->projections.size())) return;
+      const auto& projection = placement->projections[static_cast<std::size_t>(ref.index)];
+      int best = -1;
+      std::pair<double, double> bestScore{1e9, 1e9};  // (distance outside the circle, radius)
+      for (std::size_t c = 0; c < placement->cylinders.size(); ++c) {
+        const Cylinder& cylinder = placement->cylinders[c];
+        if (cylinder.directionIndex != ref.index) continue;
+        const Eigen::Vector2d center(cylinder.point.dot(projection.u), cylinder.point.dot(projection.v));
+        const double outside = std::max(0.0, (clicked - center).norm() - cylinder.radius);
+        const std::pair<double, double> score{outside, cylinder.radius};
+        if (outside <= std::max(0.25 * cylinder.radius, 6.0 * metresPerPixel) && score < bestScore) {
+          bestScore = score;
+          best = static_cast<int>(c);
+        }
+      }
+      if (best < 0) return;
+      const int pipe = pipeOfCylinder(ref, best);
+      message = pipe >= 0 ? commands.run("select pipe " + std::to_string(pipe))
+                          : "circle " + std::to_string(best) + " did not become a pipe";
+    }
+  } catch (const std::exception& error) {
+    message = error.what();
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Studio
+
+Studio::Studio(vtkRenderWindow* window, vtkRenderWindowInteractor* interactor, const StudioOptions& options)
+    : impl_(std::make_unique<Impl>(*this, window, interactor, options)) {}
+
+Studio::~Studio() = default;
+
+void Studio::open(Document document) { impl_->open(std::move(document)); }
+
+void Studio::open(const std::filesystem::path& path) { impl_->open(Document::open(path)); }
+
+const Document& Studio::document() const { return impl_->document; }
+
+std::string Studio::command(const std::string& line) {
+  try {
+    impl_->message = impl_->commands.run(line);
+  } catch (const std::exception& error) {
+    impl_->message = error.what();  // The status line shows what went wrong too.
+    impl_->updateOverlays();
+    throw;
+  }
+  impl_->updateOverlays();
+  return impl_->message;
+}
+
+void Studio::runScript(const std::filesystem::path& path) {
+  impl_->message = impl_->commands.runScript(path);
+  impl_->updateOverlays();
+}
+
+const CommandRegistry& Studio::commands() const { return impl_->commands; }
+
+std::vector<std::string> Studio::keyHelpLines() const { return impl_->keyHelpLines(); }
+
+bool Studio::poll() { return impl_->poll(); }
+
+void Studio::render() {
+  const int* size = impl_->window->GetSize();
+  if (size[0] != impl_->laidOutWidth || size[1] != impl_->laidOutHeight) impl_->layout();
+  impl_->window->Render();
+}
+
+bool Studio::busy() const { return impl_->worker.joinable(); }
+
+void Studio::cancel() {
+  if (impl_->worker.joinable()) impl_->runProgress->cancel();
+}
+
+std::string Studio::title() const {
+  const auto& path = impl_->document.path();
+  return path.empty() ? std::string("PipeRun Studio") : "PipeRun Studio - " + path.filename().string();
+}
+
+bool Studio::quitRequested() const { return impl_->quit; }
+
+const std::string& Studio::message() const { return impl_->message; }
+
+}  // namespace piperun::ui

@@ -1,0 +1,403 @@
+// The studio's named commands and the keys bound to them.
+
+#include "studio_impl.h"
+
+#include "piperun/error.h"
+
+#include <vtkCamera.h>
+#include <vtkNew.h>
+#include <vtkPNGWriter.h>
+#include <vtkPolyData.h>
+#include <vtkRenderWindow.h>
+#include <vtkWindowToImageFilter.h>
+
+#include <algorithm>
+#include <cctype>
+
+namespace piperun::ui {
+
+// ---------------------------------------------------------------------------------------------
+// Commands
+
+void Studio::Impl::registerCommands() {
+  commands.add("help", "", "show or hide the list of commands and keys", [this](const std::vector<std::string>& args) {
+    expectArguments(args, 0, 0, "help");
+    helpShown = !helpShown;
+    updateOverlays();
+    return std::string();
+  });
+
+  commands.add("view", "all|scene|sphere|plane", "show the three views, or one of them filling the window",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 1, 1, "view all|scene|sphere|plane");
+                 viewMode = parseName(kViewModes, args[0], "view");
+                 layout();
+                 return "view " + args[0];
+               });
+
+  commands.add(
+      "select", "pipe ID | joint ID | direction N|next|previous | none",
+      "select an element (highlighted, described bottom left) or a principal direction (the plane view follows)",
+      [this](const std::vector<std::string>& args) {
+        expectArguments(args, 1, 2, "select pipe ID | joint ID | direction N | none");
+        bool directionChanged = false;
+        if (args[0] == "none") {
+          selection = {};
+        } else {
+          expectArguments(args, 2, 2, "select pipe ID | joint ID | direction N|next|previous | none");
+          const int directionCount = static_cast<int>(directions.size());
+          const bool step = args[0] == "direction" && (args[1] == "next" || args[1] == "previous");
+          if (step && directionCount == 0) throw CommandError("no directions yet: run the directions stage");
+          const int id = !step               ? parseInt(args[1], "the id")
+                         : args[1] == "next" ? (selectedDirection + 1) % directionCount
+                                             : (selectedDirection + directionCount - 1) % directionCount;
+          if (args[0] == "pipe") {
+            if (!document.network().findPipe(id)) throw CommandError("no pipe " + args[1]);
+            selection = {Selection::Kind::Pipe, id};
+            // The plane view follows to a direction where the pipe's circle was found.
+            const int direction = directionShowingPipe(id);
+            if (direction >= 0 && direction != selectedDirection) {
+              selectedDirection = direction;
+              buildSphereLayers();
+              directionChanged = true;
+            }
+          } else if (args[0] == "joint") {
+            if (!document.network().findJoint(id)) throw CommandError("no joint " + args[1]);
+            selection = {Selection::Kind::Joint, id};
+          } else if (args[0] == "direction") {
+            if (id < 0 || id >= static_cast<int>(directions.size()))
+              throw CommandError("no direction " + args[1] + " (there are " + std::to_string(directions.size()) + ")");
+            selectedDirection = id;
+            buildSphereLayers();
+          } else {
+            throw CommandError("usage: select pipe ID | joint ID | direction N | none");
+          }
+        }
+        buildSelectionLayer();
+        buildPlaneLayers();
+        if (args[0] == "direction" || directionChanged) resetPlaneCamera();
+        updateOverlays();
+        return args[0] == "none"        ? std::string("selection cleared")
+               : args[0] == "direction" ? "selected direction " + std::to_string(selectedDirection)
+                                        : "selected " + args[0] + " " + args[1];
+      });
+
+  commands.add("fly", "", "move the 3-D camera to the selected pipe or joint",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 0, 0, "fly");
+                 const PipeNetwork& network = document.network();
+                 if (selection.kind == Selection::Kind::Pipe) {
+                   const Pipe& pipe = *network.findPipe(selection.id);
+                   flyTo(0.5 * (pipe.start + pipe.end), std::max(pipe.length() / 2.0, 4.0 * pipe.radius));
+                 } else if (selection.kind == Selection::Kind::Joint) {
+                   const Joint& joint = *network.findJoint(selection.id);
+                   flyTo(joint.position(), std::max(joint.length(), 12.0 * joint.radius));
+                 } else {
+                   throw CommandError("nothing selected to fly to");
+                 }
+                 return std::string("camera on the selection");
+               });
+
+  commands.add("color", "points MODE | pipes MODE",
+               "colour the input points (height|intensity|rgb|segment|element|qa) or the pipes "
+               "(run|radius|confidence|plain)",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 2, 2, "color points MODE | color pipes MODE");
+                 if (args[0] == "points") {
+                   const PointColor mode = parseName(kPointColors, args[1], "point colour");
+                   const PointCloud* cloud = document.input().get();
+                   if (!cloud) throw CommandError("no points: this document is a network");
+                   if (mode == PointColor::Intensity && !cloud->hasIntensity())
+                     throw CommandError("the scan has no intensity");
+                   if (mode == PointColor::Rgb && !cloud->hasColors()) throw CommandError("the scan has no colours");
+                   if (mode == PointColor::Segment && directions.empty())
+                     throw CommandError("no segments yet: run the directions stage");
+                   pointColor = mode;
+                   buildPointLayers();
+                 } else if (args[0] == "pipes") {
+                   pipeColor = parseName(kPipeColors, args[1], "pipe colour");
+                   buildNetworkLayers();
+                 } else {
+                   throw CommandError("usage: color points MODE | color pipes MODE");
+                 }
+                 updateOverlays();
+                 return args[0] + " coloured by " + args[1];
+               });
+
+  commands.add("layer", "NAME on|off|toggle", "show or hide a layer (layers lists them)",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 2, 2, "layer NAME on|off|toggle");
+                 if (!layers.count(args[0])) throw CommandError("no layer '" + args[0] + "' (layers lists them)");
+                 bool& shown = visibility[args[0]];
+                 if (args[1] == "on")
+                   shown = true;
+                 else if (args[1] == "off")
+                   shown = false;
+                 else if (args[1] == "toggle")
+                   shown = !shown;
+                 else
+                   throw CommandError("usage: layer NAME on|off|toggle");
+                 layers[args[0]].prop->SetVisibility(shown);
+                 updateOverlays();
+                 return args[0] + (shown ? " on" : " off");
+               });
+
+  commands.add("layers", "", "list the layers and whether they are shown",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 0, 0, "layers");
+                 std::string list;
+                 for (const auto& [name, layer] : layers)
+                   list += (list.empty() ? "" : "  ") + name + (visibility[name] ? "" : " (off)");
+                 return list;
+               });
+
+  commands.add("run", "[STAGE]", "run the stale stages up to STAGE (default: all)",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 0, 1, "run [STAGE]");
+                 Stage last = kAllStages.back();
+                 if (!args.empty()) {
+                   const auto stage = stageFromName(args[0]);
+                   if (!stage) throw CommandError("unknown stage '" + args[0] + "'");
+                   last = *stage;
+                 }
+                 startRun(last);
+                 return std::string(options.backgroundStages ? "running" : "ran") + " up to " + stageName(last);
+               });
+
+  commands.add("rerun", "STAGE [section.key=value ...]",
+               "set parameters, mark STAGE and the later stages stale and run them all",
+               [this](const std::vector<std::string>& args) {
+                 if (args.empty()) throw CommandError("usage: rerun STAGE [section.key=value ...]");
+                 const auto stage = stageFromName(args[0]);
+                 if (!stage) throw CommandError("unknown stage '" + args[0] + "'");
+                 Pipeline* pipeline = document.pipeline();
+                 if (!pipeline) throw CommandError("stages run on scans; this document is a network");
+                 if (worker.joinable()) throw CommandError("a run is in progress (Esc cancels it)");
+                 PipelineParams params = pipeline->params();
+                 for (std::size_t i = 1; i < args.size(); ++i) {
+                   try {
+                     setParam(params, args[i]);
+                   } catch (const std::exception& error) {
+                     throw CommandError(error.what());
+                   }
+                 }
+                 pipeline->setParams(params);
+                 pipeline->invalidate(*stage);
+                 startRun(kAllStages.back());
+                 return "rerunning from " + args[0];
+               });
+
+  commands.add("set", "section.key=value ...", "set parameters (the affected stages become stale)",
+               [this](const std::vector<std::string>& args) {
+                 if (args.empty()) throw CommandError("usage: set section.key=value ...");
+                 Pipeline* pipeline = document.pipeline();
+                 if (!pipeline) throw CommandError("parameters belong to scans; this document is a network");
+                 if (worker.joinable()) throw CommandError("a run is in progress (Esc cancels it)");
+                 PipelineParams params = pipeline->params();
+                 for (const auto& assignment : args) {
+                   try {
+                     setParam(params, assignment);
+                   } catch (const std::exception& error) {
+                     throw CommandError(error.what());
+                   }
+                 }
+                 pipeline->setParams(params);
+                 selectStage(selectedStage);
+                 updateOverlays();
+                 return std::string("parameters set");
+               });
+
+  commands.add("stage", "STAGE", "choose the stage the slider edits", [this](const std::vector<std::string>& args) {
+    expectArguments(args, 1, 1, "stage STAGE");
+    const auto stage = stageFromName(args[0]);
+    if (!stage) throw CommandError("unknown stage '" + args[0] + "'");
+    if (worker.joinable()) throw CommandError("a run is in progress (Esc cancels it)");
+    selectStage(*stage);
+    const StageParameter* parameter = mainParameter(*stage);
+    return "stage " + args[0] + (parameter ? ": slider edits " + parameter->key : std::string());
+  });
+
+  commands.add("cancel", "", "stop the running stages at their next safe point",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 0, 0, "cancel");
+                 if (!worker.joinable()) return std::string("nothing is running");
+                 runProgress->cancel();
+                 return std::string("cancelling");
+               });
+
+  commands.add("camera", "reset | azimuth DEG | elevation DEG | zoom FACTOR", "move the camera of the 3-D scene",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 1, 2, "camera reset | azimuth DEG | elevation DEG | zoom FACTOR");
+                 vtkCamera* camera = scene->GetActiveCamera();
+                 if (args[0] == "reset") {
+                   expectArguments(args, 1, 1, "camera reset");
+                   resetSceneCamera();
+                   resetSphereCamera();
+                   resetPlaneCamera();
+                   return std::string("cameras reset");
+                 }
+                 expectArguments(args, 2, 2, "camera azimuth DEG | elevation DEG | zoom FACTOR");
+                 const double value = parseDouble(args[1], args[0].c_str());
+                 if (args[0] == "azimuth")
+                   camera->Azimuth(value);
+                 else if (args[0] == "elevation") {
+                   camera->Elevation(value);
+                   camera->OrthogonalizeViewUp();
+                 } else if (args[0] == "zoom") {
+                   if (!(value > 0.0)) throw CommandError("zoom needs a positive factor");
+                   camera->Dolly(value);
+                 } else {
+                   throw CommandError("usage: camera reset | azimuth DEG | elevation DEG | zoom FACTOR");
+                 }
+                 scene->ResetCameraClippingRange();
+                 return "camera " + args[0] + " " + args[1];
+               });
+
+  commands.add("joint", "ID accept|reject|propose", "set a joint's review status",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 2, 2, "joint ID accept|reject|propose");
+                 Joint* joint = document.network().findJoint(parseInt(args[0], "the joint id"));
+                 if (!joint) throw CommandError("no joint " + args[0]);
+                 if (args[1] == "accept")
+                   joint->status = JointStatus::Accepted;
+                 else if (args[1] == "reject")
+                   joint->status = JointStatus::Rejected;
+                 else if (args[1] == "propose")
+                   joint->status = JointStatus::Proposed;
+                 else
+                   throw CommandError("usage: joint ID accept|reject|propose");
+                 buildNetworkLayers();
+                 updateOverlays();
+                 return "joint " + args[0] + " " + toString(joint->status);
+               });
+
+  commands.add("widgets", "on|off", "show or hide the stage bar and the parameter slider",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 1, 1, "widgets on|off");
+                 if (args[0] != "on" && args[0] != "off") throw CommandError("usage: widgets on|off");
+                 widgetsShown = args[0] == "on";
+                 stageBar->setEnabled(widgetsShown && document.hasPipeline());
+                 layout();
+                 updateOverlays();
+                 return "widgets " + args[0];
+               });
+
+  commands.add("screenshot", "FILE.png", "write the window as a PNG image",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 1, 1, "screenshot FILE.png");
+                 owner.render();
+                 vtkNew<vtkWindowToImageFilter> capture;
+                 capture->SetInput(window);
+                 capture->ReadFrontBufferOff();
+                 capture->Update();
+                 vtkNew<vtkPNGWriter> writer;
+                 writer->SetFileName(args[0].c_str());
+                 writer->SetInputConnection(capture->GetOutputPort());
+                 writer->Write();
+                 if (writer->GetErrorCode() != 0) throw CommandError(args[0] + ": cannot write the image");
+                 return "wrote " + args[0];
+               });
+
+  commands.add("click", "X Y [double]",
+               "click at window pixel (X, Y), origin bottom left: picks like the mouse (double: also flies)",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 2, 3, "click X Y [double]");
+                 if (args.size() == 3 && args[2] != "double") throw CommandError("usage: click X Y [double]");
+                 owner.render();  // Picking needs the current layout and camera.
+                 message.clear();
+                 pick(parseInt(args[0], "X"), parseInt(args[1], "Y"), args.size() == 3);
+                 return message.empty() ? std::string("nothing there") : message;
+               });
+
+  commands.add(
+      "frames", "N", "time N frames turning the 3-D camera once around, drawn as while dragging and as when still",
+      [this](const std::vector<std::string>& args) {
+        expectArguments(args, 1, 1, "frames N");
+        const int count = parseInt(args[0], "the frame count");
+        if (count < 1) throw CommandError("frames needs at least 1 frame");
+        vtkNew<vtkCamera> saved;
+        saved->DeepCopy(scene->GetActiveCamera());
+        auto timeFrames = [&](bool moving) {
+          interacting = moving;
+          for (auto& [name, lod] : pointLods) lod.mapper->SetInputData(moving ? lod.coarse : lod.full);
+          owner.render();  // Uploads the points; not timed.
+          const auto start = std::chrono::steady_clock::now();
+          for (int i = 0; i < count; ++i) {
+            scene->GetActiveCamera()->Azimuth(360.0 / count);
+            window->Render();
+          }
+          const std::chrono::duration<double, std::milli> elapsed = std::chrono::steady_clock::now() - start;
+          vtkIdType points = 0;
+          for (auto& [name, lod] : pointLods)
+            if (layerVisible(name) && layers[name].renderer->GetDraw())
+              points += (moving ? lod.coarse : lod.full)->GetNumberOfPoints();
+          return format("%.1f ms/frame", elapsed.count() / count) + " (" + std::to_string(points) + " points drawn)";
+        };
+        const std::string moving = timeFrames(true);
+        const std::string still = timeFrames(false);
+        scene->GetActiveCamera()->DeepCopy(saved);
+        scene->ResetCameraClippingRange();
+        return "moving " + moving + ", still " + still;
+      });
+
+  commands.add("open", "FILE", "open a scan or a network (.json) in place of the current document",
+               [this](const std::vector<std::string>& args) {
+                 if (args.empty()) throw CommandError("usage: open FILE");
+                 std::string path = args[0];
+                 for (std::size_t i = 1; i < args.size(); ++i) path += " " + args[i];  // Names with blanks.
+                 try {
+                   open(Document::open(path));
+                 } catch (const InputError& error) {
+                   throw CommandError(error.what());
+                 }
+                 return "opened " + path;
+               });
+
+  commands.add("quit", "", "close the studio", [this](const std::vector<std::string>& args) {
+    expectArguments(args, 0, 0, "quit");
+    quit = true;
+    return std::string();
+  });
+
+  keyBindings = {{"h", "help"},
+                 {"1", "view all"},
+                 {"2", "view scene"},
+                 {"3", "view sphere"},
+                 {"4", "view plane"},
+                 {"return", "run"},
+                 {"escape", "cancel"},
+                 {"home", "camera reset"},
+                 {"right", "select direction next"},
+                 {"left", "select direction previous"},
+                 {"f", "fly"},
+                 {"c", "color points height"},
+                 {"q", "color points qa"},
+                 {"e", "color points element"},
+                 {"s", "color points segment"},
+                 {"i", "color points intensity"},
+                 {"p", "color pipes run"},
+                 {"r", "color pipes radius"},
+                 {"k", "color pipes confidence"},
+                 {"g", "layer input/points toggle"},
+                 {"o", "layer preprocess/points toggle"},
+                 {"n", "layer preprocess/normals toggle"},
+                 {"t", "layer network/pipes toggle"},
+                 {"j", "layer network/joints toggle"},
+                 {"a", "rerun directions"},
+                 {"l", "rerun placement"},
+                 {"x", "rerun extents"}};
+}
+
+std::vector<std::string> Studio::Impl::keyHelpLines() const {
+  std::vector<std::string> lines;
+  for (const auto& [key, line] : keyBindings) {
+    std::string shown = key;
+    shown[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(shown[0])));
+    lines.push_back(shown + std::string(shown.size() < 8 ? 8 - shown.size() : 1, ' ') + line);
+  }
+  lines.push_back("click   select a pipe, joint, direction or circle");
+  lines.push_back("double-click  fly to the clicked pipe or joint");
+  return lines;
+}
+
+}  // namespace piperun::ui

@@ -1,0 +1,264 @@
+#pragma once
+// Inside ui::Studio: the state behind the public class, shared by studio.cpp (document, views,
+// overlays, runs, interaction), studio_layers.cpp (building the layers) and studio_commands.cpp.
+
+#include "piperun/ui/studio.h"
+
+#include "palette.h"
+#include "point_measures.h"
+#include "stage_bar.h"
+
+#include "piperun/params.h"
+
+#include <vtkInteractorStyleTrackballCamera.h>
+#include <vtkNew.h>
+#include <vtkPolyDataMapper.h>
+#include <vtkRenderer.h>
+#include <vtkScalarBarActor.h>
+#include <vtkSmartPointer.h>
+#include <vtkTextActor.h>
+
+#include <Eigen/Core>
+
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+class vtkActor;
+class vtkPolyData;
+
+namespace piperun::ui {
+
+/// Trackball rotation in the 3-D scene and the sphere, panning in the projection plane; the keys
+/// are the studio's (VTK's defaults such as 'e' = exit or 'w' = wireframe are switched off).
+class StudioInteractorStyle : public vtkInteractorStyleTrackballCamera {
+ public:
+  static StudioInteractorStyle* New();
+  vtkTypeMacro(StudioInteractorStyle, vtkInteractorStyleTrackballCamera);
+
+  vtkRenderer* panOnly = nullptr;
+
+  void OnChar() override {}
+  void OnKeyPress() override {}
+  void OnKeyRelease() override {}
+  void OnLeftButtonDown() override;
+};
+
+enum class ViewMode { All, Scene, Sphere, Plane };
+enum class PointColor { Height, Intensity, Rgb, Segment, Element, Qa };
+enum class PipeColor { Run, Radius, Confidence, Plain };
+
+inline const std::map<std::string, ViewMode> kViewModes{
+    {"all", ViewMode::All}, {"scene", ViewMode::Scene}, {"sphere", ViewMode::Sphere}, {"plane", ViewMode::Plane}};
+inline const std::map<std::string, PointColor> kPointColors{
+    {"height", PointColor::Height},   {"intensity", PointColor::Intensity}, {"rgb", PointColor::Rgb},
+    {"segment", PointColor::Segment}, {"element", PointColor::Element},     {"qa", PointColor::Qa}};
+inline const std::map<std::string, PipeColor> kPipeColors{{"run", PipeColor::Run},
+                                                          {"radius", PipeColor::Radius},
+                                                          {"confidence", PipeColor::Confidence},
+                                                          {"plain", PipeColor::Plain}};
+
+template <typename Value>
+std::string nameOf(const std::map<std::string, Value>& names, Value value) {
+  for (const auto& [name, candidate] : names)
+    if (candidate == value) return name;
+  return {};
+}
+
+template <typename Value>
+Value parseName(const std::map<std::string, Value>& names, const std::string& word, const char* what) {
+  const auto found = names.find(word);
+  if (found != names.end()) return found->second;
+  std::string known;
+  for (const auto& entry : names) known += (known.empty() ? "" : "|") + entry.first;
+  throw CommandError(std::string("unknown ") + what + " '" + word + "' (expected " + known + ")");
+}
+
+inline int parseInt(const std::string& word, const char* what) {
+  try {
+    std::size_t used = 0;
+    const int value = std::stoi(word, &used);
+    if (used == word.size()) return value;
+  } catch (const std::exception&) {
+  }
+  throw CommandError(std::string("expected ") + what + " as an integer, got '" + word + "'");
+}
+
+inline double parseDouble(const std::string& word, const char* what) {
+  try {
+    std::size_t used = 0;
+    const double value = std::stod(word, &used);
+    if (used == word.size()) return value;
+  } catch (const std::exception&) {
+  }
+  throw CommandError(std::string("expected ") + what + " as a number, got '" + word + "'");
+}
+
+inline void expectArguments(const std::vector<std::string>& args, std::size_t minimum, std::size_t maximum,
+                            const char* usage) {
+  if (args.size() < minimum || args.size() > maximum) throw CommandError(std::string("usage: ") + usage);
+}
+
+inline std::string format(const char* pattern, double value) {
+  char text[64];
+  std::snprintf(text, sizeof text, pattern, value);
+  return text;
+}
+
+/// A principal direction of one tile's round, numbered across all tiles for the views.
+struct DirectionRef {
+  int tile = 0;  ///< Index into the pipeline's tile results.
+  int round = 0;
+  int index = 0;  ///< Index into the round's DirectionsResult::directions.
+};
+
+struct Selection {
+  enum class Kind { None, Pipe, Joint } kind = Kind::None;
+  int id = 0;
+};
+
+/// A points layer drawn whole when the camera is still and as a subsample while it moves.
+struct PointLayerLod {
+  vtkSmartPointer<vtkPolyDataMapper> mapper;
+  vtkSmartPointer<vtkPolyData> full;
+  vtkSmartPointer<vtkPolyData> coarse;
+};
+
+struct Layer {
+  vtkRenderer* renderer = nullptr;
+  vtkSmartPointer<vtkProp> prop;
+};
+
+/// An actor drawing a mesh from MeshBuilder with its per-cell colours.
+vtkSmartPointer<vtkActor> meshActor(vtkPolyData* polyData);
+/// A text overlay in the studio's font.
+vtkSmartPointer<vtkTextActor> makeText(double r, double g, double b);
+
+/// Points farther than this from every surface are not coloured by the QA map (m).
+inline constexpr double kQaReach = 0.02;
+
+struct Studio::Impl {
+  Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowInteractor* interactor, const StudioOptions& options);
+  ~Impl();
+
+  // Document and derived data.
+  void open(Document opened);
+  void takeResults();
+  void rebuildAll();
+  const DirectionsResult* directionsOf(const DirectionRef& ref) const;
+  const PlacementResult* placementOf(const DirectionRef& ref) const;
+  const PrincipalDirection& direction(const DirectionRef& ref) const;
+  std::vector<int> keptPointSegments() const;
+  int pipeOfCylinder(const DirectionRef& ref, int cylinder) const;
+  /// The selected direction if one of its circles became pipe `pipeId`, else the first direction
+  /// with such a circle, else -1.
+  int directionShowingPipe(int pipeId) const;
+
+  // Layers.
+  void setLayer(const std::string& name, vtkRenderer* renderer, vtkSmartPointer<vtkProp> prop, bool defaultVisible);
+  void removeLayer(const std::string& name);
+  bool layerVisible(const std::string& name) const;
+  /// A points layer that shows a subsample while the camera moves.
+  void setPointLayer(const std::string& name, vtkRenderer* renderer, const std::vector<Eigen::Vector3f>& positions,
+                     const std::vector<Rgb>& colors, double pointSize, bool defaultVisible);
+  void buildPointLayers();
+  std::vector<Rgb> inputPointColors();
+  void buildNetworkLayers();
+  void buildSelectionLayer();
+  void buildSphereLayers();
+  void buildPlaneLayers();
+  void updateColorBar();
+
+  // Views, overlays, cameras.
+  void layout();
+  void resetSceneCamera();
+  void resetSphereCamera();
+  void resetPlaneCamera();
+  void flyTo(const Eigen::Vector3d& world, double size);
+  void updateOverlays();
+  void placeKeysHelp();
+  std::string selectionInfo() const;
+  std::vector<StageState> stageStates() const;
+  void selectStage(Stage stage);
+
+  // Running stages.
+  void startRun(Stage last);
+  void finishRun();
+  bool poll();
+
+  // Interaction.
+  void onKey();
+  void onLeftPress();
+  void onLeftRelease();
+  void pick(int x, int y, bool doubleClick);
+  void registerCommands();
+  std::vector<std::string> keyHelpLines() const;
+
+  Studio& owner;
+  vtkRenderWindow* window;
+  vtkRenderWindowInteractor* interactor;
+  StudioOptions options;
+  vtkNew<vtkRenderer> scene, sphere, plane, overlay;
+  vtkNew<vtkRenderer> highlightLayer;  ///< Over the scene, sharing its camera.
+  vtkNew<StudioInteractorStyle> style;
+  CommandRegistry commands;
+  std::vector<std::pair<std::string, std::string>> keyBindings;  ///< key, command
+
+  Document document;
+  Eigen::Vector3d displayOrigin = Eigen::Vector3d::Zero();
+  std::shared_ptr<const PreprocessResult> preprocessed;
+  std::shared_ptr<const std::vector<TileReconstruction>> tiles;
+  std::vector<DirectionRef> directions;
+  std::optional<SurfaceDistances> inputDistances;
+  std::vector<int> inputToKept;
+  std::vector<int> segmentCache;
+
+  std::map<std::string, Layer> layers;
+  std::map<std::string, bool> visibility;  ///< Kept by name across re-registration.
+  std::map<std::string, PointLayerLod> pointLods;
+  bool interacting = false;
+
+  ViewMode viewMode = ViewMode::All;
+  PointColor pointColor = PointColor::Height;
+  PipeColor pipeColor = PipeColor::Run;
+  Selection selection;
+  int selectedDirection = -1;
+  Stage selectedStage = Stage::Placement;
+  bool helpShown = false;
+  bool widgetsShown = true;
+  bool quit = false;
+  std::string message;
+
+  vtkSmartPointer<vtkTextActor> statusText, infoText, helpCommandsText, helpKeysText, progressText;
+  vtkSmartPointer<vtkTextActor> sceneTitle, sphereTitle, planeTitle;
+  vtkNew<vtkScalarBarActor> colorBar;
+  std::vector<vtkSmartPointer<vtkTextActor>> jointLegend;  ///< One line per joint status.
+  std::unique_ptr<StageBar> stageBar;
+  int laidOutWidth = 0, laidOutHeight = 0;
+
+  // Background run: the worker thread alone touches the pipeline until `finished`.
+  std::thread worker;
+  std::atomic<bool> finished{false};
+  std::unique_ptr<Progress> runProgress;
+  std::exception_ptr runError;
+  std::mutex progressMutex;
+  std::string progressTask;
+  double progressFraction = 0.0;
+  std::atomic<bool> progressChanged{false};
+  std::array<bool, kStageCount> freshBeforeRun{};
+  Stage runLast = Stage::Preprocess;
+
+  // Click detection.
+  int pressX = 0, pressY = 0;
+  std::chrono::steady_clock::time_point lastClickTime;
+  int lastClickX = -100, lastClickY = -100;
+};
+
+}  // namespace piperun::ui

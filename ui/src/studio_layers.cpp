@@ -1,0 +1,397 @@
+// Building the studio's layers from the document: points, network, selection, sphere, plane.
+
+#include "studio_impl.h"
+
+#include "mesh.h"
+#include "palette.h"
+
+#include <vtkActor.h>
+#include <vtkLookupTable.h>
+#include <vtkPolyData.h>
+#include <vtkPolyDataMapper.h>
+#include <vtkProperty.h>
+#include <vtkTextProperty.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace piperun::ui {
+
+vtkSmartPointer<vtkActor> meshActor(vtkPolyData* polyData) {
+  auto mapper = vtkSmartPointer<vtkPolyDataMapper>::New();
+  mapper->SetInputData(polyData);
+  mapper->SetScalarModeToUseCellData();
+  mapper->SetColorModeToDirectScalars();
+  auto actor = vtkSmartPointer<vtkActor>::New();
+  actor->SetMapper(mapper);
+  return actor;
+}
+
+vtkSmartPointer<vtkTextActor> makeText(double r, double g, double b) {
+  auto text = vtkSmartPointer<vtkTextActor>::New();
+  text->GetTextProperty()->SetColor(r, g, b);
+  text->GetTextProperty()->SetFontFamilyToArial();
+  text->GetTextProperty()->ShadowOff();
+  return text;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Layers
+
+void Studio::Impl::setLayer(const std::string& name, vtkRenderer* renderer, vtkSmartPointer<vtkProp> prop,
+                            bool defaultVisible) {
+  removeLayer(name);
+  visibility.emplace(name, defaultVisible);  // Kept when the layer was registered before.
+  prop->SetVisibility(visibility[name]);
+  renderer->AddViewProp(prop);
+  layers[name] = Layer{renderer, std::move(prop)};
+}
+
+void Studio::Impl::removeLayer(const std::string& name) {
+  const auto found = layers.find(name);
+  if (found == layers.end()) return;
+  found->second.renderer->RemoveViewProp(found->second.prop);
+  layers.erase(found);
+  pointLods.erase(name);
+}
+
+bool Studio::Impl::layerVisible(const std::string& name) const {
+  const auto found = visibility.find(name);
+  return found != visibility.end() && found->second && layers.count(name);
+}
+
+void Studio::Impl::setPointLayer(const std::string& name, vtkRenderer* renderer,
+                                 const std::vector<Eigen::Vector3f>& positions, const std::vector<Rgb>& colors,
+                                 double pointSize, bool defaultVisible) {
+  // The 3-D scene gets the interactive budget; the sphere and plane views, redrawn with it, an eighth each.
+  const std::size_t budget =
+      std::max<std::size_t>(1, renderer == scene ? options.interactivePoints : options.interactivePoints / 8);
+  PointLayerLod lod;
+  lod.full = makePointSet(positions, colors);
+  const std::size_t stride = std::max<std::size_t>(1, (positions.size() + budget - 1) / budget);
+  lod.coarse = stride > 1 ? subsamplePointSet(lod.full, stride) : lod.full;
+  lod.mapper = vtkSmartPointer<vtkPolyDataMapper>::New();
+  lod.mapper->SetInputData(interacting ? lod.coarse : lod.full);
+  lod.mapper->SetScalarModeToUsePointData();
+  lod.mapper->SetColorModeToDirectScalars();
+  auto actor = vtkSmartPointer<vtkActor>::New();
+  actor->SetMapper(lod.mapper);
+  actor->GetProperty()->SetPointSize(static_cast<float>(pointSize * options.uiScale));
+  actor->GetProperty()->SetColor(kNeutral[0] / 255.0, kNeutral[1] / 255.0, kNeutral[2] / 255.0);
+  actor->PickableOff();
+  setLayer(name, renderer, actor, defaultVisible);
+  pointLods[name] = lod;
+}
+
+std::vector<Rgb> Studio::Impl::inputPointColors() {
+  const PointCloud& cloud = *document.input();
+  std::vector<Rgb> colors(cloud.size(), kNeutral);
+  switch (pointColor) {
+    case PointColor::Height: {
+      const BoundingBox bounds = cloud.boundingBox();
+      auto map = scalarMap(bounds.min.z(), bounds.max.z());
+      for (std::size_t i = 0; i < cloud.size(); ++i) colors[i] = mapColor(map, cloud.worldPosition(i).z());
+      break;
+    }
+    case PointColor::Intensity: {
+      const auto [low, high] = std::minmax_element(cloud.intensities.begin(), cloud.intensities.end());
+      auto map = scalarMap(*low, *high);
+      for (std::size_t i = 0; i < cloud.size(); ++i) colors[i] = mapColor(map, cloud.intensities[i]);
+      break;
+    }
+    case PointColor::Rgb:
+      for (std::size_t i = 0; i < cloud.size(); ++i)
+        colors[i] = {cloud.colors[i][0], cloud.colors[i][1], cloud.colors[i][2]};
+      break;
+    case PointColor::Segment: {
+      if (inputToKept.empty())
+        inputToKept = nearestKeptPoint(cloud, preprocessed->points, 2.0 * preprocessed->diagnostics.voxelSize + 1e-3);
+      if (segmentCache.empty()) segmentCache = keptPointSegments();
+      for (std::size_t i = 0; i < cloud.size(); ++i)
+        if (inputToKept[i] >= 0) colors[i] = categoryColor(segmentCache[static_cast<std::size_t>(inputToKept[i])]);
+      break;
+    }
+    case PointColor::Element:
+    case PointColor::Qa: {
+      if (!inputDistances) inputDistances = surfaceDistances(cloud, document.network(), kQaReach);
+      auto map = scalarMap(0.0, kQaReach, true);
+      for (std::size_t i = 0; i < cloud.size(); ++i)
+        colors[i] = pointColor == PointColor::Qa ? mapColor(map, inputDistances->distance[i])
+                                                 : categoryColor(inputDistances->element[i]);
+      break;
+    }
+  }
+  return colors;
+}
+
+void Studio::Impl::buildPointLayers() {
+  if (document.input()) {
+    const PointCloud& cloud = *document.input();
+    std::vector<Eigen::Vector3f> positions(cloud.size());
+    const Eigen::Vector3f shift = (cloud.origin - displayOrigin).cast<float>();
+    for (std::size_t i = 0; i < cloud.size(); ++i) positions[i] = cloud.positions[i] + shift;
+    setPointLayer("input/points", scene, positions, inputPointColors(), 2.0, true);
+  } else {
+    removeLayer("input/points");
+  }
+
+  if (!preprocessed) {
+    for (const char* name : {"preprocess/points", "preprocess/normals", "preprocess/planes"}) removeLayer(name);
+    return;
+  }
+  const PointCloud& kept = preprocessed->points;
+  if (segmentCache.empty()) segmentCache = keptPointSegments();
+  const Eigen::Vector3f shift = (kept.origin - displayOrigin).cast<float>();
+  std::vector<Eigen::Vector3f> positions(kept.size());
+  std::vector<Rgb> colors(kept.size());
+  for (std::size_t i = 0; i < kept.size(); ++i) {
+    positions[i] = kept.positions[i] + shift;
+    colors[i] = categoryColor(segmentCache[i]);
+  }
+  setPointLayer("preprocess/points", scene, positions, colors, 3.0, false);
+
+  // Normal glyphs: a short line per point, for a bounded number of points.
+  MeshBuilder normals;
+  const double length = 3.0 * std::max(preprocessed->diagnostics.voxelSize, 0.005);
+  const std::size_t stride = std::max<std::size_t>(1, kept.size() / 40000);
+  for (std::size_t i = 0; i < kept.size() && kept.hasNormals(); i += stride) {
+    const Eigen::Vector3d from = positions[i].cast<double>();
+    normals.addPolyline({from, from + length * kept.normals[i].cast<double>()}, colors[i], static_cast<int>(i));
+  }
+  auto normalActor = meshActor(normals.build());
+  normalActor->PickableOff();
+  setLayer("preprocess/normals", scene, normalActor, false);
+
+  const PointCloud& planes = preprocessed->planePoints;
+  std::vector<Eigen::Vector3f> planePositions(planes.size());
+  const Eigen::Vector3f planeShift = (planes.origin - displayOrigin).cast<float>();
+  for (std::size_t i = 0; i < planes.size(); ++i) planePositions[i] = planes.positions[i] + planeShift;
+  setPointLayer("preprocess/planes", scene, planePositions, std::vector<Rgb>(planes.size(), Rgb{110, 110, 125}), 2.0,
+                false);
+}
+
+void Studio::Impl::buildNetworkLayers() {
+  const PipeNetwork& network = document.network();
+  double minRadius = 1e9, maxRadius = 0.0;
+  for (const auto& pipe : network.pipes) {
+    minRadius = std::min(minRadius, pipe.radius);
+    maxRadius = std::max(maxRadius, pipe.radius);
+  }
+  auto radiusMap = scalarMap(minRadius, maxRadius);
+  auto confidenceMap = scalarMap(0.0, 1.0);
+  MeshBuilder pipes;
+  for (const auto& pipe : network.pipes) {
+    const Rgb color = pipeColor == PipeColor::Run          ? categoryColor(pipe.runId)
+                      : pipeColor == PipeColor::Radius     ? mapColor(radiusMap, pipe.radius)
+                      : pipeColor == PipeColor::Confidence ? mapColor(confidenceMap, pipe.confidence)
+                                                           : Rgb{185, 190, 200};
+    pipes.addTube({pipe.start - displayOrigin, pipe.end - displayOrigin}, pipe.radius, color, pipe.id);
+  }
+  setLayer("network/pipes", scene, meshActor(pipes.build()), true);
+
+  MeshBuilder joints;
+  for (const auto& joint : network.joints) {
+    std::vector<Eigen::Vector3d> axis;
+    for (const auto& point : joint.axis) axis.push_back(point - displayOrigin);
+    // Slightly fatter than the pipes so the joint's colour shows where they overlap.
+    joints.addTube(axis, joint.radius * 1.06, statusColor(joint.status), joint.id);
+    // A tee's branch segment hides inside its main pipe: a collar around the main pipe shows it.
+    const Pipe* main =
+        joint.type == JointType::Tee && !joint.pipeIds.empty() ? network.findPipe(joint.pipeIds[0]) : nullptr;
+    if (main) {
+      const Eigen::Vector3d centre = joint.position() - displayOrigin;
+      const Eigen::Vector3d along = main->direction() * (1.2 * joint.radius);
+      joints.addTube({centre - along, centre + along}, main->radius * 1.1, statusColor(joint.status), joint.id);
+    }
+  }
+  setLayer("network/joints", scene, meshActor(joints.build()), true);
+}
+
+void Studio::Impl::buildSelectionLayer() {
+  MeshBuilder highlight;
+  const PipeNetwork& network = document.network();
+  if (selection.kind == Selection::Kind::Pipe) {
+    const Pipe& pipe = *network.findPipe(selection.id);
+    highlight.addTube({pipe.start - displayOrigin, pipe.end - displayOrigin}, pipe.radius * 1.12, kHighlight, pipe.id);
+  } else if (selection.kind == Selection::Kind::Joint) {
+    const Joint& joint = *network.findJoint(selection.id);
+    std::vector<Eigen::Vector3d> axis;
+    for (const auto& point : joint.axis) axis.push_back(point - displayOrigin);
+    highlight.addTube(axis, joint.radius * 1.18, kHighlight, joint.id);
+  }
+  auto actor = meshActor(highlight.build());
+  actor->PickableOff();
+  // Drawn over the scene (its own layer, same camera) so a selection inside other pipes shows.
+  setLayer("selection/highlight", highlightLayer, actor, true);
+}
+
+void Studio::Impl::buildSphereLayers() {
+  // Reference grid: the equator and meridians of the unit sphere.
+  MeshBuilder grid;
+  const Rgb gridColor{70, 75, 85};
+  for (int latitude = -60; latitude <= 60; latitude += 30) {
+    const double z = std::sin(latitude * M_PI / 180.0), r = std::cos(latitude * M_PI / 180.0);
+    grid.addPolyline(circlePoints({0, 0, z}, Eigen::Vector3d::UnitZ(), r), gridColor, -1, true);
+  }
+  for (int longitude = 0; longitude < 180; longitude += 30) {
+    const double angle = longitude * M_PI / 180.0;
+    grid.addPolyline(circlePoints(Eigen::Vector3d::Zero(), {std::cos(angle), std::sin(angle), 0.0}, 1.0), gridColor, -1,
+                     true);
+  }
+  auto gridActor = meshActor(grid.build());
+  gridActor->PickableOff();
+  setLayer("sphere/grid", sphere, gridActor, true);
+
+  if (!preprocessed || !tiles) {
+    for (const char* name : {"sphere/normals", "sphere/density", "sphere/directions"}) removeLayer(name);
+    return;
+  }
+  // Normals at both their signs (the sign is arbitrary), coloured by segment.
+  const PointCloud& kept = preprocessed->points;
+  if (segmentCache.empty()) segmentCache = keptPointSegments();
+  std::vector<Eigen::Vector3f> normalPoints;
+  std::vector<Rgb> normalColors;
+  const std::size_t stride = std::max<std::size_t>(1, kept.size() / 30000);
+  for (std::size_t i = 0; i < kept.size() && kept.hasNormals(); i += stride) {
+    const Rgb color = categoryColor(segmentCache[i]);
+    normalPoints.push_back(kept.normals[i]);
+    normalPoints.push_back(-kept.normals[i]);
+    normalColors.insert(normalColors.end(), {color, color});
+  }
+  setPointLayer("sphere/normals", sphere, normalPoints, normalColors, 1.0, true);
+
+  // Direction samples (n_i × n_j) coloured by their density: counts in equal-area cells of the
+  // upper hemisphere (uniform in z and in longitude).
+  constexpr int kZCells = 40, kLongitudeCells = 120;
+  std::vector<Eigen::Vector3f> samples;
+  for (const auto& tile : *tiles)
+    for (const auto& round : tile.rounds)
+      samples.insert(samples.end(), round.directions.samples.begin(), round.directions.samples.end());
+  auto cellOf = [&](const Eigen::Vector3f& s) {
+    const int zCell = std::clamp(static_cast<int>(s.z() * kZCells), 0, kZCells - 1);
+    const double longitude = std::atan2(s.y(), s.x()) + M_PI;
+    const int longitudeCell =
+        std::clamp(static_cast<int>(longitude / (2.0 * M_PI) * kLongitudeCells), 0, kLongitudeCells - 1);
+    return zCell * kLongitudeCells + longitudeCell;
+  };
+  std::vector<int> counts(kZCells * kLongitudeCells, 0);
+  for (const auto& s : samples) ++counts[static_cast<std::size_t>(cellOf(s))];
+  const int peak = std::max(1, *std::max_element(counts.begin(), counts.end()));
+  auto densityMap = scalarMap(0.0, std::log1p(static_cast<double>(peak)));
+  std::vector<Eigen::Vector3f> densityPoints;
+  std::vector<Rgb> densityColors;
+  const std::size_t sampleStride = std::max<std::size_t>(1, samples.size() / 40000);
+  for (std::size_t i = 0; i < samples.size(); i += sampleStride) {
+    densityPoints.push_back(samples[i] * 1.015f);
+    densityColors.push_back(
+        mapColor(densityMap, std::log1p(static_cast<double>(counts[static_cast<std::size_t>(cellOf(samples[i]))]))));
+  }
+  setPointLayer("sphere/density", sphere, densityPoints, densityColors, 2.0, true);
+
+  // Principal directions: arrows with their great circles (where the stripe's normals lie).
+  MeshBuilder arrows;
+  for (std::size_t k = 0; k < directions.size(); ++k) {
+    const bool selected = static_cast<int>(k) == selectedDirection;
+    const Rgb color = selected ? kHighlight : categoryColor(static_cast<int>(k));
+    const Eigen::Vector3d axis = direction(directions[k]).axis;
+    arrows.addArrow(Eigen::Vector3d::Zero(), axis, 1.3, selected ? 0.022 : 0.013, color, static_cast<int>(k));
+    arrows.addPolyline(circlePoints(Eigen::Vector3d::Zero(), axis, 1.005), color, static_cast<int>(k), true);
+  }
+  auto arrowActor = meshActor(arrows.build());
+  arrowActor->GetProperty()->SetLineWidth(static_cast<float>(2.0 * options.uiScale));
+  setLayer("sphere/directions", sphere, arrowActor, true);
+}
+
+void Studio::Impl::buildPlaneLayers() {
+  if (!preprocessed || !tiles || selectedDirection < 0) {
+    for (const char* name : {"plane/points", "plane/candidates", "plane/circles"}) removeLayer(name);
+    return;
+  }
+  const DirectionRef& ref = directions[static_cast<std::size_t>(selectedDirection)];
+  const PrincipalDirection& chosen = direction(ref);
+  const PlacementResult* placement = placementOf(ref);
+  const PointCloud& kept = preprocessed->points;
+
+  std::vector<Eigen::Vector3f> projected;
+  std::vector<Rgb> pointColors;
+  const PlacementResult::Projection* projection = ref.index < static_cast<int>(placement->projections.size())
+                                                      ? &placement->projections[static_cast<std::size_t>(ref.index)]
+                                                      : nullptr;
+  Eigen::Vector3d u, v;
+  if (projection) {
+    u = projection->u;
+    v = projection->v;
+  } else {
+    orthonormalBasis(chosen.axis, u, v);
+  }
+  for (std::uint32_t point : chosen.stripe) {
+    const Eigen::Vector3d p = kept.positions[point].cast<double>();
+    projected.emplace_back(static_cast<float>(p.dot(u)), static_cast<float>(p.dot(v)), 0.0f);
+    pointColors.push_back({175, 175, 185});
+  }
+  setPointLayer("plane/points", plane, projected, pointColors, 2.0, true);
+
+  std::vector<Eigen::Vector3f> candidates;
+  std::vector<Rgb> candidateColors;
+  if (projection)
+    for (const auto& candidate : projection->candidates) {
+      candidates.emplace_back(candidate.center.x(), candidate.center.y(), 0.001f);
+      candidateColors.push_back(candidate.circle >= 0 ? categoryColor(candidate.circle) : Rgb{95, 95, 110});
+    }
+  setPointLayer("plane/candidates", plane, candidates, candidateColors, 3.0, true);
+
+  MeshBuilder circles;
+  for (std::size_t c = 0; c < placement->cylinders.size(); ++c) {
+    const Cylinder& cylinder = placement->cylinders[c];
+    if (cylinder.directionIndex != ref.index) continue;
+    const Eigen::Vector3d center(cylinder.point.dot(u), cylinder.point.dot(v), 0.002);
+    const bool selected =
+        selection.kind == Selection::Kind::Pipe && pipeOfCylinder(ref, static_cast<int>(c)) == selection.id;
+    circles.addPolyline(circlePoints(center, Eigen::Vector3d::UnitZ(), cylinder.radius),
+                        selected ? kHighlight : Rgb{255, 60, 60}, static_cast<int>(c), true);
+  }
+  auto circleActor = meshActor(circles.build());
+  circleActor->GetProperty()->SetLineWidth(static_cast<float>(2.5 * options.uiScale));
+  setLayer("plane/circles", plane, circleActor, true);
+}
+
+void Studio::Impl::updateColorBar() {
+  vtkSmartPointer<vtkLookupTable> map;
+  std::string title;
+  if (layerVisible("input/points") && document.input()) {
+    const PointCloud& cloud = *document.input();
+    if (pointColor == PointColor::Height) {
+      const BoundingBox bounds = cloud.boundingBox();
+      map = scalarMap(bounds.min.z(), bounds.max.z());
+      title = "height (m)";
+    } else if (pointColor == PointColor::Intensity) {
+      const auto [low, high] = std::minmax_element(cloud.intensities.begin(), cloud.intensities.end());
+      map = scalarMap(*low, *high);
+      title = "intensity";
+    } else if (pointColor == PointColor::Qa) {
+      map = scalarMap(0.0, kQaReach, true);
+      title = "QA distance (m)";
+    }
+  }
+  if (!map && layerVisible("network/pipes") && !document.network().pipes.empty() &&
+      (pipeColor == PipeColor::Radius || pipeColor == PipeColor::Confidence)) {
+    const auto& pipes = document.network().pipes;
+    if (pipeColor == PipeColor::Radius) {
+      const auto [low, high] = std::minmax_element(pipes.begin(), pipes.end(),
+                                                   [](const Pipe& a, const Pipe& b) { return a.radius < b.radius; });
+      map = scalarMap(low->radius, high->radius);
+      title = "pipe radius (m)";
+    } else {
+      map = scalarMap(0.0, 1.0);
+      title = "pipe confidence";
+    }
+  }
+  const bool sceneShown = viewMode == ViewMode::All || viewMode == ViewMode::Scene;
+  colorBar->SetVisibility(map != nullptr && sceneShown);
+  if (map) {
+    colorBar->SetLookupTable(map);
+    colorBar->SetTitle(title.c_str());
+  }
+}
+
+}  // namespace piperun::ui
