@@ -15,7 +15,6 @@
 #include <vtkStdString.h>
 #include <vtkTextProperty.h>
 #include <vtkTextRenderer.h>
-#include <vtkTextProperty.h>
 #include <vtkTexturedButtonRepresentation2D.h>
 
 #include <algorithm>
@@ -25,11 +24,12 @@ namespace piperun::ui {
 
 namespace {
 
-const std::array<StageParameter, 5> kMainParameters{{{"preprocess.voxel_size", 0.003, 0.05},
+const std::array<StageParameter, 6> kMainParameters{{{"preprocess.voxel_size", 0.003, 0.05},
                                                      {"directions.bandwidth_deg", 0.5, 10.0},
                                                      {"placement.center_bandwidth", 0.002, 0.05},
                                                      {"extents.section_length", 0.01, 0.2},
-                                                     {"merge.max_gap", 0.0, 0.5}}};
+                                                     {"merge.max_gap", 0.0, 0.5},
+                                                     {"joints.accept_confidence", 0.0, 1.0}}};
 
 /// A flat button face of width × height pixels with a darker border (a light one when `selected`)
 /// and the stage's name drawn in the middle.
