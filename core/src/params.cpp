@@ -84,6 +84,7 @@ const std::vector<Field>& fields() {
       PIPERUN_FIELD("extents", "min_density_ratio", "", Stage::Extents, extents.minDensityRatio, "Automatic axis coverage: share of the cylinder's median section density"),
       PIPERUN_FIELD("extents", "min_arc_deg", "deg", Stage::Extents, extents.minArcDeg, "Cross-section coverage: angle around the axis a section (pooled to 6 points) must span"),
       PIPERUN_FIELD("extents", "closing_sections", "", Stage::Extents, extents.closingSections, "1-D closing fills gaps up to this many sections"),
+      PIPERUN_FIELD("extents", "bridge_sections", "", Stage::Extents, extents.bridgeSections, "...and gaps up to this many between runs at least as long as the gap"),
       PIPERUN_FIELD("extents", "opening_sections", "", Stage::Extents, extents.openingSections, "1-D opening drops pieces shorter than this many sections"),
       PIPERUN_FIELD("extents", "min_length", "m", Stage::Extents, extents.minLength, "Pipes shorter than this are dropped"),
 

@@ -95,6 +95,24 @@ TEST(Extents, LongGapSplitsCollinearPipes) {
   EXPECT_DOUBLE_EQ(first.confidence, 1.0);
 }
 
+TEST(Extents, OcclusionBetweenLongRunsIsBridged) {
+  // 60 cm hidden (15 sections: beyond the closing, within bridgeSections) between 1.2 m runs.
+  const ScannedPipe pipe(3.0, [](double x) { return x < 1.2 || x > 1.8; });
+  const ExtentsResult result = computeExtents({pipe.cloud, pipe.placement}, ExtentsParams{});
+  ASSERT_EQ(result.segments.size(), 1u);
+  EXPECT_LT(std::abs(result.segments[0].start.x() - 0.0), 0.02);
+  EXPECT_LT(std::abs(result.segments[0].end.x() - 3.0), 0.02);
+  EXPECT_NEAR(result.segments[0].confidence, 0.8, 0.03);
+}
+
+TEST(Extents, GapLongerThanItsRunsIsNotBridged) {
+  // The same 60 cm gap between two 40 cm pieces: too little pipe on either side to vouch for it.
+  const ScannedPipe pipe(1.4, [](double x) { return x < 0.4 || x > 1.0; });
+  const ExtentsResult result = computeExtents({pipe.cloud, pipe.placement}, ExtentsParams{});
+  ASSERT_EQ(result.segments.size(), 2u);
+  for (const PipeSegment& segment : result.segments) EXPECT_NEAR((segment.end - segment.start).norm(), 0.4, 0.02);
+}
+
 TEST(Extents, NoiseBlobsAndSliversAreDropped) {
   ScannedPipe pipe(1.5, [](double) { return true; });
   Rng rng(9);

@@ -5,9 +5,10 @@
 // Along the axis the inliers are cut into sections; a section passes when it holds enough points
 // (axis coverage) and its points spread around the axis (cross-section coverage: the angle they
 // span, i.e. 360° minus the largest angular gap, which a thin sliver of a neighbouring surface or
-// a few stray points do not reach). On the pass mask a 1-D closing bridges short occlusions and an
-// opening then removes isolated passing sections; each remaining run of sections is a pipe that
-// ends at its extreme inliers.
+// a few stray points do not reach). On the pass mask a 1-D closing bridges short occlusions, and
+// longer ones between runs of pipe at least as long as the gap (a rack beam in front of a pipe);
+// an opening then removes isolated passing sections; each remaining run of sections is a pipe
+// that ends at its extreme inliers.
 //
 // The cross-section default (ExtentsParams::minArcDeg = 45°) is set for single-station scans; the
 // paper's 180° needs stations all round a pipe. On generated small scenes scanned from one station
@@ -51,15 +52,22 @@ std::vector<Run> runsOf(const std::vector<bool>& mask) {
 }
 
 /// 1-D closing (interior gaps of at most `closing` sections are filled; the mask never grows past
-/// its outermost passing sections) followed by an opening (runs shorter than `opening` go).
-std::vector<bool> closeThenOpen(const std::vector<bool>& pass, int closing, int opening) {
+/// its outermost passing sections), then gaps of at most `bridge` sections between runs at least as
+/// long as the gap are filled too, then an opening (runs shorter than `opening` go). A long stretch
+/// of pipe on both sides of a gap is strong evidence that the pipe runs on behind whatever hides
+/// it; a few scattered passing sections of a chance fit are not.
+std::vector<bool> closeThenOpen(const std::vector<bool>& pass, int closing, int bridge, int opening) {
   std::vector<bool> mask = pass;
-  const std::vector<Run> runs = runsOf(mask);
-  for (std::size_t r = 1; r < runs.size(); ++r) {
-    if (runs[r].first - runs[r - 1].last <= static_cast<std::size_t>(std::max(0, closing))) {
-      std::fill(mask.begin() + runs[r - 1].last, mask.begin() + runs[r].first, true);
+  const auto fillGaps = [&](std::size_t maxGap, bool requireSupport) {
+    const std::vector<Run> runs = runsOf(mask);
+    for (std::size_t r = 1; r < runs.size(); ++r) {
+      const std::size_t gap = runs[r].first - runs[r - 1].last;
+      const bool supported = runs[r - 1].last - runs[r - 1].first >= gap && runs[r].last - runs[r].first >= gap;
+      if (gap <= maxGap && (supported || !requireSupport)) std::fill(mask.begin() + runs[r - 1].last, mask.begin() + runs[r].first, true);
     }
-  }
+  };
+  fillGaps(static_cast<std::size_t>(std::max(0, closing)), false);
+  fillGaps(static_cast<std::size_t>(std::max(0, bridge)), true);
   for (const Run& run : runsOf(mask)) {
     if (run.last - run.first < static_cast<std::size_t>(std::max(0, opening))) {
       std::fill(mask.begin() + run.first, mask.begin() + run.last, false);
@@ -143,7 +151,7 @@ std::vector<PipeSegment> segmentsOf(const PointCloud& cloud, const Cylinder& cyl
     std::sort(angles.begin(), angles.end());
     pass[k] = spannedDeg(angles) >= params.minArcDeg;
   }
-  const std::vector<bool> mask = closeThenOpen(pass, params.closingSections, params.openingSections);
+  const std::vector<bool> mask = closeThenOpen(pass, params.closingSections, params.bridgeSections, params.openingSections);
   sectionCount += sections;
   keptCount += static_cast<std::size_t>(std::count(mask.begin(), mask.end(), true));
 

@@ -23,6 +23,7 @@ struct ExtentsParams {
                                      ///< gap). The paper's 180° needs several stations; one station sees at most half a
                                      ///< pipe (measurements in extents.cpp).
   int closingSections = 10;          ///< 1-D closing fills gaps up to this many sections (occlusions behind other pipes)...
+  int bridgeSections = 20;           ///< ...and gaps up to this many between two runs each at least as long as the gap...
   int openingSections = 2;           ///< ...then opening drops pieces shorter than this many sections.
   double minLength = 0.1;            ///< Pipes shorter than this (m) are dropped.
 };
