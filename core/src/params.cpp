@@ -82,6 +82,7 @@ const std::vector<Field>& fields() {
       PIPERUN_FIELD("extents", "section_length", "m", Stage::Extents, extents.sectionLength, "Axial section length"),
       PIPERUN_FIELD("extents", "min_points_per_metre", "1/m", Stage::Extents, extents.minPointsPerMetre, "Axis coverage: points per metre a section needs (0: automatic)"),
       PIPERUN_FIELD("extents", "min_density_ratio", "", Stage::Extents, extents.minDensityRatio, "Automatic axis coverage: share of the cylinder's median section density"),
+      PIPERUN_FIELD("extents", "density_window", "m", Stage::Extents, extents.densityWindow, "...of the sections within this distance along the axis, when sparser than the whole cylinder"),
       PIPERUN_FIELD("extents", "min_arc_deg", "deg", Stage::Extents, extents.minArcDeg, "Cross-section coverage: angle around the axis a section (pooled to 6 points) must span"),
       PIPERUN_FIELD("extents", "closing_sections", "", Stage::Extents, extents.closingSections, "1-D closing fills gaps up to this many sections"),
       PIPERUN_FIELD("extents", "bridge_sections", "", Stage::Extents, extents.bridgeSections, "...and gaps up to this many between runs at least as long as the gap"),

@@ -160,11 +160,18 @@ TEST(Extents, SparseFarPipeIsJudgedOverNeighbouringSections) {
 TEST(Extents, AxisCoverageThreshold) {
   // The second half is scanned at a fifth of the density (every fifth ring of points).
   ScannedPipe pipe(2.0, [](double x) { return x < 1.0 || std::fmod(x, 0.05) < 0.01; });
-  ExtentsParams automatic;
-  automatic.minDensityRatio = 0.5;
-  const ExtentsResult thinDropped = computeExtents({pipe.cloud, pipe.placement}, automatic);
+  ExtentsParams whole;
+  whole.minDensityRatio = 0.5;
+  whole.densityWindow = 10.0;  // the whole cylinder's median density: the thin half fails
+  const ExtentsResult thinDropped = computeExtents({pipe.cloud, pipe.placement}, whole);
   ASSERT_EQ(thinDropped.segments.size(), 1u);
   EXPECT_LT(std::abs(thinDropped.segments[0].end.x() - 1.0), 0.03);
+
+  ExtentsParams local = whole;
+  local.densityWindow = 0.3;  // the median within 30 cm: the thin half is judged by its own density
+  const ExtentsResult thinFollowed = computeExtents({pipe.cloud, pipe.placement}, local);
+  ASSERT_EQ(thinFollowed.segments.size(), 1u);
+  EXPECT_GT(thinFollowed.segments[0].end.x(), 1.95);
 
   ExtentsParams fixed;
   fixed.minPointsPerMetre = 100.0;  // 4 points a section: the thin half passes too

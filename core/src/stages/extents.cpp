@@ -120,15 +120,27 @@ std::vector<PipeSegment> segmentsOf(const PointCloud& cloud, const Cylinder& cyl
     for (std::size_t i = 0; i < n; ++i) order[fill[sectionOf(i)]++] = static_cast<std::uint32_t>(i);
   }
 
-  // Axis coverage threshold, in points per section.
-  double minPoints = params.minPointsPerMetre * params.sectionLength;
+  // Axis coverage threshold of each section, in points. The automatic one follows the density of
+  // the pipe around the section: a long pipe thins out with range and grazing incidence, and its
+  // far end would fail a threshold set by its dense near part.
+  std::vector<double> minPoints(sections, params.minPointsPerMetre * params.sectionLength);
   if (!(params.minPointsPerMetre > 0.0)) {
     std::vector<std::size_t> counts;
+    const auto medianCount = [&](std::size_t first, std::size_t last) {
+      counts.clear();
+      for (std::size_t k = first; k < last; ++k) {
+        if (begin[k + 1] > begin[k]) counts.push_back(begin[k + 1] - begin[k]);
+      }
+      if (counts.empty()) return 0.0;
+      std::nth_element(counts.begin(), counts.begin() + counts.size() / 2, counts.end());
+      return static_cast<double>(counts[counts.size() / 2]);
+    };
+    const double whole = medianCount(0, sections);
+    const auto reach = static_cast<std::size_t>(std::max(0.0, params.densityWindow / params.sectionLength));
     for (std::size_t k = 0; k < sections; ++k) {
-      if (begin[k + 1] > begin[k]) counts.push_back(begin[k + 1] - begin[k]);
+      const double local = medianCount(k - std::min(k, reach), std::min(sections, k + reach + 1));
+      minPoints[k] = params.minDensityRatio * std::min(whole, local);
     }
-    std::nth_element(counts.begin(), counts.begin() + counts.size() / 2, counts.end());
-    minPoints = params.minDensityRatio * static_cast<double>(counts[counts.size() / 2]);
   }
 
   // Cross-section coverage. Far from the scanner a pipe may leave one or two points per section, so
@@ -141,7 +153,7 @@ std::vector<PipeSegment> segmentsOf(const PointCloud& cloud, const Cylinder& cyl
   std::vector<double> angles;
   for (std::size_t k = 0; k < sections; ++k) {
     const std::size_t count = begin[k + 1] - begin[k];
-    if (count == 0 || static_cast<double>(count) < minPoints) continue;
+    if (count == 0 || static_cast<double>(count) < minPoints[k]) continue;
     std::size_t reach = 0;
     const auto first = [&] { return k - std::min(k, reach); };
     const auto last = [&] { return std::min(sections, k + reach + 1); };

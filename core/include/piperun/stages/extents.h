@@ -16,8 +16,10 @@ namespace piperun {
 struct ExtentsParams {
   double sectionLength = 0.04;       ///< Axial section length (m).
   double minPointsPerMetre = 0.0;    ///< Axis coverage: a section needs this many points per metre; 0 = automatic
-                                     ///< (a fraction `minDensityRatio` of the cylinder's median section density).
-  double minDensityRatio = 0.2;      ///< Used when minPointsPerMetre is 0.
+                                     ///< (a fraction `minDensityRatio` of the median section density)...
+  double minDensityRatio = 0.2;      ///< Used when minPointsPerMetre is 0...
+  double densityWindow = 0.5;        ///< ...against the median density within this distance (m) along the axis when
+                                     ///< lower than the whole cylinder's (a long pipe thins out far from the scanner).
   double minArcDeg = 45.0;           ///< Cross-section coverage: a section's points (pooled with its neighbours' up to
                                      ///< six points) must span this angle around the axis (360° minus their largest
                                      ///< gap). The paper's 180° needs several stations; one station sees at most half a
