@@ -71,7 +71,7 @@ const std::vector<Field>& fields() {
       PIPERUN_FIELD("placement", "center_bandwidth", "m", Stage::Placement, placement.centerBandwidth, "Mean-shift kernel width for the circle centre"),
       PIPERUN_FIELD("placement", "radius_bandwidth", "m", Stage::Placement, placement.radiusBandwidth, "Mean-shift kernel width for the radius"),
       PIPERUN_FIELD("placement", "min_candidates", "", Stage::Placement, placement.minCandidates, "A circle needs at least this many candidates in its mode"),
-      PIPERUN_FIELD("placement", "inlier_distance", "m", Stage::Placement, placement.inlierDistance, "Inliers lie within this of the cylinder surface"),
+      PIPERUN_FIELD("placement", "inlier_distance", "m", Stage::Placement, placement.inlierDistance, "Inliers lie within this of the cylinder surface (widened on noisy scans, up to 3x)"),
       PIPERUN_FIELD("placement", "inlier_normal_angle_deg", "deg", Stage::Placement, placement.inlierNormalAngleDeg, "Inliers' normals (re-estimated in the projection plane) lie within this of the radial direction"),
       PIPERUN_FIELD("placement", "min_inliers", "", Stage::Placement, placement.minInliers, "Cylinders with fewer inliers are dropped"),
       PIPERUN_FIELD("placement", "min_candidate_share", "", Stage::Placement, placement.minCandidateShare, "A circle's mode must hold at least this many candidates per inlier"),
