@@ -113,6 +113,22 @@ TEST(Extents, GapLongerThanItsRunsIsNotBridged) {
   for (const PipeSegment& segment : result.segments) EXPECT_NEAR((segment.end - segment.start).norm(), 0.4, 0.02);
 }
 
+TEST(Extents, PieceMostlyMadeUpByTheClosingIsDropped) {
+  // Visible 4 cm in every 16 cm: the closing joins the pieces into a run where well under half of
+  // the sections passed (a visible stretch may straddle two), as a chance fit through scattered
+  // surface patches leaves.
+  const ScannedPipe pipe(2.0, [](double x) { return std::fmod(x, 0.16) < 0.04; });
+  ExtentsResult result = computeExtents({pipe.cloud, pipe.placement}, ExtentsParams{});
+  EXPECT_TRUE(result.segments.empty());
+
+  ExtentsParams lenient;
+  lenient.minConfidence = 0.2;
+  result = computeExtents({pipe.cloud, pipe.placement}, lenient);
+  ASSERT_EQ(result.segments.size(), 1u);
+  EXPECT_GT(result.segments[0].confidence, 0.2);
+  EXPECT_LT(result.segments[0].confidence, 0.5);
+}
+
 TEST(Extents, NoiseBlobsAndSliversAreDropped) {
   ScannedPipe pipe(1.5, [](double) { return true; });
   Rng rng(9);

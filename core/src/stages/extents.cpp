@@ -8,7 +8,9 @@
 // a few stray points do not reach). On the pass mask a 1-D closing bridges short occlusions, and
 // longer ones between runs of pipe at least as long as the gap (a rack beam in front of a pipe);
 // an opening then removes isolated passing sections; each remaining run of sections is a pipe
-// that ends at its extreme inliers.
+// that ends at its extreme inliers, unless the closing made up too much of it: on generated small
+// scenes (seeds 1–20) runs where fewer than 70 % of the sections passed were nearly all chance fits
+// (0.4 m of true pipe against 7 m of false), those at 70–80 % mostly real (24 m against 2 m).
 //
 // The cross-section default (ExtentsParams::minArcDeg = 45°) is set for single-station scans; the
 // paper's 180° needs stations all round a pipe. On generated small scenes scanned from one station
@@ -51,18 +53,27 @@ std::vector<Run> runsOf(const std::vector<bool>& mask) {
   return runs;
 }
 
+/// Share of the sections in [first, last) that passed, from the running count of passing sections.
+double passedShare(const std::vector<std::size_t>& passedBefore, std::size_t first, std::size_t last) {
+  return static_cast<double>(passedBefore[last] - passedBefore[first]) / static_cast<double>(last - first);
+}
+
 /// 1-D closing (interior gaps of at most `closing` sections are filled; the mask never grows past
 /// its outermost passing sections), then gaps of at most `bridge` sections between runs at least as
-/// long as the gap are filled too, then an opening (runs shorter than `opening` go). A long stretch
-/// of pipe on both sides of a gap is strong evidence that the pipe runs on behind whatever hides
-/// it; a few scattered passing sections of a chance fit are not.
-std::vector<bool> closeThenOpen(const std::vector<bool>& pass, int closing, int bridge, int opening) {
+/// long as the gap are filled too when the joined run keeps `minConfidence` of passing sections,
+/// then an opening (runs shorter than `opening` go). A long stretch of pipe on both sides of a gap
+/// is strong evidence that the pipe runs on behind whatever hides it; a few scattered passing
+/// sections of a chance fit are not.
+std::vector<bool> closeThenOpen(const std::vector<bool>& pass, int closing, int bridge, double minConfidence, int opening) {
+  std::vector<std::size_t> passedBefore(pass.size() + 1, 0);
+  for (std::size_t k = 0; k < pass.size(); ++k) passedBefore[k + 1] = passedBefore[k] + (pass[k] ? 1 : 0);
   std::vector<bool> mask = pass;
   const auto fillGaps = [&](std::size_t maxGap, bool requireSupport) {
     const std::vector<Run> runs = runsOf(mask);
     for (std::size_t r = 1; r < runs.size(); ++r) {
       const std::size_t gap = runs[r].first - runs[r - 1].last;
-      const bool supported = runs[r - 1].last - runs[r - 1].first >= gap && runs[r].last - runs[r].first >= gap;
+      const bool supported = runs[r - 1].last - runs[r - 1].first >= gap && runs[r].last - runs[r].first >= gap &&
+                             passedShare(passedBefore, runs[r - 1].first, runs[r].last) >= minConfidence;
       if (gap <= maxGap && (supported || !requireSupport)) std::fill(mask.begin() + runs[r - 1].last, mask.begin() + runs[r].first, true);
     }
   };
@@ -163,7 +174,7 @@ std::vector<PipeSegment> segmentsOf(const PointCloud& cloud, const Cylinder& cyl
     std::sort(angles.begin(), angles.end());
     pass[k] = spannedDeg(angles) >= params.minArcDeg;
   }
-  const std::vector<bool> mask = closeThenOpen(pass, params.closingSections, params.bridgeSections, params.openingSections);
+  const std::vector<bool> mask = closeThenOpen(pass, params.closingSections, params.bridgeSections, params.minConfidence, params.openingSections);
   sectionCount += sections;
   keptCount += static_cast<std::size_t>(std::count(mask.begin(), mask.end(), true));
 
@@ -186,6 +197,7 @@ std::vector<PipeSegment> segmentsOf(const PointCloud& cloud, const Cylinder& cyl
     const auto passed = std::count(pass.begin() + static_cast<std::ptrdiff_t>(run.first),
                                    pass.begin() + static_cast<std::ptrdiff_t>(run.last), true);
     segment.confidence = static_cast<double>(passed) / static_cast<double>(run.last - run.first);
+    if (segment.confidence < params.minConfidence) continue;
     segment.cylinderIndex = cylinderIndex;
     segments.push_back(std::move(segment));
   }

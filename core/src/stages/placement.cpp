@@ -203,11 +203,12 @@ struct StripeProjection {
   std::vector<double> scales;                            // pair-selection cell sizes
   std::vector<std::vector<Eigen::Vector2f>> scaleNormals;  // normals in the plane estimated at each scale
 
-  /// The normals estimated at the scale that suits `radius` best.
+  /// The normals estimated over a neighbourhood (half a cell, see drawCandidates) nearest in size to
+  /// `radius`: wide enough to average the noise, not wider than the pipe's own arc.
   const std::vector<Eigen::Vector2f>& normalsFor(double radius) const {
     std::size_t best = 0;
     for (std::size_t s = 1; s < scales.size(); ++s) {
-      if (std::abs(std::log(scales[s] / radius)) < std::abs(std::log(scales[best] / radius))) best = s;
+      if (std::abs(std::log(0.5 * scales[s] / radius)) < std::abs(std::log(0.5 * scales[best] / radius))) best = s;
     }
     return scaleNormals[best];
   }

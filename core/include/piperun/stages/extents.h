@@ -25,8 +25,11 @@ struct ExtentsParams {
                                      ///< gap). The paper's 180° needs several stations; one station sees at most half a
                                      ///< pipe (measurements in extents.cpp).
   int closingSections = 10;          ///< 1-D closing fills gaps up to this many sections (occlusions behind other pipes)...
-  int bridgeSections = 20;           ///< ...and gaps up to this many between two runs each at least as long as the gap...
+  int bridgeSections = 20;           ///< ...and gaps up to this many between two runs each at least as long as the gap
+                                     ///< (when the joined run keeps minConfidence)...
   int openingSections = 2;           ///< ...then opening drops pieces shorter than this many sections.
+  double minConfidence = 0.7;        ///< Pieces where fewer than this share of the sections passed both coverage tests
+                                     ///< (the closing filled the rest) are dropped, and a bridge must leave this share.
   double minLength = 0.1;            ///< Pipes shorter than this (m) are dropped.
 };
 
