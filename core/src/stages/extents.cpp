@@ -68,13 +68,18 @@ std::vector<bool> closeThenOpen(const std::vector<bool>& pass, int closing, int 
   std::vector<std::size_t> passedBefore(pass.size() + 1, 0);
   for (std::size_t k = 0; k < pass.size(); ++k) passedBefore[k + 1] = passedBefore[k] + (pass[k] ? 1 : 0);
   std::vector<bool> mask = pass;
-  const auto fillGaps = [&](std::size_t maxGap, bool requireSupport) {
+  const auto fillGaps = [&](std::size_t maxGap, bool onlyBetweenLongRuns) {
     const std::vector<Run> runs = runsOf(mask);
     for (std::size_t r = 1; r < runs.size(); ++r) {
-      const std::size_t gap = runs[r].first - runs[r - 1].last;
-      const bool supported = runs[r - 1].last - runs[r - 1].first >= gap && runs[r].last - runs[r].first >= gap &&
-                             passedShare(passedBefore, runs[r - 1].first, runs[r].last) >= minConfidence;
-      if (gap <= maxGap && (supported || !requireSupport)) std::fill(mask.begin() + runs[r - 1].last, mask.begin() + runs[r].first, true);
+      const Run& before = runs[r - 1];
+      const Run& after = runs[r];
+      const std::size_t gap = after.first - before.last;
+      if (gap > maxGap) continue;
+      if (onlyBetweenLongRuns && (before.last - before.first < gap || after.last - after.first < gap ||
+                                  passedShare(passedBefore, before.first, after.last) < minConfidence)) {
+        continue;
+      }
+      std::fill(mask.begin() + before.last, mask.begin() + after.first, true);
     }
   };
   fillGaps(static_cast<std::size_t>(std::max(0, closing)), false);

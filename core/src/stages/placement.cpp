@@ -24,9 +24,9 @@
 // must look like a pipe: no surface continuing just outside the inlier band (the faces beyond a box
 // edge, whose smoothed normals mimic a small pipe), no systematic offset pattern around the axis (a
 // square post), and a mode that holds many candidates per inlier (pairs of a real pipe agree on its
-// circle; the faces of a corner agree on a ridge of circles). Cylinders
-// that share most inliers with a better supported one are dropped; every point then goes to the
-// cylinder whose surface is closest, and cylinders left with too few inliers are dropped.
+// circle; the faces of a corner agree on a ridge of circles). Cylinders that share most inliers with
+// a better supported one are dropped; every point then goes to the cylinder whose surface is
+// closest, and cylinders left with too few inliers are dropped.
 //
 // Random draws come from generators seeded by (seed, direction, scale, cell), and parallel loops
 // write by index, so the result does not depend on the thread count.
@@ -819,12 +819,17 @@ DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDir
     // A mode far short of the candidate share (checked on the final inliers below) is not worth
     // refining: the fits of such ridge modes are most of the refinement work.
     if (mode.support < 0.5 * params.minCandidateShare * static_cast<double>(inliers.size())) return;
-    for (int pass = 0; pass < 2; ++pass) {
-      if (static_cast<int>(inliers.size()) < params.minInliers) return;
-      if (!refineFit(fit, cloud, stripe, inliers, params.refineIterations)) return;
-      if (std::abs(fit.direction.dot(stripe.axis)) < std::cos(kMaxAxisTilt)) return;
-      if (fit.radius < kRadiusSlack * params.minRadius || fit.radius > params.maxRadius / kRadiusSlack) return;
+    // Refines the fit on its inliers and gathers them again; false when it is no pipe along the direction.
+    const auto refineAndGather = [&] {
+      if (static_cast<int>(inliers.size()) < params.minInliers) return false;
+      if (!refineFit(fit, cloud, stripe, inliers, params.refineIterations)) return false;
+      if (std::abs(fit.direction.dot(stripe.axis)) < std::cos(kMaxAxisTilt)) return false;
+      if (fit.radius < kRadiusSlack * params.minRadius || fit.radius > params.maxRadius / kRadiusSlack) return false;
       inliers = search.gather(fit, band);
+      return true;
+    };
+    for (int pass = 0; pass < 2; ++pass) {
+      if (!refineAndGather()) return;
     }
     // On a noisy scan the band cuts off the tails of the surface's noise: widen it to the noise the
     // inliers show (measured within the band, so an estimate that grows as the band does).
@@ -833,11 +838,7 @@ DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDir
       if (noiseBand <= kMinWidening * band) break;
       band = noiseBand;
       inliers = search.gather(fit, band);
-      if (static_cast<int>(inliers.size()) < params.minInliers) return;
-      if (!refineFit(fit, cloud, stripe, inliers, params.refineIterations)) return;
-      if (std::abs(fit.direction.dot(stripe.axis)) < std::cos(kMaxAxisTilt)) return;
-      if (fit.radius < kRadiusSlack * params.minRadius || fit.radius > params.maxRadius / kRadiusSlack) return;
-      inliers = search.gather(fit, band);
+      if (!refineAndGather()) return;
     }
     if (static_cast<int>(inliers.size()) < params.minInliers) return;
     const std::size_t shell = search.countShell(fit, inliers, band);
