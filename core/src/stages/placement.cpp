@@ -203,12 +203,13 @@ struct StripeProjection {
   std::vector<double> scales;                            // pair-selection cell sizes
   std::vector<std::vector<Eigen::Vector2f>> scaleNormals;  // normals in the plane estimated at each scale
 
-  /// The normals estimated over a neighbourhood (half a cell, see drawCandidates) nearest in size to
-  /// `radius`: wide enough to average the noise, not wider than the pipe's own arc.
+  /// The normals estimated over the widest neighbourhood (half a cell, see drawCandidates) that is
+  /// about `radius` or smaller: wide enough to average the noise, not wider than the pipe's own arc.
   const std::vector<Eigen::Vector2f>& normalsFor(double radius) const {
+    constexpr double kSlack = 1.2;
     std::size_t best = 0;
     for (std::size_t s = 1; s < scales.size(); ++s) {
-      if (std::abs(std::log(0.5 * scales[s] / radius)) < std::abs(std::log(0.5 * scales[best] / radius))) best = s;
+      if (0.5 * scales[s] <= kSlack * radius) best = s;
     }
     return scaleNormals[best];
   }
