@@ -179,7 +179,8 @@ std::vector<PipeSegment> segmentsOf(const PointCloud& cloud, const Cylinder& cyl
     std::sort(angles.begin(), angles.end());
     pass[k] = spannedDeg(angles) >= params.minArcDeg;
   }
-  const std::vector<bool> mask = closeThenOpen(pass, params.closingSections, params.bridgeSections, params.minConfidence, params.openingSections);
+  const std::vector<bool> mask =
+      closeThenOpen(pass, params.closingSections, params.bridgeSections, params.minConfidence, params.openingSections);
   sectionCount += sections;
   keptCount += static_cast<std::size_t>(std::count(mask.begin(), mask.end(), true));
 

@@ -835,7 +835,8 @@ DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDir
     // On a noisy scan the band cuts off the tails of the surface's noise: widen it to the noise the
     // inliers show (measured within the band, so an estimate that grows as the band does).
     for (int widening = 0; widening < kMaxWidenings; ++widening) {
-      const double noiseBand = std::min(kMaxBandFactor * params.inlierDistance, kNoiseBands * robustNoise(fit, cloud, stripe, inliers));
+      const double noise = robustNoise(fit, cloud, stripe, inliers);
+      const double noiseBand = std::min(kMaxBandFactor * params.inlierDistance, kNoiseBands * noise);
       if (noiseBand <= kMinWidening * band) break;
       band = noiseBand;
       inliers = search.gather(fit, band);
