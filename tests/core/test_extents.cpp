@@ -95,6 +95,40 @@ TEST(Extents, LongGapSplitsCollinearPipes) {
   EXPECT_DOUBLE_EQ(first.confidence, 1.0);
 }
 
+TEST(Extents, OcclusionBetweenLongRunsIsBridged) {
+  // 60 cm hidden (15 sections: beyond the closing, within bridgeSections) between 1.2 m runs.
+  const ScannedPipe pipe(3.0, [](double x) { return x < 1.2 || x > 1.8; });
+  const ExtentsResult result = computeExtents({pipe.cloud, pipe.placement}, ExtentsParams{});
+  ASSERT_EQ(result.segments.size(), 1u);
+  EXPECT_LT(std::abs(result.segments[0].start.x() - 0.0), 0.02);
+  EXPECT_LT(std::abs(result.segments[0].end.x() - 3.0), 0.02);
+  EXPECT_NEAR(result.segments[0].confidence, 0.8, 0.03);
+}
+
+TEST(Extents, GapLongerThanItsRunsIsNotBridged) {
+  // The same 60 cm gap between two 40 cm pieces: too little pipe on either side to vouch for it.
+  const ScannedPipe pipe(1.4, [](double x) { return x < 0.4 || x > 1.0; });
+  const ExtentsResult result = computeExtents({pipe.cloud, pipe.placement}, ExtentsParams{});
+  ASSERT_EQ(result.segments.size(), 2u);
+  for (const PipeSegment& segment : result.segments) EXPECT_NEAR((segment.end - segment.start).norm(), 0.4, 0.02);
+}
+
+TEST(Extents, PieceMostlyMadeUpByTheClosingIsDropped) {
+  // Visible 4 cm in every 16 cm: the closing joins the pieces into a run where well under half of
+  // the sections passed (a visible stretch may straddle two), as a chance fit through scattered
+  // surface patches leaves.
+  const ScannedPipe pipe(2.0, [](double x) { return std::fmod(x, 0.16) < 0.04; });
+  ExtentsResult result = computeExtents({pipe.cloud, pipe.placement}, ExtentsParams{});
+  EXPECT_TRUE(result.segments.empty());
+
+  ExtentsParams lenient;
+  lenient.minConfidence = 0.2;
+  result = computeExtents({pipe.cloud, pipe.placement}, lenient);
+  ASSERT_EQ(result.segments.size(), 1u);
+  EXPECT_GT(result.segments[0].confidence, 0.2);
+  EXPECT_LT(result.segments[0].confidence, 0.5);
+}
+
 TEST(Extents, NoiseBlobsAndSliversAreDropped) {
   ScannedPipe pipe(1.5, [](double) { return true; });
   Rng rng(9);
@@ -142,11 +176,18 @@ TEST(Extents, SparseFarPipeIsJudgedOverNeighbouringSections) {
 TEST(Extents, AxisCoverageThreshold) {
   // The second half is scanned at a fifth of the density (every fifth ring of points).
   ScannedPipe pipe(2.0, [](double x) { return x < 1.0 || std::fmod(x, 0.05) < 0.01; });
-  ExtentsParams automatic;
-  automatic.minDensityRatio = 0.5;
-  const ExtentsResult thinDropped = computeExtents({pipe.cloud, pipe.placement}, automatic);
+  ExtentsParams whole;
+  whole.minDensityRatio = 0.5;
+  whole.densityWindow = 10.0;  // the whole cylinder's median density: the thin half fails
+  const ExtentsResult thinDropped = computeExtents({pipe.cloud, pipe.placement}, whole);
   ASSERT_EQ(thinDropped.segments.size(), 1u);
   EXPECT_LT(std::abs(thinDropped.segments[0].end.x() - 1.0), 0.03);
+
+  ExtentsParams local = whole;
+  local.densityWindow = 0.3;  // the median within 30 cm: the thin half is judged by its own density
+  const ExtentsResult thinFollowed = computeExtents({pipe.cloud, pipe.placement}, local);
+  ASSERT_EQ(thinFollowed.segments.size(), 1u);
+  EXPECT_GT(thinFollowed.segments[0].end.x(), 1.95);
 
   ExtentsParams fixed;
   fixed.minPointsPerMetre = 100.0;  // 4 points a section: the thin half passes too

@@ -20,12 +20,13 @@
 // seeded at the peaks of a 3-D histogram whose cells are the kernel's reach. A mode with enough
 // candidates becomes a cylinder: its inliers (near the surface, normal radial) are refined by
 // Gauss-Newton least squares on axis direction, axis point and radius, gathered again and refined
-// again. Then the fit must look like a pipe: no surface continuing just outside the inlier band
-// (the faces beyond a box edge, whose smoothed normals mimic a small pipe), no systematic offset
-// pattern around the axis (a square post), and a mode that holds many candidates per inlier (pairs
-// of a real pipe agree on its circle; the faces of a corner agree on a ridge of circles). Cylinders
-// that share most inliers with a better supported one are dropped; every point then goes to the
-// cylinder whose surface is closest, and cylinders left with too few inliers are dropped.
+// again; on a noisy scan the inlier band then widens to the noise the inliers show. Then the fit
+// must look like a pipe: no surface continuing just outside the inlier band (the faces beyond a box
+// edge, whose smoothed normals mimic a small pipe), no systematic offset pattern around the axis (a
+// square post), and a mode that holds many candidates per inlier (pairs of a real pipe agree on its
+// circle; the faces of a corner agree on a ridge of circles). Cylinders that share most inliers with
+// a better supported one are dropped; every point then goes to the cylinder whose surface is
+// closest, and cylinders left with too few inliers are dropped.
 //
 // Random draws come from generators seeded by (seed, direction, scale, cell), and parallel loops
 // write by index, so the result does not depend on the thread count.
@@ -69,7 +70,11 @@ constexpr double kMaxAxisTilt = 10.0 * kDegree;  // a refined axis farther than 
 constexpr double kDuplicateShare = 0.5;   // a cylinder sharing this share of its inliers is a copy
 constexpr double kRadiusSlack = 0.8;     // a refined radius may leave [minRadius, maxRadius] by this factor
 constexpr double kMinOutOfRound = 0.001;  // out-of-roundness always tolerated (m): noise on few points
-constexpr double kShellReach = 2.5;       // outer edge of the shell tested beyond the inlier band, in inlier distances
+constexpr double kShellReach = 2.5;       // outer edge of the shell tested beyond the inlier band, in bands
+constexpr double kNoiseBands = 2.5;       // a noisy scan's inlier band, in standard deviations of its surface noise...
+constexpr double kMaxBandFactor = 3.0;    // ...at most this many times inlierDistance...
+constexpr double kMinWidening = 1.05;     // ...and taken only when wider than the band by this factor
+constexpr int kMaxWidenings = 3;          // (the noise measured within a band grows with it)
 
 // ---------------------------------------------------------------------------------------------
 // A hash grid: items grouped by an integer cell key, a cell's items found in constant time.
@@ -198,11 +203,13 @@ struct StripeProjection {
   std::vector<double> scales;                            // pair-selection cell sizes
   std::vector<std::vector<Eigen::Vector2f>> scaleNormals;  // normals in the plane estimated at each scale
 
-  /// The normals estimated at the scale that suits `radius` best.
+  /// The normals estimated over the widest neighbourhood (half a cell, see drawCandidates) that is
+  /// about `radius` or smaller: wide enough to average the noise, not wider than the pipe's own arc.
   const std::vector<Eigen::Vector2f>& normalsFor(double radius) const {
+    constexpr double kSlack = 1.2;
     std::size_t best = 0;
     for (std::size_t s = 1; s < scales.size(); ++s) {
-      if (std::abs(std::log(scales[s] / radius)) < std::abs(std::log(scales[best] / radius))) best = s;
+      if (0.5 * scales[s] <= kSlack * radius) best = s;
     }
     return scaleNormals[best];
   }
@@ -586,13 +593,14 @@ class InlierSearch {
       : cloud_(cloud), stripe_(stripe), params_(params), minNormalCos_(std::cos(params.inlierNormalAngleDeg * kDegree)),
         grid_(gridKeys(stripe)) {}
 
-  /// Stripe points (indices into the stripe) near the surface whose normal in the plane is radial, ascending.
-  std::vector<std::uint32_t> gather(const CylinderFit& fit) const {
+  /// Stripe points (indices into the stripe) within `band` of the surface whose normal in the plane is
+  /// radial, ascending.
+  std::vector<std::uint32_t> gather(const CylinderFit& fit, double band) const {
     std::vector<std::uint32_t> inliers;
     const std::vector<Eigen::Vector2f>& normals = stripe_.normalsFor(fit.radius);
-    visitNear(fit, params_.inlierDistance, [&](std::uint32_t i, double offset, const Eigen::Vector3d& radial) {
+    visitNear(fit, band, [&](std::uint32_t i, double offset, const Eigen::Vector3d& radial) {
       const Eigen::Vector2d normal = normals[i].cast<double>();
-      if (std::abs(offset) < params_.inlierDistance &&
+      if (std::abs(offset) < band &&
           std::abs(normal.x() * radial.dot(stripe_.u) + normal.y() * radial.dot(stripe_.v)) >= minNormalCos_) {
         inliers.push_back(i);
       }
@@ -601,19 +609,19 @@ class InlierSearch {
     return inliers;
   }
 
-  /// Stripe points just outside the inlier band (up to kShellReach inlier distances off the
-  /// surface) between the inliers' axial extremes: the faces that continue past a box edge.
-  std::size_t countShell(const CylinderFit& fit, const std::vector<std::uint32_t>& inliers) const {
+  /// Stripe points just outside the inlier band (up to kShellReach bands off the surface) between
+  /// the inliers' axial extremes: the faces that continue past a box edge.
+  std::size_t countShell(const CylinderFit& fit, const std::vector<std::uint32_t>& inliers, double band) const {
     double low = std::numeric_limits<double>::infinity(), high = -low;
     for (const std::uint32_t i : inliers) {
       const double along = (cloud_.positions[stripe_.points[i]].cast<double>() - fit.point).dot(fit.direction);
       low = std::min(low, along);
       high = std::max(high, along);
     }
-    const double reach = kShellReach * params_.inlierDistance;
+    const double reach = kShellReach * band;
     std::size_t shell = 0;
     visitNear(fit, reach, [&](std::uint32_t i, double offset, const Eigen::Vector3d&) {
-      if (offset < params_.inlierDistance || offset > reach) return;
+      if (offset < band || offset > reach) return;
       const double along = (cloud_.positions[stripe_.points[i]].cast<double>() - fit.point).dot(fit.direction);
       if (along >= low && along <= high) ++shell;
     });
@@ -672,6 +680,20 @@ bool refineFit(CylinderFit& fit, const PointCloud& cloud, const StripeProjection
   std::vector<Eigen::Vector3d> points(inliers.size());
   for (std::size_t k = 0; k < inliers.size(); ++k) points[k] = cloud.positions[stripe.points[inliers[k]]].cast<double>();
   return refineCylinderFit(points, fit.point, fit.direction, fit.radius, iterations);
+}
+
+/// Standard deviation of the inliers' surface offsets, from their median absolute value (robust to the
+/// few points of other surfaces that pass the inlier test).
+double robustNoise(const CylinderFit& fit, const PointCloud& cloud, const StripeProjection& stripe,
+                   const std::vector<std::uint32_t>& inliers) {
+  if (inliers.empty()) return 0.0;
+  std::vector<double> offsets(inliers.size());
+  for (std::size_t k = 0; k < inliers.size(); ++k) {
+    offsets[k] = std::abs(surfaceOffset(fit, cloud.positions[stripe.points[inliers[k]]].cast<double>()).first);
+  }
+  const auto middle = offsets.begin() + static_cast<std::ptrdiff_t>(offsets.size() / 2);
+  std::nth_element(offsets.begin(), middle, offsets.end());
+  return 1.4826 * *middle;  // the median absolute deviation of a normal distribution is 0.6745 σ
 }
 
 /// How far the inliers' surface offsets vary systematically around the axis (m): the RMS of the
@@ -753,19 +775,35 @@ DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDir
     fit.direction = stripe.axis;
     fit.point = mode.at.x() * stripe.u + mode.at.y() * stripe.v + 0.5 * double(stripe.alongMin + stripe.alongMax) * stripe.axis;
     fit.radius = mode.at.z();
-    std::vector<std::uint32_t> inliers = search.gather(fit);
+    double band = params.inlierDistance;
+    std::vector<std::uint32_t> inliers = search.gather(fit, band);
     // A mode far short of the candidate share (checked on the final inliers below) is not worth
     // refining: the fits of such ridge modes are most of the refinement work.
     if (mode.support < 0.5 * params.minCandidateShare * static_cast<double>(inliers.size())) return;
+    // Refines the fit on its inliers and gathers them again; false when it is no pipe along the direction.
+    const auto refineAndGather = [&] {
+      if (static_cast<int>(inliers.size()) < params.minInliers) return false;
+      if (!refineFit(fit, cloud, stripe, inliers, params.refineIterations)) return false;
+      if (std::abs(fit.direction.dot(stripe.axis)) < std::cos(kMaxAxisTilt)) return false;
+      if (fit.radius < kRadiusSlack * params.minRadius || fit.radius > params.maxRadius / kRadiusSlack) return false;
+      inliers = search.gather(fit, band);
+      return true;
+    };
     for (int pass = 0; pass < 2; ++pass) {
-      if (static_cast<int>(inliers.size()) < params.minInliers) return;
-      if (!refineFit(fit, cloud, stripe, inliers, params.refineIterations)) return;
-      if (std::abs(fit.direction.dot(stripe.axis)) < std::cos(kMaxAxisTilt)) return;
-      if (fit.radius < kRadiusSlack * params.minRadius || fit.radius > params.maxRadius / kRadiusSlack) return;
-      inliers = search.gather(fit);
+      if (!refineAndGather()) return;
+    }
+    // On a noisy scan the band cuts off the tails of the surface's noise: widen it to the noise the
+    // inliers show (measured within the band, so an estimate that grows as the band does).
+    for (int widening = 0; widening < kMaxWidenings; ++widening) {
+      const double noise = robustNoise(fit, cloud, stripe, inliers);
+      const double noiseBand = std::min(kMaxBandFactor * params.inlierDistance, kNoiseBands * noise);
+      if (noiseBand <= kMinWidening * band) break;
+      band = noiseBand;
+      inliers = search.gather(fit, band);
+      if (!refineAndGather()) return;
     }
     if (static_cast<int>(inliers.size()) < params.minInliers) return;
-    const std::size_t shell = search.countShell(fit, inliers);
+    const std::size_t shell = search.countShell(fit, inliers, band);
     if (static_cast<double>(shell) > params.maxShellShare * static_cast<double>(inliers.size())) return;
     if (outOfRoundness(fit, cloud, stripe, inliers) > std::max(kMinOutOfRound, params.maxOutOfRound * fit.radius)) return;
     Cylinder cylinder;

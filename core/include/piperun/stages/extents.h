@@ -16,14 +16,20 @@ namespace piperun {
 struct ExtentsParams {
   double sectionLength = 0.04;       ///< Axial section length (m).
   double minPointsPerMetre = 0.0;    ///< Axis coverage: a section needs this many points per metre; 0 = automatic
-                                     ///< (a fraction `minDensityRatio` of the cylinder's median section density).
-  double minDensityRatio = 0.2;      ///< Used when minPointsPerMetre is 0.
+                                     ///< (a fraction `minDensityRatio` of the median section density)...
+  double minDensityRatio = 0.2;      ///< Used when minPointsPerMetre is 0...
+  double densityWindow = 0.5;        ///< ...against the median density within this distance (m) along the axis when
+                                     ///< lower than the whole cylinder's (a long pipe thins out far from the scanner).
   double minArcDeg = 45.0;           ///< Cross-section coverage: a section's points (pooled with its neighbours' up to
                                      ///< six points) must span this angle around the axis (360° minus their largest
                                      ///< gap). The paper's 180° needs several stations; one station sees at most half a
                                      ///< pipe (measurements in extents.cpp).
   int closingSections = 10;          ///< 1-D closing fills gaps up to this many sections (occlusions behind other pipes)...
+  int bridgeSections = 20;           ///< ...and gaps up to this many between two runs each at least as long as the gap
+                                     ///< (when the joined run keeps minConfidence)...
   int openingSections = 2;           ///< ...then opening drops pieces shorter than this many sections.
+  double minConfidence = 0.7;        ///< Pieces where fewer than this share of the sections passed both coverage tests
+                                     ///< (the closing filled the rest) are dropped, and a bridge must leave this share.
   double minLength = 0.1;            ///< Pipes shorter than this (m) are dropped.
 };
 

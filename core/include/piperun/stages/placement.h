@@ -26,7 +26,8 @@ struct PlacementParams {
   double centerBandwidth = 0.01;    ///< Mean-shift kernel width for the centre (m)...
   double radiusBandwidth = 0.006;   ///< ...and for the radius (m).
   int minCandidates = 25;           ///< A circle needs at least this many candidates in its mode.
-  double inlierDistance = 0.012;    ///< A point is an inlier when within this of the cylinder surface (m)...
+  double inlierDistance = 0.012;    ///< A point is an inlier when within this of the cylinder surface (m; widened to
+                                    ///< 2.5 robust standard deviations of a noisier fit's offsets, up to 3 × this)...
   double inlierNormalAngleDeg = 30; ///< ...and its normal in the plane (re-estimated there from its neighbours) within
                                     ///< this angle of the radial direction.
   int minInliers = 40;              ///< Cylinders with fewer inliers are dropped.
