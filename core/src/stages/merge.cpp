@@ -9,33 +9,18 @@
 
 #include "piperun/stages/merge.h"
 
+#include "union_find.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <numeric>
+#include <limits>
 
 namespace piperun {
 
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-class UnionFind {
- public:
-  explicit UnionFind(std::size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0); }
-  std::size_t find(std::size_t i) {
-    while (parent_[i] != i) i = parent_[i] = parent_[parent_[i]];
-    return i;
-  }
-  void unite(std::size_t a, std::size_t b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent_[std::max(a, b)] = std::min(a, b);
-  }
-
- private:
-  std::vector<std::size_t> parent_;
-};
 
 Eigen::Vector3d unitAxis(const PipeSegment& segment) {
   const Eigen::Vector3d d = segment.end - segment.start;

@@ -28,8 +28,9 @@ struct ExtentsParams {
   int bridgeSections = 20;           ///< ...and gaps up to this many between two runs each at least as long as the gap
                                      ///< (when the joined run keeps minConfidence)...
   int openingSections = 2;           ///< ...then opening drops pieces shorter than this many sections.
-  double minConfidence = 0.7;        ///< Pieces where fewer than this share of the sections passed both coverage tests
+  double minConfidence = 0.6;        ///< Pieces where fewer than this share of the sections passed both coverage tests
                                      ///< (the closing filled the rest) are dropped, and a bridge must leave this share.
+                                     ///< (0.7 drops the pump room's short piece between two elbows.)
   double minLength = 0.1;            ///< Pipes shorter than this (m) are dropped.
 };
 
