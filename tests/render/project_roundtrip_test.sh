@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Project files through piperun-render: a review script ends in `save`; reopening the project
 # restores it exactly (re-saving gives the same bytes), its statuses and its undo history; a changed
-# scan and a newer autosave are reported and the project still opens.
+# scan and a newer autosave are reported and the project still opens; `recover` takes the autosave.
 # Usage: project_roundtrip_test.sh PIPERUN_RENDER SCENE WORK_DIR
 set -euo pipefail
 render=$1 scene=$2 work=$3
@@ -49,12 +49,18 @@ cmp <(network_of before.piperun) <(network_of undone.piperun) || { echo "undo af
 
 # A changed scan and a newer autosave are reported; the project opens all the same.
 printf '\x01' | dd of=scene.ply bs=1 seek=$(($(stat -c %s scene.ply) - 1)) conv=notrunc status=none
-cp review.piperun review.piperun.autosave
+cp before.piperun review.piperun.autosave
 touch -d "@$(($(stat -c %Y review.piperun) + 60))" review.piperun.autosave
-printf 'save reopened.piperun\n' >reopen.txt
+printf 'review on\n' >reopen.txt  # No save: saving would make the autosave obsolete.
 run review.piperun --script reopen.txt 2>warnings.txt
 cat warnings.txt
 grep -q "changed since the project was saved" warnings.txt || { echo "no warning for the changed scan" >&2; exit 1; }
 grep -q "review.piperun.autosave is newer than the project" warnings.txt || { echo "no warning for the autosave" >&2; exit 1; }
-cmp <(network_of review.piperun) <(network_of reopened.piperun) || { echo "the network changed with the scan" >&2; exit 1; }
+
+# `recover` opens the autosave in the project's place, its network as saved whatever the scan;
+# `save` without a path writes the project.
+printf 'recover\nsave\n' >recover.txt
+run review.piperun --script recover.txt 2>/dev/null
+cmp <(network_of before.piperun) <(network_of review.piperun) || { echo "recovering did not save the autosave's network" >&2; exit 1; }
+[[ ! -e review.piperun.autosave ]] || { echo "saving left the autosave behind" >&2; exit 1; }
 echo "project round trip ok"

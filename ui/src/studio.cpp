@@ -368,7 +368,7 @@ void Studio::Impl::layout() {
   // Top right, below the joint legend.
   reviewText->SetPosition(textRect.x1 * width - pad, textRect.y1 * height - pad - 58.0 * scale);
   reviewText->GetTextProperty()->SetFontSize(static_cast<int>(13 * scale));
-  noticeText->SetPosition(0.5 * width, textRect.y1 * height - 70.0 * scale);
+  noticeText->SetPosition(0.5 * (textRect.x0 + textRect.x1) * width, textRect.y1 * height - 70.0 * scale);
   noticeText->GetTextProperty()->SetFontSize(static_cast<int>(14 * scale));
   helpCommandsText->SetPosition(pad * 2, height - 84.0 * scale);  // Below the status lines.
   placeKeysHelp();
@@ -854,7 +854,18 @@ std::string Studio::command(const std::string& line) {
 }
 
 void Studio::runScript(const std::filesystem::path& path) {
-  impl_->message = impl_->commands.runScript(path);
+  if (impl_->worker.joinable()) throw CommandError("a run is in progress (Esc cancels it)");
+  // Each line sees what the one before did: a script's runs finish before its next line.
+  const bool background = impl_->options.backgroundStages;
+  impl_->options.backgroundStages = false;
+  try {
+    impl_->message = impl_->commands.runScript(path);
+  } catch (...) {
+    impl_->options.backgroundStages = background;
+    impl_->updateOverlays();
+    throw;
+  }
+  impl_->options.backgroundStages = background;
   impl_->updateOverlays();
 }
 

@@ -53,6 +53,8 @@ class Studio {
 
   /// Runs a named command (see commands().helpLines()); returns its message, throws CommandError.
   std::string command(const std::string& line);
+  /// Runs a script, one command a line; its runs finish before the next line (even with
+  /// backgroundStages). Throws CommandError naming the script and line.
   void runScript(const std::filesystem::path& path);
   const CommandRegistry& commands() const;
 
