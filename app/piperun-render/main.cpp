@@ -73,7 +73,8 @@ int main(int argc, char** argv) {
     }
     studio.open(input);
     const piperun::ui::Document& document = studio.document();
-    for (const auto& warning : document.warnings()) std::fprintf(stderr, "piperun-render: warning: %s\n", warning.c_str());
+    for (const auto& warning : document.warnings())
+      std::fprintf(stderr, "piperun-render: warning: %s\n", warning.c_str());
     if (document.newerAutosave()) {
       std::fprintf(stderr, "piperun-render: warning: %s is newer than the project (not opened; open it to recover)\n",
                    document.newerAutosave()->string().c_str());

@@ -69,10 +69,10 @@ StudioWindow& self(GLFWwindow* window) { return *static_cast<StudioWindow*>(glfw
 /// X11 keysym names for the keys the studio binds (VTK's interactors use them).
 std::string keySym(int key) {
   static const std::map<int, std::string> kNames{
-      {GLFW_KEY_ESCAPE, "Escape"}, {GLFW_KEY_ENTER, "Return"},  {GLFW_KEY_KP_ENTER, "Return"}, {GLFW_KEY_HOME, "Home"},
-      {GLFW_KEY_LEFT, "Left"},     {GLFW_KEY_RIGHT, "Right"},   {GLFW_KEY_UP, "Up"},           {GLFW_KEY_DOWN, "Down"},
-      {GLFW_KEY_SPACE, "space"},   {GLFW_KEY_DELETE, "Delete"}, {GLFW_KEY_TAB, "Tab"},
-      {GLFW_KEY_INSERT, "Insert"}};
+      {GLFW_KEY_ESCAPE, "Escape"}, {GLFW_KEY_ENTER, "Return"}, {GLFW_KEY_KP_ENTER, "Return"},
+      {GLFW_KEY_HOME, "Home"},     {GLFW_KEY_LEFT, "Left"},    {GLFW_KEY_RIGHT, "Right"},
+      {GLFW_KEY_UP, "Up"},         {GLFW_KEY_DOWN, "Down"},    {GLFW_KEY_SPACE, "space"},
+      {GLFW_KEY_DELETE, "Delete"}, {GLFW_KEY_TAB, "Tab"},      {GLFW_KEY_INSERT, "Insert"}};
   if (key >= GLFW_KEY_A && key <= GLFW_KEY_Z) return std::string(1, static_cast<char>('a' + key - GLFW_KEY_A));
   if (key >= GLFW_KEY_0 && key <= GLFW_KEY_9) return std::string(1, static_cast<char>('0' + key - GLFW_KEY_0));
   const auto found = kNames.find(key);

@@ -451,9 +451,9 @@ std::vector<StageState> Studio::Impl::stageStates() const {
   for (Stage stage : kAllStages) {
     const auto index = static_cast<std::size_t>(stage);
     if (worker.joinable()) {
-      states.push_back(freshBeforeRun[index]                                  ? StageState::Fresh
+      states.push_back(freshBeforeRun[index]                                          ? StageState::Fresh
                        : static_cast<int>(stage) <= static_cast<int>(pendingRun.last) ? StageState::Running
-                                                                              : StageState::Stale);
+                                                                                      : StageState::Stale);
     } else {
       states.push_back(pipeline && pipeline->isFresh(stage) ? StageState::Fresh : StageState::Stale);
     }
@@ -563,9 +563,8 @@ void Studio::Impl::updateOverlays() {
     review << "Review  joints: " << counts.accepted << " accepted, " << counts.rejected << " rejected, " << counts.left
            << " left\npipes: " << deleted << " deleted";
     const std::vector<int> queue = jointReviewQueue(network);
-    const auto place = selection.kind == Selection::Kind::Joint
-                           ? std::find(queue.begin(), queue.end(), selection.id)
-                           : queue.end();
+    const auto place =
+        selection.kind == Selection::Kind::Joint ? std::find(queue.begin(), queue.end(), selection.id) : queue.end();
     if (place != queue.end())
       review << "\njoint " << selection.id << ": " << (place - queue.begin() + 1) << " of " << queue.size() << " left";
     review << "\nN/P next/previous  A accept  R reject\nDel delete pipe  Ins restore  Ctrl+Z undo";
@@ -634,7 +633,8 @@ CommandOutcome Studio::Impl::finishRun(const CommandInterpreter::PendingRun& run
   rebuildAll();
   if (layers.count("plane/points")) resetPlaneCamera();
   // Edits that could not be carried onto the new network are listed, never dropped silently.
-  for (const DroppedEdit& dropped : outcome.dropped) outcome.message += "\nnot carried over: " + dropped.command + ": " + dropped.reason;
+  for (const DroppedEdit& dropped : outcome.dropped)
+    outcome.message += "\nnot carried over: " + dropped.command + ": " + dropped.reason;
   return outcome;
 }
 
