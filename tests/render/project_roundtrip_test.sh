@@ -47,6 +47,11 @@ printf 'undo\nundo\nundo\nundo\nsave undone.piperun\n' >undo.txt
 run review.piperun --script undo.txt
 cmp <(network_of before.piperun) <(network_of undone.piperun) || { echo "undo after reopening did not restore the network" >&2; exit 1; }
 
+# piperun-render never autosaves, however many edits a script makes without saving.
+printf 'undo\nundo\nundo\nundo\nredo\nredo\n' >unsaved.txt
+run review.piperun --script unsaved.txt
+[[ ! -e review.piperun.autosave ]] || { echo "piperun-render autosaved" >&2; exit 1; }
+
 # A changed scan and a newer autosave are reported; the project opens all the same.
 printf '\x01' | dd of=scene.ply bs=1 seek=$(($(stat -c %s scene.ply) - 1)) conv=notrunc status=none
 cp before.piperun review.piperun.autosave

@@ -270,6 +270,7 @@ void Studio::Impl::registerCommands() {
                  expectArguments(args, 0, 0, "recover");
                  if (!document.newerAutosave()) throw CommandError("no autosave newer than the project");
                  const std::filesystem::path autosave = *document.newerAutosave();
+                 const ViewMode shownViews = viewMode;  // The same project: keep the views as they were.
                  try {
                    OpenedProject opened = openProject(autosave);
                    opened.project.file = document.project().file;  // Saving goes to the project, not the sidecar.
@@ -277,6 +278,8 @@ void Studio::Impl::registerCommands() {
                  } catch (const InputError& error) {
                    throw CommandError(error.what());
                  }
+                 viewMode = shownViews;
+                 layout();
                  noticeShown = false;
                  updateOverlays();
                  return "recovered " + autosave.string() + " (save writes it over the project)";
