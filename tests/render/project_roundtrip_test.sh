@@ -16,8 +16,8 @@ network_of() { awk '/^ "network":/ { inside = 1 } /^ "base":/ { inside = 0 } ins
 count_status() { network_of "$1" | grep -c "\"status\": \"$2\"" || true; }
 
 cat >edits.txt <<'SCRIPT'
-# More joints to review: accept only the confident ones.
-rerun joints accept_confidence=0.9
+# More joints to review: accept only the most confident ones.
+rerun joints accept_confidence=0.99
 save before.piperun
 review next
 review reject

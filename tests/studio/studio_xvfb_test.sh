@@ -35,7 +35,7 @@ export DISPLAY=":$display"
 # Propose the joints the pipeline is less sure of; hide the points and grey the pipes so that only
 # the highlight is magenta; centre the view on pipe 1; make the merge stage stale.
 cat >"$work/setup.txt" <<'SCRIPT'
-rerun joints accept_confidence=0.9
+rerun joints accept_confidence=0.99
 layer input/points off
 color pipes plain
 select pipe 1
