@@ -18,3 +18,30 @@ printf 'select direction 0\n' >"$work/plane.txt"
 render "$work/scene.ply" --script "$work/plane.txt" --view plane --size 600x500 -o docs/images/studio-plane.png
 printf 'joint 19 reject\njoint 23 propose\njoint 26 propose\ncolor pipes plain\ncamera zoom 1.5\n' >"$work/joints.txt"
 render "$work/truth.json" --script "$work/joints.txt" --view scene --size 800x500 -o docs/images/studio-joints.png
+
+# Review: more joints proposed, two rejected (faded), one accepted, a pipe deleted (ghosted), the
+# counters; then the same review saved, and reopened with a newer autosave beside it.
+cat >"$work/review.txt" <<'SCRIPT'
+rerun joints accept_confidence=0.9
+layer input/points off
+color pipes plain
+review next
+review reject
+review reject
+review accept
+select pipe 3
+review delete
+review previous
+camera reset
+camera azimuth -30
+camera zoom 2
+SCRIPT
+render "$work/scene.ply" --script "$work/review.txt" --view scene --size 800x500 -o docs/images/studio-review.png
+printf 'review next\nfly\n' >"$work/fly.txt"
+cat "$work/review.txt" "$work/fly.txt" >"$work/review-fly.txt"
+render "$work/scene.ply" --script "$work/review-fly.txt" --view scene --size 800x500 -o docs/images/studio-review-joint.png
+printf 'rerun joints accept_confidence=0.9\njoint 21 reject\nsave %s\n' "$work/review.piperun" >"$work/save.txt"
+render "$work/scene.ply" --script "$work/save.txt" -o "$work/saved.png" >/dev/null
+cp "$work/review.piperun" "$work/review.piperun.autosave"
+touch -d "@$(($(stat -c %Y "$work/review.piperun") + 60))" "$work/review.piperun.autosave"
+render "$work/review.piperun" --size 1280x800 -o docs/images/studio-recovery.png 2>/dev/null

@@ -26,14 +26,15 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "piperun-render " PIPERUN_VERSION);
   std::string input, script, output, view = "all", size = "1280x800";
   bool noRun = false, listCommands = false;
-  app.add_option("input", input, "Scan (.ply .pcd .xyz .pts .las .e57 ...) or network (.json)");
+  app.add_option("input", input, "Scan (.ply .pcd .xyz .pts .las .e57 ...), network (.json) or project (.piperun)");
   app.add_flag("--commands", listCommands, "List the studio's commands and key bindings, then exit");
   app.add_option("--script", script, "Commands to run after opening, one a line (# comments)");
   app.add_option("--view", view, "What to draw: the whole window or one view")
       ->check(CLI::IsMember({"all", "scene", "sphere", "plane"}))
       ->capture_default_str();
   app.add_option("--size", size, "Image size WIDTHxHEIGHT in pixels")->capture_default_str();
-  app.add_flag("--no-run", noRun, "Show the scan without running the pipeline");
+  app.add_flag("--no-run", noRun,
+               "Show the scan without running the pipeline (a project: without recomputing its fresh stages)");
   app.add_option("-o,--output", output, "PNG to write");
   CLI11_PARSE(app, argc, argv);
   if (!listCommands && (input.empty() || output.empty())) {
@@ -59,7 +60,10 @@ int main(int argc, char** argv) {
     interactor->SetRenderWindow(window);
     interactor->Initialize();
 
-    piperun::ui::Studio studio(window, interactor);
+    piperun::ui::StudioOptions options;
+    options.autosaveEdits = 0;  // A batch run saves when its script says so.
+    options.restoreStages = !noRun;
+    piperun::ui::Studio studio(window, interactor, options);
     if (listCommands) {
       std::printf("Commands:\n");
       for (const auto& line : studio.commands().helpLines()) std::printf("  %s\n", line.c_str());
@@ -68,7 +72,14 @@ int main(int argc, char** argv) {
       return 0;
     }
     studio.open(input);
-    if (studio.document().hasPipeline() && !noRun) studio.command("run");
+    const piperun::ui::Document& document = studio.document();
+    for (const auto& warning : document.warnings())
+      std::fprintf(stderr, "piperun-render: warning: %s\n", warning.c_str());
+    if (document.newerAutosave()) {
+      std::fprintf(stderr, "piperun-render: warning: %s is newer than the project (not opened; open it to recover)\n",
+                   document.newerAutosave()->string().c_str());
+    }
+    if (document.hasPipeline() && !noRun && !piperun::ui::isProjectFile(input)) studio.command("run");
     if (view != "all") {
       studio.command("widgets off");
       studio.command("view " + view);

@@ -51,11 +51,11 @@ struct StudioWindow {
 
   void updateTitle() { glfwSetWindowTitle(window, studio->title().c_str()); }
 
-  /// Opens a file and starts the pipeline on it when it is a scan.
+  /// Opens a file and starts the pipeline on it when it is a scan (a project recomputes its fresh stages itself).
   void open(const std::string& path) {
     try {
       studio->command("open " + path);
-      if (studio->document().hasPipeline()) studio->command("run");
+      if (studio->document().hasPipeline() && !piperun::ui::isProjectFile(path)) studio->command("run");
     } catch (const std::exception& error) {
       std::fprintf(stderr, "piperun-studio: error: %s\n", error.what());
     }
@@ -69,9 +69,10 @@ StudioWindow& self(GLFWwindow* window) { return *static_cast<StudioWindow*>(glfw
 /// X11 keysym names for the keys the studio binds (VTK's interactors use them).
 std::string keySym(int key) {
   static const std::map<int, std::string> kNames{
-      {GLFW_KEY_ESCAPE, "Escape"}, {GLFW_KEY_ENTER, "Return"},  {GLFW_KEY_KP_ENTER, "Return"}, {GLFW_KEY_HOME, "Home"},
-      {GLFW_KEY_LEFT, "Left"},     {GLFW_KEY_RIGHT, "Right"},   {GLFW_KEY_UP, "Up"},           {GLFW_KEY_DOWN, "Down"},
-      {GLFW_KEY_SPACE, "space"},   {GLFW_KEY_DELETE, "Delete"}, {GLFW_KEY_TAB, "Tab"}};
+      {GLFW_KEY_ESCAPE, "Escape"}, {GLFW_KEY_ENTER, "Return"}, {GLFW_KEY_KP_ENTER, "Return"},
+      {GLFW_KEY_HOME, "Home"},     {GLFW_KEY_LEFT, "Left"},    {GLFW_KEY_RIGHT, "Right"},
+      {GLFW_KEY_UP, "Up"},         {GLFW_KEY_DOWN, "Down"},    {GLFW_KEY_SPACE, "space"},
+      {GLFW_KEY_DELETE, "Delete"}, {GLFW_KEY_TAB, "Tab"},      {GLFW_KEY_INSERT, "Insert"}};
   if (key >= GLFW_KEY_A && key <= GLFW_KEY_Z) return std::string(1, static_cast<char>('a' + key - GLFW_KEY_A));
   if (key >= GLFW_KEY_0 && key <= GLFW_KEY_9) return std::string(1, static_cast<char>('0' + key - GLFW_KEY_0));
   const auto found = kNames.find(key);
@@ -140,7 +141,8 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "piperun-studio " PIPERUN_VERSION);
   std::string input, script, size = "1400x860";
   app.add_option("input", input,
-                 "Scan (.ply .pcd .xyz .pts .las .e57 ...) or network (.json); or drop one on the window");
+                 "Scan (.ply .pcd .xyz .pts .las .e57 ...), network (.json) or project (.piperun); or drop one on "
+                 "the window");
   app.add_option("--script", script,
                  "Commands to run once the first pipeline run has finished (one a line, # comments)");
   app.add_option("--size", size, "Window size WIDTHxHEIGHT in screen units")->capture_default_str();
@@ -249,6 +251,7 @@ int main(int argc, char** argv) {
       }
       if (state.redraw) {
         state.redraw = false;
+        state.updateTitle();  // Saving names the project.
         studio.render();
       }
     }

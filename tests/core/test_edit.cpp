@@ -94,6 +94,8 @@ TEST(ReviewQueue, ProposedJointsLowestConfidenceFirst) {
   EXPECT_EQ(counts.accepted, 2);
   EXPECT_EQ(counts.rejected, 1);
   EXPECT_EQ(counts.left, 1);
+  session.apply(parse("joint 9 propose"), context());  // Back in the queue, in its place.
+  EXPECT_EQ(jointReviewQueue(session.network()), (std::vector<int>{9, 6}));
 }
 
 TEST(EditSession, RejectedJointsAndDeletedPipesLeaveTheRunsAtOnce) {
@@ -275,7 +277,7 @@ TEST(CarryOver, DecisionsFollowTheirElementsAndTheRestIsListed) {
 }
 
 TEST(EditCommands, RoundTripThroughTheirText) {
-  for (const char* line : {"joint 12 accept", "joint 12 reject", "joint add 3 4", "pipe 3 delete", "pipe 3 restore",
+  for (const char* line : {"joint 12 accept", "joint 12 reject", "joint 12 propose", "joint add 3 4", "pipe 3 delete", "pipe 3 restore",
                            "pipe 3 merge 4", "pipe 3 split 1.5 -0.25 2.125", "pipe 3 radius 0.0545", "pipe 3 snap",
                            "pipe 3 move-end start 0.1 0.2 0.30000000000000004", "pipe fit-box 0 0 0 1 1 1",
                            "pipe fit-point 1 2 3 0.25"}) {

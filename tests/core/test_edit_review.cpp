@@ -159,6 +159,37 @@ TEST_F(EditReview, RerunWithTheSameParametersCarriesEveryEditExactly) {
   EXPECT_EQ(project_.edits.position(), std::size(script));
 }
 
+TEST_F(EditReview, RunInHalvesCarriesTheReviewAsRunDoes) {
+  // What the studio does with a background run: prepare, run the pipeline, finish.
+  const Joint* elbow = firstJoint(project_.edits.network(), JointType::Elbow);
+  ASSERT_TRUE(elbow);
+  const int elbowId = elbow->id;
+  interpreter_->execute("joint " + std::to_string(elbowId) + " reject");
+  const std::string edited = snapshot(project_.edits.network());
+
+  EXPECT_FALSE(interpreter_->prepareRun("undo"));
+  const auto placement = interpreter_->prepareRun("rerun placement min_candidates=41");
+  ASSERT_TRUE(placement);
+  EXPECT_EQ(placement->last, Stage::Placement);
+  EXPECT_FALSE(placement->newNetwork);
+  pipeline_->run(Progress::none(), placement->last);
+  const CommandOutcome partial = interpreter_->finishRun(*placement);
+  EXPECT_FALSE(partial.networkChanged);
+  EXPECT_FALSE(project_.freshStages[static_cast<std::size_t>(Stage::Extents)]);
+  EXPECT_EQ(project_.params.placement.minCandidates, 41);
+  EXPECT_EQ(snapshot(project_.edits.network()), edited);  // The review waits for the joints stage.
+
+  const auto rest = interpreter_->prepareRun("run");
+  ASSERT_TRUE(rest);
+  EXPECT_TRUE(rest->newNetwork);
+  pipeline_->run(Progress::none(), rest->last);
+  const CommandOutcome carried = interpreter_->finishRun(*rest);
+  EXPECT_TRUE(carried.networkChanged);
+  EXPECT_TRUE(project_.freshStages[static_cast<std::size_t>(Stage::Joints)]);
+  EXPECT_EQ(project_.edits.position() + carried.dropped.size(), 1u);
+  EXPECT_THROW(interpreter_->prepareRun("run nowhere"), CommandError);
+}
+
 TEST_F(EditReview, ScriptedReviewRerunSaveAndReopen) {
   const PipeNetwork network = project_.edits.network();
   const Joint* first = firstJoint(network, JointType::Elbow);

@@ -3,11 +3,15 @@
 # centre of the 3-D view, a click on the stale merge stage's button runs it, a key re-runs the
 # placement stage, and screenshots of the X screen show the magenta selection highlight appear where the
 # click was (the Gaussian-sphere view staying as it was) and the merge button turn from stale to fresh.
+# Then review keys: N selects a proposed joint, R rejects it, Ctrl+S saves the project (the title
+# names it), Ctrl+Z and Ctrl+S again: the saved statuses follow.
 # Usage: studio_xvfb_test.sh PIPERUN_STUDIO SCENE WORK_DIR
 set -euo pipefail
 studio=$1 scene=$2 work=$3
 mkdir -p "$work"
-rm -f "$work"/*.png "$work"/studio.log
+rm -f "$work"/*.png "$work"/studio.log "$work"/*.piperun*
+cp "$scene" "$work/scene.ply"  # Ctrl+S saves the project beside the scan.
+scene="$work/scene.ply"
 
 xvfb_pid="" studio_pid=""
 cleanup() {
@@ -28,9 +32,10 @@ done
 [[ "$display" =~ ^[0-9]+$ ]] || { cat "$work/xvfb.log"; echo "Xvfb did not start" >&2; exit 1; }
 export DISPLAY=":$display"
 
-# Hide the points and grey the pipes so that only the highlight is magenta; centre the view on pipe 1;
-# make the merge stage stale.
+# Propose the joints the pipeline is less sure of; hide the points and grey the pipes so that only
+# the highlight is magenta; centre the view on pipe 1; make the merge stage stale.
 cat >"$work/setup.txt" <<'SCRIPT'
+rerun joints accept_confidence=0.99
 layer input/points off
 color pipes plain
 select pipe 1
@@ -118,3 +123,23 @@ rerun=$(highlight_share "$work/rerun.png" "$centre")
 echo "highlight share after the re-run: $rerun"
 awk -v a="$rerun" 'BEGIN { exit !(a > 0.05) }' || { echo "the selection was lost by the re-run" >&2; exit 1; }
 grep -c "finished:" "$work/studio.log"
+
+# The project's statuses (top-level keys are indented by one space; "network" comes before "base").
+rejected_joints() {
+  awk '/^ "network":/ { inside = 1 } /^ "base":/ { inside = 0 } inside' "$1" | grep -c '"status": "rejected"' || true
+}
+saved_rejected() {  # COUNT: waits until the saved project holds COUNT rejected joints
+  for _ in $(seq 100); do
+    [[ -f "$work/scene.piperun" && $(rejected_joints "$work/scene.piperun") -eq $1 ]] && return 0
+    sleep 0.1
+  done
+  echo "the saved project does not hold $1 rejected joints" >&2
+  return 1
+}
+xdotool key --window "$window" n r ctrl+s
+saved_rejected 1
+title=$(xdotool getwindowname "$window")
+[[ "$title" == "PipeRun Studio - scene.piperun" ]] || { echo "the title does not name the project: '$title'" >&2; exit 1; }
+xdotool key --window "$window" ctrl+z ctrl+s
+saved_rejected 0
+echo "review keys: N R Ctrl+S saved 1 rejected joint, Ctrl+Z Ctrl+S saved none"

@@ -51,9 +51,77 @@ TEST(Document, OpensAScanWithAStalePipeline) {
   std::filesystem::remove(path);
 }
 
+PipeNetwork twoPipesAndAJoint() {
+  PipeNetwork network;
+  for (int id : {1, 2}) {
+    Pipe pipe;
+    pipe.id = id;
+    pipe.radius = 0.05;
+    pipe.start = {id - 1.0, 0.0, 0.0};
+    pipe.end = {id * 1.0, 0.0, 0.0};
+    network.pipes.push_back(pipe);
+  }
+  Joint joint;
+  joint.id = 3;
+  joint.type = JointType::Boundary;
+  joint.radius = 0.05;
+  joint.pipeIds = {1, 2};
+  joint.axis = {{0.9, 0.0, 0.0}, {1.1, 0.0, 0.0}};
+  network.joints.push_back(joint);
+  return network;
+}
+
+TEST(Document, ReopensASavedReviewWithItsHistory) {
+  Document document = Document::fromNetwork(twoPipesAndAJoint(), temporaryPath("review.json"));
+  EditContext context;
+  document.project().edits.apply(*parseEdit({"joint", "3", "reject"}), context);
+  document.project().edits.apply(*parseEdit({"pipe", "2", "delete"}), context);
+  ASSERT_EQ(document.network().runs.size(), 1u);  // Pipe 2 left pipe 1's run with the joint.
+  const auto path = temporaryPath("review.piperun");
+  saveProject(path, document.project());
+
+  Document reopened = Document::open(path);
+  EXPECT_EQ(reopened.path(), path);
+  EXPECT_FALSE(reopened.hasPipeline());
+  EXPECT_FALSE(reopened.freshThrough());
+  EXPECT_TRUE(reopened.warnings().empty());
+  EXPECT_FALSE(reopened.newerAutosave());
+  EXPECT_EQ(reopened.network().findJoint(3)->status, JointStatus::Rejected);
+  EXPECT_EQ(reopened.network().findPipe(2)->status, PipeStatus::Deleted);
+  ASSERT_EQ(reopened.project().edits.position(), 2u);
+  reopened.project().edits.undo();
+  EXPECT_EQ(reopened.network().findPipe(2)->status, PipeStatus::Accepted);
+  std::filesystem::remove(path);
+}
+
+TEST(Document, ProjectWithItsScanRecomputesTheStagesThatWereFresh) {
+  PointCloud cloud;
+  PointChunk chunk;
+  chunk.positions = {{1.0, 2.0, 3.0}, {1.5, 2.0, 3.0}, {1.0, 2.5, 3.0}};
+  cloud.append(chunk);
+  const auto scan = temporaryPath("project_scan.ply");
+  writePointCloud(scan, cloud);
+  Document document = Document::open(scan);
+  Project& project = document.project();
+  project.params.placement.centerBandwidth = 0.02;
+  project.freshStages = {true, true, false, false, false, false};
+  const auto path = temporaryPath("scan.piperun");
+  saveProject(path, project);
+
+  const Document reopened = Document::open(path);
+  ASSERT_TRUE(reopened.hasPipeline());
+  EXPECT_EQ(reopened.input()->size(), 3u);
+  EXPECT_EQ(reopened.pipeline()->params().placement.centerBandwidth, 0.02);
+  EXPECT_EQ(reopened.freshThrough(), Stage::Directions);
+  EXPECT_TRUE(reopened.warnings().empty());
+  std::filesystem::remove(path);
+  std::filesystem::remove(scan);
+}
+
 TEST(Document, UnreadableFileIsAnInputError) {
   EXPECT_THROW(Document::open(temporaryPath("missing.ply")), InputError);
   EXPECT_THROW(Document::open(temporaryPath("missing.json")), InputError);
+  EXPECT_THROW(Document::open(temporaryPath("missing.piperun")), InputError);
 }
 
 }  // namespace

@@ -9,21 +9,27 @@ namespace piperun::ui {
 
 namespace {
 
-bool isNetworkFile(const std::filesystem::path& path) {
+std::string lowerExtension(const std::filesystem::path& path) {
   std::string extension = path.extension().string();
   std::transform(extension.begin(), extension.end(), extension.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return extension == ".json";
+  return extension;
+}
+
+std::shared_ptr<const PointCloud> readScan(const std::filesystem::path& path, Progress& progress) {
+  ReadOptions options;
+  options.progress = &progress;
+  return std::make_shared<PointCloud>(readPointCloud(path, options));
 }
 
 }  // namespace
 
+bool isProjectFile(const std::filesystem::path& path) { return lowerExtension(path) == ".piperun"; }
+
 Document Document::open(const std::filesystem::path& path, Progress& progress) {
-  if (isNetworkFile(path)) return fromNetwork(readNetwork(path), path);
-  ReadOptions options;
-  options.progress = &progress;
-  auto cloud = std::make_shared<PointCloud>(readPointCloud(path, options));
-  return fromScan(std::move(cloud), path);
+  if (isProjectFile(path)) return fromProject(openProject(path), path, progress);
+  if (lowerExtension(path) == ".json") return fromNetwork(readNetwork(path), path);
+  return fromScan(readScan(path, progress), path);
 }
 
 Document Document::fromScan(std::shared_ptr<const PointCloud> cloud, const std::filesystem::path& path) {
@@ -31,18 +37,40 @@ Document Document::fromScan(std::shared_ptr<const PointCloud> cloud, const std::
   document.path_ = path;
   document.input_ = cloud;
   document.pipeline_ = std::make_shared<Pipeline>(std::move(cloud));
+  document.project_ = newProject(path, *document.pipeline_);
   return document;
 }
 
 Document Document::fromNetwork(PipeNetwork network, const std::filesystem::path& path) {
   Document document;
   document.path_ = path;
-  document.network_ = std::move(network);
+  document.project_.edits = EditSession(std::move(network));
   return document;
 }
 
-void Document::refreshNetwork() {
-  if (pipeline_) network_ = pipeline_->network();
+Document Document::fromProject(OpenedProject opened, const std::filesystem::path& path, Progress& progress) {
+  Document document;
+  document.path_ = path;
+  document.project_ = std::move(opened.project);
+  document.warnings_ = std::move(opened.warnings);
+  document.newerAutosave_ = std::move(opened.newerAutosave);
+  const std::filesystem::path& scan = document.project_.scanPath;
+  std::error_code error;
+  if (!scan.empty() && std::filesystem::is_regular_file(scan, error)) {
+    document.input_ = readScan(scan, progress);
+    document.pipeline_ = std::make_shared<Pipeline>(document.input_, document.project_.params);
+  }
+  return document;
+}
+
+std::optional<Stage> Document::freshThrough() const {
+  if (!pipeline_) return std::nullopt;
+  std::optional<Stage> last;
+  for (Stage stage : kAllStages) {
+    if (!project_.freshStages[static_cast<std::size_t>(stage)]) break;
+    last = stage;
+  }
+  return last;
 }
 
 }  // namespace piperun::ui

@@ -23,6 +23,8 @@ constexpr Rgb kHighlight{255, 40, 255};  ///< The selected element: magenta, in 
 constexpr Rgb kAccepted{60, 180, 75};
 constexpr Rgb kProposed{245, 160, 30};
 constexpr Rgb kRejected{220, 40, 40};
+/// Deleted pipes, drawn as see-through ghosts.
+constexpr Rgb kDeleted{150, 155, 165};
 
 Rgb statusColor(JointStatus status);
 

@@ -4,6 +4,7 @@
 #include "observe.h"
 #include "palette.h"
 
+#include "piperun/edit/review_queue.h"
 #include "piperun/error.h"
 
 #include <nlohmann/json.hpp>
@@ -100,6 +101,16 @@ Studio::Impl::Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowIntera
     help->GetTextProperty()->SetFontFamilyToCourier();
     help->GetTextProperty()->SetVerticalJustificationToTop();
   }
+  reviewText = makeText(0.95, 0.95, 0.95);
+  reviewText->GetTextProperty()->SetBackgroundColor(0.05, 0.05, 0.08);
+  reviewText->GetTextProperty()->SetBackgroundOpacity(0.7);
+  reviewText->GetTextProperty()->SetJustificationToRight();
+  reviewText->GetTextProperty()->SetVerticalJustificationToTop();
+  noticeText = makeText(1.0, 0.82, 0.35);
+  noticeText->GetTextProperty()->SetBackgroundColor(0.12, 0.08, 0.02);
+  noticeText->GetTextProperty()->SetBackgroundOpacity(0.85);
+  noticeText->GetTextProperty()->SetJustificationToCentered();
+  noticeText->GetTextProperty()->SetVerticalJustificationToTop();
   sceneTitle = makeText(0.75, 0.8, 0.9);
   sphereTitle = makeText(0.75, 0.8, 0.9);
   planeTitle = makeText(0.75, 0.8, 0.9);
@@ -109,7 +120,7 @@ Studio::Impl::Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowIntera
     title->GetTextProperty()->BoldOn();
   }
   for (auto* text : {statusText.Get(), infoText.Get(), progressText.Get(), sceneTitle.Get(), sphereTitle.Get(),
-                     planeTitle.Get(), helpCommandsText.Get(), helpKeysText.Get()})
+                     planeTitle.Get(), reviewText.Get(), noticeText.Get(), helpCommandsText.Get(), helpKeysText.Get()})
     overlay->AddViewProp(text);
 
   colorBar->SetNumberOfLabels(5);
@@ -158,6 +169,7 @@ Studio::Impl::Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowIntera
         updateOverlays();
       });
   registerCommands();
+  bindInterpreter();
   updateOverlays();
 }
 
@@ -171,9 +183,17 @@ Studio::Impl::~Impl() {
 // ---------------------------------------------------------------------------------------------
 // Document
 
+void Studio::Impl::bindInterpreter() {
+  interpreter = std::make_unique<CommandInterpreter>(document.project(), document.pipeline());
+  interpreter->setAutosaveInterval(options.autosaveEdits);
+}
+
 void Studio::Impl::open(Document opened) {
   if (worker.joinable()) throw CommandError("a run is in progress (Esc cancels it)");
   document = std::move(opened);
+  bindInterpreter();
+  reviewShown = false;
+  noticeShown = !document.warnings().empty() || document.newerAutosave();
   if (document.input()) {
     displayOrigin = document.input()->origin;
   } else {
@@ -198,6 +218,7 @@ void Studio::Impl::open(Document opened) {
   resetSceneCamera();
   resetSphereCamera();
   resetPlaneCamera();
+  if (const auto fresh = document.freshThrough(); fresh && options.restoreStages) startRun({*fresh, false});
 }
 
 void Studio::Impl::takeResults() {
@@ -344,6 +365,11 @@ void Studio::Impl::layout() {
   progressText->GetTextProperty()->SetFontSize(static_cast<int>(13 * scale));
   for (auto* help : {helpCommandsText.Get(), helpKeysText.Get()})
     help->GetTextProperty()->SetFontSize(static_cast<int>(11 * scale));
+  // Top right, below the joint legend.
+  reviewText->SetPosition(textRect.x1 * width - pad, textRect.y1 * height - pad - 58.0 * scale);
+  reviewText->GetTextProperty()->SetFontSize(static_cast<int>(13 * scale));
+  noticeText->SetPosition(0.5 * (textRect.x0 + textRect.x1) * width, textRect.y1 * height - 70.0 * scale);
+  noticeText->GetTextProperty()->SetFontSize(static_cast<int>(14 * scale));
   helpCommandsText->SetPosition(pad * 2, height - 84.0 * scale);  // Below the status lines.
   placeKeysHelp();
 
@@ -425,9 +451,9 @@ std::vector<StageState> Studio::Impl::stageStates() const {
   for (Stage stage : kAllStages) {
     const auto index = static_cast<std::size_t>(stage);
     if (worker.joinable()) {
-      states.push_back(freshBeforeRun[index]                                  ? StageState::Fresh
-                       : static_cast<int>(stage) <= static_cast<int>(runLast) ? StageState::Running
-                                                                              : StageState::Stale);
+      states.push_back(freshBeforeRun[index]                                          ? StageState::Fresh
+                       : static_cast<int>(stage) <= static_cast<int>(pendingRun.last) ? StageState::Running
+                                                                                      : StageState::Stale);
     } else {
       states.push_back(pipeline && pipeline->isFresh(stage) ? StageState::Fresh : StageState::Stale);
     }
@@ -527,6 +553,34 @@ void Studio::Impl::updateOverlays() {
   helpKeysText->SetVisibility(helpShown);
   if (helpShown) placeKeysHelp();
 
+  const bool sceneShown = viewMode == ViewMode::All || viewMode == ViewMode::Scene;
+  reviewText->SetVisibility(reviewShown && sceneShown);
+  if (reviewShown) {
+    const ReviewCounts counts = countJointReview(network);
+    const auto deleted = std::count_if(network.pipes.begin(), network.pipes.end(),
+                                       [](const Pipe& pipe) { return pipe.status == PipeStatus::Deleted; });
+    std::ostringstream review;
+    review << "Review  joints: " << counts.accepted << " accepted, " << counts.rejected << " rejected, " << counts.left
+           << " left\npipes: " << deleted << " deleted";
+    const std::vector<int> queue = jointReviewQueue(network);
+    const auto place =
+        selection.kind == Selection::Kind::Joint ? std::find(queue.begin(), queue.end(), selection.id) : queue.end();
+    if (place != queue.end())
+      review << "\njoint " << selection.id << ": " << (place - queue.begin() + 1) << " of " << queue.size() << " left";
+    review << "\nN/P next/previous  A accept  R reject\nDel delete pipe  Ins restore  Ctrl+Z undo";
+    reviewText->SetInput(review.str().c_str());
+  }
+  noticeText->SetVisibility(noticeShown);
+  if (noticeShown) {
+    std::string notice;
+    for (const auto& warning : document.warnings()) notice += warning + "\n";
+    if (document.newerAutosave())
+      notice += "An autosave newer than this project exists: " + document.newerAutosave()->filename().string() +
+                "\nCtrl+R recovers it (then Ctrl+S saves it over the project)";
+    while (!notice.empty() && notice.back() == '\n') notice.pop_back();
+    noticeText->SetInput(notice.c_str());
+  }
+
   if (document.hasPipeline() && stageBar->enabled()) stageBar->setStates(stageStates());
   for (auto& line : jointLegend)
     line->SetVisibility(!network.joints.empty() && layerVisible("network/joints") &&
@@ -537,25 +591,22 @@ void Studio::Impl::updateOverlays() {
 // ---------------------------------------------------------------------------------------------
 // Running stages
 
-void Studio::Impl::startRun(Stage last) {
-  if (worker.joinable()) throw CommandError("a run is in progress (Esc cancels it)");
+std::string Studio::Impl::startRun(const CommandInterpreter::PendingRun& run) {
   Pipeline* pipeline = document.pipeline();
-  if (!pipeline) throw CommandError("stages run on scans; this document is a network");
   if (!options.backgroundStages) {
     try {
-      pipeline->run(Progress::none(), last);
+      pipeline->run(Progress::none(), run.last);
     } catch (const Cancelled&) {
     }
-    finishRun();
-    return;
+    return finishRun(run).message;
   }
   for (Stage stage : kAllStages) freshBeforeRun[static_cast<std::size_t>(stage)] = pipeline->isFresh(stage);
-  runLast = last;
+  pendingRun = run;
   finished = false;
   runError = nullptr;
   {
     std::lock_guard<std::mutex> lock(progressMutex);
-    progressTask = stageName(last);
+    progressTask = stageName(run.last);
     progressFraction = 0.0;
   }
   runProgress = std::make_unique<Progress>([this](const std::string& task, double fraction) {
@@ -564,7 +615,7 @@ void Studio::Impl::startRun(Stage last) {
     progressFraction = fraction;
     progressChanged = true;
   });
-  worker = std::thread([this, pipeline, last] {
+  worker = std::thread([this, pipeline, last = run.last] {
     try {
       pipeline->run(*runProgress, last);
     } catch (...) {
@@ -573,33 +624,103 @@ void Studio::Impl::startRun(Stage last) {
     finished = true;
   });
   updateOverlays();
+  return std::string("running up to ") + stageName(run.last);
 }
 
-void Studio::Impl::finishRun() {
-  document.refreshNetwork();
+CommandOutcome Studio::Impl::finishRun(const CommandInterpreter::PendingRun& run) {
+  CommandOutcome outcome = interpreter->finishRun(run);
   takeResults();
   rebuildAll();
   if (layers.count("plane/points")) resetPlaneCamera();
+  // Edits that could not be carried onto the new network are listed, never dropped silently.
+  for (const DroppedEdit& dropped : outcome.dropped)
+    outcome.message += "\nnot carried over: " + dropped.command + ": " + dropped.reason;
+  return outcome;
 }
 
 bool Studio::Impl::poll() {
   bool changed = progressChanged.exchange(false);
   if (worker.joinable() && finished) {
     worker.join();
+    std::string ending;
     try {
       if (runError) std::rethrow_exception(runError);
-      message = "finished";
+      ending = "finished: ";
     } catch (const Cancelled&) {
-      message = "cancelled: the stages that had finished are kept";
+      ending = "cancelled: the stages that had finished are kept; ";
     } catch (const std::exception& error) {
-      message = std::string("run failed: ") + error.what();
+      ending = std::string("run failed: ") + error.what() + "; ";
     }
-    finishRun();
+    message = ending + finishRun(pendingRun).message;
     if (options.runFinished) options.runFinished(message);
     changed = true;
   }
   if (changed) updateOverlays();
   return changed;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Review and edits
+
+std::string Studio::Impl::edit(const std::string& line) {
+  // The pipeline and the project belong to a background run until it ends; saving reads only the project.
+  if (worker.joinable() && line.rfind("save", 0) != 0) throw CommandError("a run is in progress (Esc cancels it)");
+  CommandOutcome outcome;
+  try {
+    outcome = interpreter->execute(line);
+  } catch (const piperun::CommandError& error) {
+    throw CommandError(error.what());
+  }
+  if (outcome.networkChanged) networkChanged();
+  return outcome.message;
+}
+
+void Studio::Impl::networkChanged() {
+  const PipeNetwork& network = document.network();
+  if (selection.kind == Selection::Kind::Pipe && !network.findPipe(selection.id)) selection = {};
+  if (selection.kind == Selection::Kind::Joint && !network.findJoint(selection.id)) selection = {};
+  noticeShown = false;
+  inputDistances.reset();
+  if (document.input() && (pointColor == PointColor::Element || pointColor == PointColor::Qa)) buildPointLayers();
+  buildNetworkLayers();
+  buildSelectionLayer();
+  buildPlaneLayers();
+  updateOverlays();
+}
+
+int Studio::Impl::reviewNeighbour(bool forward) const {
+  const PipeNetwork& network = document.network();
+  const std::vector<int> queue = jointReviewQueue(network);
+  if (queue.empty()) return -1;
+  const Joint* current = selection.kind == Selection::Kind::Joint ? network.findJoint(selection.id) : nullptr;
+  if (!current) return forward ? queue.front() : queue.back();
+  // The queue's order (confidence, then id) places even a decided joint between its neighbours.
+  const auto key = [&](const Joint& joint) { return std::make_pair(joint.confidence, joint.id); };
+  if (forward) {
+    for (int id : queue)
+      if (key(*network.findJoint(id)) > key(*current)) return id;
+    return queue.front();
+  }
+  for (auto id = queue.rbegin(); id != queue.rend(); ++id)
+    if (key(*network.findJoint(*id)) < key(*current)) return *id;
+  return queue.back();
+}
+
+std::string Studio::Impl::reviewJoint(int id) {
+  reviewShown = true;
+  if (id < 0) {
+    updateOverlays();
+    return "no proposed joints left to review";
+  }
+  const std::string selected = commands.run("select joint " + std::to_string(id));
+  commands.run("fly");
+  return selected;
+}
+
+std::filesystem::path Studio::Impl::defaultProjectPath() const {
+  if (!document.project().file.empty()) return document.project().file;
+  if (document.path().empty()) throw CommandError("nothing to save: open a scan, network or project first");
+  return std::filesystem::path(document.path()).replace_extension(".piperun");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -609,6 +730,7 @@ void Studio::Impl::onKey() {
   std::string key = interactor->GetKeySym() ? interactor->GetKeySym() : "";
   std::transform(key.begin(), key.end(), key.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (interactor->GetControlKey()) key = "ctrl+" + key;
   for (const auto& [boundKey, line] : keyBindings) {
     if (boundKey != key) continue;
     try {
@@ -657,12 +779,13 @@ void Studio::Impl::pick(int x, int y, bool doubleClick) {
   try {
     std::string layer;
     if (scene->GetDraw() && scene->IsInViewport(x, y)) {
-      const int element = pickedElement(scene, {"network/joints", "network/pipes"}, layer);
+      const int element = pickedElement(
+          scene, {"network/joints", "network/rejected-joints", "network/pipes", "network/deleted-pipes"}, layer);
       if (element < 0) {
         message = commands.run("select none");
         return;
       }
-      const std::string kind = layer == "network/joints" ? "joint" : "pipe";
+      const std::string kind = layer.find("joints") != std::string::npos ? "joint" : "pipe";
       message = commands.run("select " + kind + " " + std::to_string(element));
       if (doubleClick) commands.run("fly");
     } else if (sphere->GetDraw() && sphere->IsInViewport(x, y)) {
@@ -731,7 +854,18 @@ std::string Studio::command(const std::string& line) {
 }
 
 void Studio::runScript(const std::filesystem::path& path) {
-  impl_->message = impl_->commands.runScript(path);
+  if (impl_->worker.joinable()) throw CommandError("a run is in progress (Esc cancels it)");
+  // Each line sees what the one before did: a script's runs finish before its next line.
+  const bool background = impl_->options.backgroundStages;
+  impl_->options.backgroundStages = false;
+  try {
+    impl_->message = impl_->commands.runScript(path);
+  } catch (...) {
+    impl_->options.backgroundStages = background;
+    impl_->updateOverlays();
+    throw;
+  }
+  impl_->options.backgroundStages = background;
   impl_->updateOverlays();
 }
 
@@ -754,7 +888,8 @@ void Studio::cancel() {
 }
 
 std::string Studio::title() const {
-  const auto& path = impl_->document.path();
+  const auto& file = impl_->document.project().file;
+  const auto& path = file.empty() ? impl_->document.path() : file;
   return path.empty() ? std::string("PipeRun Studio") : "PipeRun Studio - " + path.filename().string();
 }
 

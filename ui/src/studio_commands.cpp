@@ -12,6 +12,7 @@
 #include <vtkWindowToImageFilter.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 
 namespace piperun::ui {
@@ -151,41 +152,25 @@ void Studio::Impl::registerCommands() {
                  return list;
                });
 
-  commands.add("run", "[STAGE]", "run the stale stages up to STAGE (default: all)",
-               [this](const std::vector<std::string>& args) {
-                 expectArguments(args, 0, 1, "run [STAGE]");
-                 Stage last = kAllStages.back();
-                 if (!args.empty()) {
-                   const auto stage = stageFromName(args[0]);
-                   if (!stage) throw CommandError("unknown stage '" + args[0] + "'");
-                   last = *stage;
-                 }
-                 startRun(last);
-                 return std::string(options.backgroundStages ? "running" : "ran") + " up to " + stageName(last);
-               });
-
-  commands.add("rerun", "STAGE [section.key=value ...]",
-               "set parameters, mark STAGE and the later stages stale and run them all",
-               [this](const std::vector<std::string>& args) {
-                 if (args.empty()) throw CommandError("usage: rerun STAGE [section.key=value ...]");
-                 const auto stage = stageFromName(args[0]);
-                 if (!stage) throw CommandError("unknown stage '" + args[0] + "'");
-                 Pipeline* pipeline = document.pipeline();
-                 if (!pipeline) throw CommandError("stages run on scans; this document is a network");
-                 if (worker.joinable()) throw CommandError("a run is in progress (Esc cancels it)");
-                 PipelineParams params = pipeline->params();
-                 for (std::size_t i = 1; i < args.size(); ++i) {
+  // `run` and `rerun` are the interpreter's, run in the background when the studio has a window.
+  for (const char* word : {"run", "rerun"}) {
+    const bool rerun = std::string(word) == "rerun";
+    commands.add(word, rerun ? "STAGE [key=value ...]" : "[STAGE]",
+                 rerun ? "set the stage's parameters (key or section.key) and re-run it; the later stages become stale"
+                       : "run the stale stages up to STAGE (default: all); a new network takes the review over",
+                 [this, word](const std::vector<std::string>& args) {
+                   if (worker.joinable()) throw CommandError("a run is in progress (Esc cancels it)");
+                   std::string line = word;
+                   for (const auto& arg : args) line += " " + arg;
+                   std::optional<CommandInterpreter::PendingRun> run;
                    try {
-                     setParam(params, args[i]);
-                   } catch (const std::exception& error) {
+                     run = interpreter->prepareRun(line);
+                   } catch (const piperun::CommandError& error) {
                      throw CommandError(error.what());
                    }
-                 }
-                 pipeline->setParams(params);
-                 pipeline->invalidate(*stage);
-                 startRun(kAllStages.back());
-                 return "rerunning from " + args[0];
-               });
+                   return startRun(*run);
+                 });
+  }
 
   commands.add("set", "section.key=value ...", "set parameters (the affected stages become stale)",
                [this](const std::vector<std::string>& args) {
@@ -202,6 +187,7 @@ void Studio::Impl::registerCommands() {
                    }
                  }
                  pipeline->setParams(params);
+                 recordPipelineState(document.project(), *pipeline);
                  selectStage(selectedStage);
                  updateOverlays();
                  return std::string("parameters set");
@@ -253,22 +239,90 @@ void Studio::Impl::registerCommands() {
                  return "camera " + args[0] + " " + args[1];
                });
 
-  commands.add("joint", "ID accept|reject|propose", "set a joint's review status",
+  // The edit vocabulary (docs/STUDIO.md, "Edit commands"): each edit is one undoable step.
+  const std::vector<std::array<const char*, 3>> editWords{
+      {"joint", "ID accept|reject|propose | add A B",
+       "review a joint (rejected: faded, out of the runs), or join two pipes as the joints stage would"},
+      {"pipe", "ID EDIT | fit-box X0 Y0 Z0 X1 Y1 Z1 | fit-point X Y Z [REACH]",
+       "EDIT: delete, restore, radius R, snap, merge B, split X Y Z, move-end start|end X Y Z; or fit a new pipe "
+       "to the points in a box or around a picked point"},
+      {"undo", "", "undo the last edit"},
+      {"redo", "", "redo the last undone edit"}};
+  for (const auto& [word, arguments, description] : editWords) {
+    commands.add(word, arguments, description, [this, word = std::string(word)](const std::vector<std::string>& args) {
+      std::string line = word;
+      for (const auto& arg : args) line += " " + arg;
+      return edit(line);
+    });
+  }
+
+  commands.add("save", "[PATH]", "save the project (default: its file, or the opened file as .piperun)",
                [this](const std::vector<std::string>& args) {
-                 expectArguments(args, 2, 2, "joint ID accept|reject|propose");
-                 Joint* joint = document.network().findJoint(parseInt(args[0], "the joint id"));
-                 if (!joint) throw CommandError("no joint " + args[0]);
-                 if (args[1] == "accept")
-                   joint->status = JointStatus::Accepted;
-                 else if (args[1] == "reject")
-                   joint->status = JointStatus::Rejected;
-                 else if (args[1] == "propose")
-                   joint->status = JointStatus::Proposed;
-                 else
-                   throw CommandError("usage: joint ID accept|reject|propose");
-                 buildNetworkLayers();
+                 expectArguments(args, 0, 1, "save [PATH]");
+                 const std::string message = edit("save " + (args.empty() ? defaultProjectPath().string() : args[0]));
+                 noticeShown = false;
                  updateOverlays();
-                 return "joint " + args[0] + " " + toString(joint->status);
+                 return message;
+               });
+
+  commands.add("recover", "", "open the project's newer autosave in its place (save then writes it over the project)",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 0, 0, "recover");
+                 if (!document.newerAutosave()) throw CommandError("no autosave newer than the project");
+                 const std::filesystem::path autosave = *document.newerAutosave();
+                 const ViewMode shownViews = viewMode;  // The same project: keep the views as they were.
+                 try {
+                   OpenedProject opened = openProject(autosave);
+                   opened.project.file = document.project().file;  // Saving goes to the project, not the sidecar.
+                   open(Document::fromProject(std::move(opened), document.path()));
+                 } catch (const InputError& error) {
+                   throw CommandError(error.what());
+                 }
+                 viewMode = shownViews;
+                 layout();
+                 noticeShown = false;
+                 updateOverlays();
+                 return "recovered " + autosave.string() + " (save writes it over the project)";
+               });
+
+  commands.add("review", "next|previous|accept|reject|delete|restore|on|off",
+               "step through the proposed joints, lowest confidence first (selects, flies); decide the selected "
+               "joint (then the next) or pipe; show or hide the review counters",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 1, 1, "review next|previous|accept|reject|delete|restore|on|off");
+                 const std::string& action = args[0];
+                 if (action == "on" || action == "off") {
+                   reviewShown = action == "on";
+                   updateOverlays();
+                   return "review counters " + action;
+                 }
+                 if (action == "next" || action == "previous") return reviewJoint(reviewNeighbour(action == "next"));
+                 if (action == "accept" || action == "reject") {
+                   if (selection.kind != Selection::Kind::Joint) throw CommandError("select a joint to " + action);
+                   const std::string decided = edit("joint " + std::to_string(selection.id) + " " + action);
+                   const int next = reviewNeighbour(true);
+                   reviewShown = true;
+                   if (next < 0) {
+                     updateOverlays();
+                     return decided + "; no proposed joints left";
+                   }
+                   return decided + "; next: " + reviewJoint(next);
+                 }
+                 if (action == "delete" || action == "restore") {
+                   if (selection.kind != Selection::Kind::Pipe) throw CommandError("select a pipe to " + action);
+                   reviewShown = true;
+                   return edit("pipe " + std::to_string(selection.id) + " " + action);
+                 }
+                 throw CommandError("usage: review next|previous|accept|reject|delete|restore|on|off");
+               });
+
+  commands.add("radius", "R|snap", "set the selected pipe's radius to R metres, or snap it to the nearest nominal size",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 1, 1, "radius R|snap");
+                 if (selection.kind != Selection::Kind::Pipe) throw CommandError("select a pipe to change its radius");
+                 const std::string pipe = "pipe " + std::to_string(selection.id);
+                 if (args[0] == "snap") return edit(pipe + " snap");
+                 return edit(pipe + " radius " + format("%.17g", parseDouble(args[0], "the radius")));
                });
 
   commands.add("widgets", "on|off", "show or hide the stage bar and the parameter slider",
@@ -340,7 +394,7 @@ void Studio::Impl::registerCommands() {
         return "moving " + moving + ", still " + still;
       });
 
-  commands.add("open", "FILE", "open a scan or a network (.json) in place of the current document",
+  commands.add("open", "FILE", "open a scan, a network (.json) or a project (.piperun) in place of the current one",
                [this](const std::vector<std::string>& args) {
                  if (args.empty()) throw CommandError("usage: open FILE");
                  std::string path = args[0];
@@ -370,20 +424,30 @@ void Studio::Impl::registerCommands() {
                  {"right", "select direction next"},
                  {"left", "select direction previous"},
                  {"f", "fly"},
+                 {"n", "review next"},
+                 {"p", "review previous"},
+                 {"a", "review accept"},
+                 {"r", "review reject"},
+                 {"delete", "review delete"},
+                 {"insert", "review restore"},
+                 {"ctrl+z", "undo"},
+                 {"ctrl+y", "redo"},
+                 {"ctrl+s", "save"},
+                 {"ctrl+r", "recover"},
                  {"c", "color points height"},
                  {"q", "color points qa"},
                  {"e", "color points element"},
                  {"s", "color points segment"},
                  {"i", "color points intensity"},
-                 {"p", "color pipes run"},
-                 {"r", "color pipes radius"},
+                 {"u", "color pipes run"},
+                 {"d", "color pipes radius"},
                  {"k", "color pipes confidence"},
                  {"g", "layer input/points toggle"},
                  {"o", "layer preprocess/points toggle"},
-                 {"n", "layer preprocess/normals toggle"},
+                 {"m", "layer preprocess/normals toggle"},
                  {"t", "layer network/pipes toggle"},
                  {"j", "layer network/joints toggle"},
-                 {"a", "rerun directions"},
+                 {"v", "rerun directions"},
                  {"l", "rerun placement"},
                  {"x", "rerun extents"}};
 }
@@ -391,8 +455,11 @@ void Studio::Impl::registerCommands() {
 std::vector<std::string> Studio::Impl::keyHelpLines() const {
   std::vector<std::string> lines;
   for (const auto& [key, line] : keyBindings) {
+    // "ctrl+z" is shown as "Ctrl+Z", "delete" as "Delete".
     std::string shown = key;
     shown[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(shown[0])));
+    if (shown.size() == 6 && shown.rfind("Ctrl+", 0) == 0)
+      shown[5] = static_cast<char>(std::toupper(static_cast<unsigned char>(shown[5])));
     lines.push_back(shown + std::string(shown.size() < 8 ? 8 - shown.size() : 1, ' ') + line);
   }
   lines.push_back("click   select a pipe, joint, direction or circle");

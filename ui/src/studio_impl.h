@@ -8,6 +8,7 @@
 #include "point_measures.h"
 #include "stage_bar.h"
 
+#include "piperun/edit/command_interpreter.h"
 #include "piperun/params.h"
 
 #include <vtkInteractorStyleTrackballCamera.h>
@@ -188,10 +189,24 @@ struct Studio::Impl {
   std::vector<StageState> stageStates() const;
   void selectStage(Stage stage);
 
-  // Running stages.
-  void startRun(Stage last);
-  void finishRun();
+  // Running stages: `run` and `rerun` go through the interpreter, in halves when in the background.
+  std::string startRun(const CommandInterpreter::PendingRun& run);
+  CommandOutcome finishRun(const CommandInterpreter::PendingRun& run);
   bool poll();
+
+  // Review and edits.
+  /// A new interpreter for the document's project (after every open).
+  void bindInterpreter();
+  /// Runs an edit-vocabulary line (joint, pipe, undo, redo, save) through the interpreter.
+  std::string edit(const std::string& line);
+  /// After an edit, undo, redo or new network: drops a vanished selection and redraws the network.
+  void networkChanged();
+  /// The proposed joint after (or before) the selected one in the review queue; -1 when none is left.
+  int reviewNeighbour(bool forward) const;
+  /// Selects a joint of the review queue and flies the camera to it.
+  std::string reviewJoint(int id);
+  /// Where `save` without a path writes: the project's file, or the opened file as .piperun.
+  std::filesystem::path defaultProjectPath() const;
 
   // Interaction.
   void onKey();
@@ -232,11 +247,16 @@ struct Studio::Impl {
   int selectedDirection = -1;
   Stage selectedStage = Stage::Placement;
   bool helpShown = false;
+  bool reviewShown = false;  ///< The review counters overlay.
+  bool noticeShown = false;  ///< What opening reported (warnings, a newer autosave).
   bool widgetsShown = true;
   bool quit = false;
   std::string message;
 
+  std::unique_ptr<CommandInterpreter> interpreter;  ///< Edits document.project(); rebound on open.
+
   vtkSmartPointer<vtkTextActor> statusText, infoText, helpCommandsText, helpKeysText, progressText;
+  vtkSmartPointer<vtkTextActor> reviewText, noticeText;
   vtkSmartPointer<vtkTextActor> sceneTitle, sphereTitle, planeTitle;
   vtkNew<vtkScalarBarActor> colorBar;
   std::vector<vtkSmartPointer<vtkTextActor>> jointLegend;  ///< One line per joint status.
@@ -253,7 +273,7 @@ struct Studio::Impl {
   double progressFraction = 0.0;
   std::atomic<bool> progressChanged{false};
   std::array<bool, kStageCount> freshBeforeRun{};
-  Stage runLast = Stage::Preprocess;
+  CommandInterpreter::PendingRun pendingRun;
 
   // Click detection.
   int pressX = 0, pressY = 0;

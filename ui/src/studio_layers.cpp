@@ -179,32 +179,46 @@ void Studio::Impl::buildNetworkLayers() {
   }
   auto radiusMap = scalarMap(minRadius, maxRadius);
   auto confidenceMap = scalarMap(0.0, 1.0);
-  MeshBuilder pipes;
+  // Deleted pipes stay as see-through ghosts, so that they can be selected and restored.
+  MeshBuilder pipes, deletedPipes;
   for (const auto& pipe : network.pipes) {
+    const std::vector<Eigen::Vector3d> axis{pipe.start - displayOrigin, pipe.end - displayOrigin};
+    if (pipe.status == PipeStatus::Deleted) {
+      deletedPipes.addTube(axis, pipe.radius, kDeleted, pipe.id);
+      continue;
+    }
     const Rgb color = pipeColor == PipeColor::Run          ? categoryColor(pipe.runId)
                       : pipeColor == PipeColor::Radius     ? mapColor(radiusMap, pipe.radius)
                       : pipeColor == PipeColor::Confidence ? mapColor(confidenceMap, pipe.confidence)
                                                            : Rgb{185, 190, 200};
-    pipes.addTube({pipe.start - displayOrigin, pipe.end - displayOrigin}, pipe.radius, color, pipe.id);
+    pipes.addTube(axis, pipe.radius, color, pipe.id);
   }
   setLayer("network/pipes", scene, meshActor(pipes.build()), true);
+  auto ghosts = meshActor(deletedPipes.build());
+  ghosts->GetProperty()->SetOpacity(0.18);
+  setLayer("network/deleted-pipes", scene, ghosts, true);
 
-  MeshBuilder joints;
+  // Rejected joints are drawn faded: they no longer join anything but can be reconsidered.
+  MeshBuilder joints, rejectedJoints;
   for (const auto& joint : network.joints) {
+    MeshBuilder& mesh = joint.status == JointStatus::Rejected ? rejectedJoints : joints;
     std::vector<Eigen::Vector3d> axis;
     for (const auto& point : joint.axis) axis.push_back(point - displayOrigin);
     // Slightly fatter than the pipes so the joint's colour shows where they overlap.
-    joints.addTube(axis, joint.radius * 1.06, statusColor(joint.status), joint.id);
+    mesh.addTube(axis, joint.radius * 1.06, statusColor(joint.status), joint.id);
     // A tee's branch segment hides inside its main pipe: a collar around the main pipe shows it.
     const Pipe* main =
         joint.type == JointType::Tee && !joint.pipeIds.empty() ? network.findPipe(joint.pipeIds[0]) : nullptr;
     if (main) {
       const Eigen::Vector3d centre = joint.position() - displayOrigin;
       const Eigen::Vector3d along = main->direction() * (1.2 * joint.radius);
-      joints.addTube({centre - along, centre + along}, main->radius * 1.1, statusColor(joint.status), joint.id);
+      mesh.addTube({centre - along, centre + along}, main->radius * 1.1, statusColor(joint.status), joint.id);
     }
   }
   setLayer("network/joints", scene, meshActor(joints.build()), true);
+  auto faded = meshActor(rejectedJoints.build());
+  faded->GetProperty()->SetOpacity(0.35);
+  setLayer("network/rejected-joints", scene, faded, true);
 }
 
 void Studio::Impl::buildSelectionLayer() {

@@ -64,7 +64,8 @@ Edit translate(const Edit& edit, const IdTranslation& ids, const PipeNetwork& ol
   Edit translated = edit;
   switch (edit.kind) {
     case EditKind::AcceptJoint:
-    case EditKind::RejectJoint: translated.id = ids.joint(edit.id, oldNetwork, newNetwork); break;
+    case EditKind::RejectJoint:
+    case EditKind::ProposeJoint: translated.id = ids.joint(edit.id, oldNetwork, newNetwork); break;
     case EditKind::AddJoint:
     case EditKind::MergePipes:
       translated.id = ids.pipe(edit.id);

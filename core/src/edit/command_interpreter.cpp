@@ -31,6 +31,7 @@ std::string describe(const EditStep& step) {
   switch (edit.kind) {
     case EditKind::AcceptJoint: return joint + " accepted";
     case EditKind::RejectJoint: return joint + " rejected";
+    case EditKind::ProposeJoint: return joint + " back in the review queue";
     case EditKind::AddJoint:
       return "joint " + std::to_string(diff.joints.added.at(0).element.id) + " (" + toString(diff.joints.added[0].element.type) +
              ") joins pipes " + std::to_string(edit.id) + " and " + std::to_string(edit.otherId);
@@ -57,7 +58,7 @@ std::string describe(const EditStep& step) {
 }
 
 const char* kUsage =
-    "expected one of: run | rerun STAGE key=value... | undo | redo | save PATH | joint ID accept|reject | joint add A B | "
+    "expected one of: run [STAGE] | rerun STAGE key=value... | undo | redo | save PATH | joint ID accept|reject|propose | joint add A B | "
     "pipe ID delete|restore|snap|radius R|merge ID|split X Y Z|move-end start|end X Y Z | pipe fit-box X0 Y0 Z0 X1 Y1 Z1 | "
     "pipe fit-point X Y Z [REACH]";
 
@@ -93,13 +94,56 @@ void CommandInterpreter::countEdit() {
   autosaveProject(project_);
 }
 
-CommandOutcome CommandInterpreter::runPipeline(Progress& progress, Stage last) {
-  const bool newNetwork = last == Stage::Joints && !pipeline_->isFresh(Stage::Joints);
-  pipeline_->run(progress, last);
+CommandInterpreter::PendingRun CommandInterpreter::parseRun(const std::vector<std::string>& words) {
+  const std::string& verb = words.front();
+  if (!pipeline_) throw EditError("no scan is open: " + verb + " needs the scan the project was made from");
+  const auto stageNamed = [](const std::string& name) {
+    const auto stage = stageFromName(name);
+    if (!stage) throw EditError("unknown stage \"" + name + "\" (preprocess, directions, placement, extents, merge, joints)");
+    return *stage;
+  };
+  PendingRun run;
+  if (verb == "run") {
+    if (words.size() > 2) throw EditError("expected \"run [STAGE]\"");
+    if (words.size() == 2) run.last = stageNamed(words[1]);
+  } else {
+    if (words.size() < 2) throw EditError("expected \"rerun STAGE key=value ...\"");
+    run.last = stageNamed(words[1]);
+    PipelineParams params = pipeline_->params();
+    for (std::size_t i = 2; i < words.size(); ++i) {
+      // Keys are the stage's own ("center_bandwidth=0.012"); "section.key=value" names any.
+      const bool qualified = words[i].find('.') < words[i].find('=');
+      try {
+        setParam(params, qualified ? words[i] : words[1] + "." + words[i]);
+      } catch (const std::invalid_argument& error) {
+        throw EditError(error.what());
+      }
+    }
+    pipeline_->setParams(params);
+    pipeline_->invalidate(run.last);
+  }
+  run.newNetwork = run.last == Stage::Joints && !pipeline_->isFresh(Stage::Joints);
+  return run;
+}
+
+std::optional<CommandInterpreter::PendingRun> CommandInterpreter::prepareRun(const std::string& line) {
+  const std::vector<std::string> words = splitWords(line.substr(0, line.find('#')));
+  if (words.empty() || (words.front() != "run" && words.front() != "rerun")) return std::nullopt;
+  try {
+    return parseRun(words);
+  } catch (const std::exception& error) {
+    throw CommandError(joined(words) + ": " + error.what());
+  }
+}
+
+CommandOutcome CommandInterpreter::finishRun(const PendingRun& run) {
   recordPipelineState(project_, *pipeline_);
-  if (!newNetwork) {
-    if (last == Stage::Joints) return {"every stage is fresh", false, {}};
-    return {std::string(stageName(last)) + " re-ran; later stages are stale (\"run\" runs them)", false, {}};
+  if (!run.newNetwork || !pipeline_->isFresh(Stage::Joints)) {
+    std::string message = "ran up to " + std::string(stageName(run.last));
+    for (Stage stage : kAllStages) {
+      if (!pipeline_->isFresh(stage)) return {message + "; " + stageName(stage) + " and later are stale (\"run\" runs them)", false, {}};
+    }
+    return {message + "; every stage is fresh", false, {}};
   }
   // A new network: the review carries over to it.
   CarryOver carried = carryOver(project_.edits, pipeline_->network(), editContext());
@@ -117,27 +161,9 @@ CommandOutcome CommandInterpreter::runPipeline(Progress& progress, Stage last) {
 CommandOutcome CommandInterpreter::dispatch(const std::vector<std::string>& words, Progress& progress) {
   const std::string& verb = words.front();
   if (verb == "run" || verb == "rerun") {
-    if (!pipeline_) throw EditError("no scan is open: " + verb + " needs the scan the project was made from");
-    if (verb == "run") {
-      if (words.size() != 1) throw EditError("expected \"run\"");
-      return runPipeline(progress, Stage::Joints);
-    }
-    if (words.size() < 2) throw EditError("expected \"rerun STAGE key=value ...\"");
-    const auto stage = stageFromName(words[1]);
-    if (!stage) throw EditError("unknown stage \"" + words[1] + "\" (preprocess, directions, placement, extents, merge, joints)");
-    PipelineParams params = pipeline_->params();
-    for (std::size_t i = 2; i < words.size(); ++i) {
-      // Keys are the stage's own ("center_bandwidth=0.012"); "section.key=value" names any.
-      const bool qualified = words[i].find('.') < words[i].find('=');
-      try {
-        setParam(params, qualified ? words[i] : words[1] + "." + words[i]);
-      } catch (const std::invalid_argument& error) {
-        throw EditError(error.what());
-      }
-    }
-    pipeline_->setParams(params);
-    pipeline_->invalidate(*stage);
-    return runPipeline(progress, *stage);
+    const PendingRun run = parseRun(words);
+    pipeline_->run(progress, run.last);
+    return finishRun(run);
   }
   if (verb == "undo" || verb == "redo") {
     if (words.size() != 1) throw EditError("expected \"" + verb + "\"");

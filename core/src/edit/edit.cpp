@@ -66,13 +66,15 @@ std::optional<Edit> parseJointEdit(const std::vector<std::string>& words) {
     edit.otherId = form.id(3);
     return edit;
   }
-  const Form form(words, "joint ID accept|reject");
+  const Form form(words, "joint ID accept|reject|propose");
   form.expectCount(3, 3);
   edit.id = form.id(1);
   if (words[2] == "accept") {
     edit.kind = EditKind::AcceptJoint;
   } else if (words[2] == "reject") {
     edit.kind = EditKind::RejectJoint;
+  } else if (words[2] == "propose") {
+    edit.kind = EditKind::ProposeJoint;
   } else {
     form.fail();
   }
@@ -141,6 +143,7 @@ std::string toCommand(const Edit& edit) {
   switch (edit.kind) {
     case EditKind::AcceptJoint: return "joint " + std::to_string(edit.id) + " accept";
     case EditKind::RejectJoint: return "joint " + std::to_string(edit.id) + " reject";
+    case EditKind::ProposeJoint: return "joint " + std::to_string(edit.id) + " propose";
     case EditKind::AddJoint: return "joint add " + std::to_string(edit.id) + " " + std::to_string(edit.otherId);
     case EditKind::DeletePipe: return pipe + " delete";
     case EditKind::RestorePipe: return pipe + " restore";

@@ -214,6 +214,7 @@ void applyEdit(PipeNetwork& network, const Edit& edit, const EditContext& contex
   switch (edit.kind) {
     case EditKind::AcceptJoint: jointById(network, edit.id).status = JointStatus::Accepted; return;
     case EditKind::RejectJoint: jointById(network, edit.id).status = JointStatus::Rejected; return;
+    case EditKind::ProposeJoint: jointById(network, edit.id).status = JointStatus::Proposed; return;
     case EditKind::AddJoint: addJoint(network, edit.id, edit.otherId, context); return;
     case EditKind::DeletePipe: livePipe(network, edit.id).status = PipeStatus::Deleted; return;
     case EditKind::RestorePipe: {

@@ -51,14 +51,27 @@ class CommandInterpreter {
   /// Autosave after this many edits (undo and redo count too); 0 turns autosave off. Default 5.
   void setAutosaveInterval(int edits) { autosaveInterval_ = edits; }
 
+  /// `run` and `rerun` in halves, for callers that run the stages on another thread (the studio):
+  /// prepareRun() checks the words and sets the parameters (nullopt when the line is no run
+  /// command); the caller runs the pipeline up to `last`, from any thread, touching neither the
+  /// pipeline nor the project meanwhile; finishRun() then records the pipeline's state and, when
+  /// the joints stage ran anew, carries the review over. finishRun() also suits a cancelled run
+  /// (it keeps what finished) and a run the caller started itself (newNetwork false: the stages'
+  /// results are recomputed, the reviewed network stays).
+  struct PendingRun {
+    Stage last = Stage::Joints;
+    bool newNetwork = false;  ///< The joints stage was stale: its new network replaces the reviewed one.
+  };
+  std::optional<PendingRun> prepareRun(const std::string& line);
+  CommandOutcome finishRun(const PendingRun& run);
+
   /// The context edits run with: the preprocessed cloud when the pipeline has one, the current
   /// joints and placement parameters, the nominal sizes.
   EditContext editContext() const;
 
  private:
   CommandOutcome dispatch(const std::vector<std::string>& words, Progress& progress);
-  /// Runs the stale stages up to `last`; when that joins the pipes anew, carries the review over.
-  CommandOutcome runPipeline(Progress& progress, Stage last);
+  PendingRun parseRun(const std::vector<std::string>& words);
   void countEdit();
 
   Project& project_;

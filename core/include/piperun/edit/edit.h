@@ -19,6 +19,7 @@ namespace piperun {
 enum class EditKind {
   AcceptJoint,   ///< joint ID accept
   RejectJoint,   ///< joint ID reject
+  ProposeJoint,  ///< joint ID propose (back to the review queue)
   AddJoint,      ///< joint add A B
   DeletePipe,    ///< pipe ID delete
   RestorePipe,   ///< pipe ID restore

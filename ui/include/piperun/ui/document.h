@@ -1,7 +1,9 @@
 #pragma once
-// What the studio shows: a scan with its reconstruction pipeline, or a pipe network read from a file.
-// No VTK here: the document is plain core data; ui/src turns it into layers.
+// What the studio shows: a project under review — a scan with its reconstruction pipeline, a pipe
+// network read from a file, or a saved `.piperun` project. No VTK here: the document is plain core
+// data; ui/src turns it into layers.
 
+#include "piperun/edit/project.h"
 #include "piperun/io/network_io.h"
 #include "piperun/pipe_network.h"
 #include "piperun/pipeline.h"
@@ -10,6 +12,9 @@
 
 #include <filesystem>
 #include <memory>
+#include <optional>
+#include <string>
+#include <vector>
 
 namespace piperun::ui {
 
@@ -18,33 +23,53 @@ class Document {
   /// An empty document (nothing open).
   Document() = default;
 
-  /// Opens a scan (any point format core reads) or a network (.json). Throws InputError.
+  /// Opens a scan (any point format core reads), a network (.json) or a project (.piperun).
+  /// Throws InputError.
   static Document open(const std::filesystem::path& path, Progress& progress = Progress::none());
   static Document fromScan(std::shared_ptr<const PointCloud> cloud, const std::filesystem::path& path);
   static Document fromNetwork(PipeNetwork network, const std::filesystem::path& path);
+  /// A project as openProject() gave it; its scan is read when it is there (else the network
+  /// opens alone, with a warning). `path` is the file it came from.
+  static Document fromProject(OpenedProject opened, const std::filesystem::path& path,
+                              Progress& progress = Progress::none());
 
+  /// The file opened (a scan, network or project).
   const std::filesystem::path& path() const { return path_; }
-  bool empty() const { return !input_ && network_.pipes.empty() && network_.joints.empty(); }
+  bool empty() const { return !input_ && network().pipes.empty() && network().joints.empty(); }
   bool hasPipeline() const { return pipeline_ != nullptr; }
 
-  /// The scan (null for a network document).
+  /// The scan (null without one).
   std::shared_ptr<const PointCloud> input() const { return input_; }
-  /// The pipeline of a scan document (null for a network document). Not thread-safe: while a
-  /// background run uses it, only that thread may touch it.
+  /// The pipeline of a document with a scan (null otherwise). Not thread-safe: while a background
+  /// run uses it, only that thread may touch it.
   Pipeline* pipeline() { return pipeline_.get(); }
   const Pipeline* pipeline() const { return pipeline_.get(); }
 
-  /// The network shown: read from the file, or the pipeline's latest (world coordinates).
-  const PipeNetwork& network() const { return network_; }
-  PipeNetwork& network() { return network_; }
-  /// Takes the pipeline's network after a run (review edits of the previous one are replaced).
-  void refreshNetwork();
+  /// The review: parameters, stage freshness, the edited network and its history.
+  Project& project() { return project_; }
+  const Project& project() const { return project_; }
+  /// The network shown: the reviewed (edited) one, world coordinates.
+  const PipeNetwork& network() const { return project_.edits.network(); }
+
+  /// What opening reported (a changed or missing scan, a dropped history), one line each.
+  const std::vector<std::string>& warnings() const { return warnings_; }
+  /// An autosave of the project newer than its file, to offer for recovery.
+  const std::optional<std::filesystem::path>& newerAutosave() const { return newerAutosave_; }
+  /// For a project with its scan: the last stage that was fresh when it was saved. Running the
+  /// pipeline up to it recomputes the stages' views (same scan, parameters and seed); the reviewed
+  /// network stays as saved.
+  std::optional<Stage> freshThrough() const;
 
  private:
   std::filesystem::path path_;
   std::shared_ptr<const PointCloud> input_;
   std::shared_ptr<Pipeline> pipeline_;
-  PipeNetwork network_;
+  Project project_;
+  std::vector<std::string> warnings_;
+  std::optional<std::filesystem::path> newerAutosave_;
 };
+
+/// Whether the file is a project (`.piperun`, any case).
+bool isProjectFile(const std::filesystem::path& path);
 
 }  // namespace piperun::ui

@@ -26,6 +26,11 @@ struct StudioOptions {
   double uiScale = 1.0;
   /// Points drawn while the camera moves; the whole cloud is drawn when it stops.
   std::size_t interactivePoints = 120000;
+  /// Autosave the project after this many edits (undo and redo count); 0: never.
+  int autosaveEdits = 5;
+  /// On opening a project with its scan, recompute the stages that were fresh when it was saved
+  /// (so the sphere and plane views show them); the reviewed network stays as saved.
+  bool restoreStages = true;
   /// Called on the window's thread (from poll()) when a background run has ended, with how it ended.
   std::function<void(const std::string& message)> runFinished;
 };
@@ -41,13 +46,15 @@ class Studio {
 
   /// Shows `document` (replacing what was open) and resets the cameras.
   void open(Document document);
-  /// Opens a scan or a network file; throws InputError.
+  /// Opens a scan, a network or a project file; throws InputError.
   void open(const std::filesystem::path& path);
 
   const Document& document() const;
 
   /// Runs a named command (see commands().helpLines()); returns its message, throws CommandError.
   std::string command(const std::string& line);
+  /// Runs a script, one command a line; its runs finish before the next line (even with
+  /// backgroundStages). Throws CommandError naming the script and line.
   void runScript(const std::filesystem::path& path);
   const CommandRegistry& commands() const;
 
@@ -62,7 +69,7 @@ class Studio {
   /// Asks a background run to stop at its next safe point.
   void cancel();
 
-  /// "PipeRun Studio - <file name>".
+  /// "PipeRun Studio - <file name>": the project's file once saved, else the file opened.
   std::string title() const;
   /// Set by the `quit` command; the window backend closes when it sees it.
   bool quitRequested() const;
