@@ -13,6 +13,7 @@
 #include <vtkGenericRenderWindowInteractor.h>
 #include <vtkNew.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <exception>
 #include <map>
@@ -131,6 +132,21 @@ void installCallbacks(GLFWwindow* window) {
   });
 }
 
+/// Shrinks a window size (screen units) to the primary monitor's work area, leaving room for the title bar
+/// and frame. With GLFW_SCALE_TO_MONITOR the window is the size times the content scale, so the work
+/// area is divided by it.
+void fitToWorkArea(int& width, int& height) {
+  GLFWmonitor* monitor = glfwGetPrimaryMonitor();
+  if (!monitor) return;
+  int areaX, areaY, areaWidth, areaHeight;
+  glfwGetMonitorWorkarea(monitor, &areaX, &areaY, &areaWidth, &areaHeight);
+  float scaleX = 1.0f, scaleY = 1.0f;
+  glfwGetMonitorContentScale(monitor, &scaleX, &scaleY);
+  constexpr int kFrameWidth = 16, kFrameHeight = 48;
+  if (areaWidth > kFrameWidth) width = std::min(width, static_cast<int>((areaWidth - kFrameWidth) / scaleX));
+  if (areaHeight > kFrameHeight) height = std::min(height, static_cast<int>((areaHeight - kFrameHeight) / scaleY));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -145,7 +161,9 @@ int main(int argc, char** argv) {
                  "the window");
   app.add_option("--script", script,
                  "Commands to run once the first pipeline run has finished (one a line, # comments)");
-  app.add_option("--size", size, "Window size WIDTHxHEIGHT in screen units")->capture_default_str();
+  CLI::Option* sizeOption = app.add_option("--size", size,
+                                           "Window size WIDTHxHEIGHT in screen units (default: 1400x860, shrunk to fit "
+                                           "the screen's work area)");
   CLI11_PARSE(app, argc, argv);
   std::smatch match;
   if (!std::regex_match(size, match, std::regex("([0-9]+)x([0-9]+)")) || std::stoi(match[1]) < 320 ||
@@ -168,7 +186,9 @@ int main(int argc, char** argv) {
   glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
   glfwWindowHint(GLFW_SCALE_TO_MONITOR, GLFW_TRUE);
   glfwWindowHint(GLFW_SAMPLES, 0);
-  GLFWwindow* window = glfwCreateWindow(std::stoi(match[1]), std::stoi(match[2]), "PipeRun Studio", nullptr, nullptr);
+  int windowWidth = std::stoi(match[1]), windowHeight = std::stoi(match[2]);
+  if (sizeOption->count() == 0) fitToWorkArea(windowWidth, windowHeight);
+  GLFWwindow* window = glfwCreateWindow(windowWidth, windowHeight, "PipeRun Studio", nullptr, nullptr);
   if (!window) {
     std::fprintf(stderr, "piperun-studio: error: cannot create an OpenGL 3.2 core window\n");
     glfwTerminate();

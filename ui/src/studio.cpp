@@ -478,6 +478,9 @@ std::string Studio::Impl::selectionInfo() const {
          << " m\nconfidence " << pipe.confidence << "  fit RMS " << pipe.fitRms * 1000.0 << " mm  inliers "
          << pipe.inlierCount << "  run " << (pipe.runId >= 0 ? std::to_string(pipe.runId) : "-") << "  "
          << toString(pipe.status);
+    if (const Pipe* second = network.findPipe(selection.secondPipe))
+      info << "\nand pipe " << second->id << "  radius " << second->radius * 1000.0 << " mm  length " << second->length()
+           << " m  (Shift+M merges it into pipe " << pipe.id << ", Shift+J joins them)";
   } else if (selection.kind == Selection::Kind::Joint) {
     const Joint& joint = *network.findJoint(selection.id);
     info << "joint " << joint.id << "  " << toString(joint.type) << "  " << toString(joint.status) << "  radius "
@@ -679,6 +682,7 @@ void Studio::Impl::networkChanged() {
   const PipeNetwork& network = document.network();
   if (selection.kind == Selection::Kind::Pipe && !network.findPipe(selection.id)) selection = {};
   if (selection.kind == Selection::Kind::Joint && !network.findJoint(selection.id)) selection = {};
+  if (selection.secondPipe >= 0 && !network.findPipe(selection.secondPipe)) selection.secondPipe = -1;
   noticeShown = false;
   inputDistances.reset();
   if (document.input() && (pointColor == PointColor::Element || pointColor == PointColor::Qa)) buildPointLayers();
@@ -731,8 +735,20 @@ void Studio::Impl::onKey() {
   std::transform(key.begin(), key.end(), key.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   if (interactor->GetControlKey()) key = "ctrl+" + key;
-  for (const auto& [boundKey, line] : keyBindings) {
+  // Shift+key runs its own binding when it has one, else the key's (Shift+N is N).
+  const std::string shifted = "shift+" + key;
+  if (interactor->GetShiftKey() && std::any_of(keyBindings.begin(), keyBindings.end(),
+                                               [&](const auto& binding) { return binding.first == shifted; }))
+    key = shifted;
+  for (const auto& [boundKey, binding] : keyBindings) {
     if (boundKey != key) continue;
+    // "X Y" in a binding is the pixel under the mouse.
+    std::string line = binding;
+    const std::size_t pixel = line.find(" X Y");
+    if (pixel != std::string::npos) {
+      const int* position = interactor->GetEventPosition();
+      line.replace(pixel, 4, " " + std::to_string(position[0]) + " " + std::to_string(position[1]));
+    }
     try {
       message = commands.run(line);
     } catch (const std::exception& error) {
@@ -758,11 +774,11 @@ void Studio::Impl::onLeftRelease() {
   lastClickTime = now;
   lastClickX = position[0];
   lastClickY = position[1];
-  pick(position[0], position[1], doubleClick);
+  pick(position[0], position[1], doubleClick, interactor->GetShiftKey() != 0);
   updateOverlays();
 }
 
-void Studio::Impl::pick(int x, int y, bool doubleClick) {
+void Studio::Impl::pick(int x, int y, bool doubleClick, bool addPipe) {
   vtkNew<vtkCellPicker> picker;
   picker->SetTolerance(0.004);
   auto pickedElement = [&](vtkRenderer* renderer, std::initializer_list<const char*> names, std::string& layer) {
@@ -786,6 +802,10 @@ void Studio::Impl::pick(int x, int y, bool doubleClick) {
         return;
       }
       const std::string kind = layer.find("joints") != std::string::npos ? "joint" : "pipe";
+      if (addPipe && kind == "pipe" && selection.kind == Selection::Kind::Pipe && selection.id != element) {
+        message = commands.run("select pipe " + std::to_string(selection.id) + " " + std::to_string(element));
+        return;
+      }
       message = commands.run("select " + kind + " " + std::to_string(element));
       if (doubleClick) commands.run("fly");
     } else if (sphere->GetDraw() && sphere->IsInViewport(x, y)) {
@@ -825,6 +845,37 @@ void Studio::Impl::pick(int x, int y, bool doubleClick) {
   } catch (const std::exception& error) {
     message = error.what();
   }
+}
+
+std::optional<std::pair<Eigen::Vector3d, int>> Studio::Impl::pickSurface(int x, int y,
+                                                                      std::initializer_list<const char*> names) {
+  if (!scene->GetDraw() || !scene->IsInViewport(x, y)) return std::nullopt;
+  vtkNew<vtkCellPicker> picker;
+  picker->SetTolerance(0.004);
+  picker->PickFromListOn();
+  std::vector<vtkProp*> madePickable;  // Point layers are not pickable by clicks; here they are.
+  for (const char* name : names) {
+    if (!layerVisible(name)) continue;
+    vtkProp* prop = layers[name].prop;
+    if (!prop->GetPickable()) {
+      prop->PickableOn();
+      madePickable.push_back(prop);
+    }
+    picker->AddPickList(prop);
+  }
+  const bool hit = picker->Pick(x, y, 0, scene) != 0;
+  for (vtkProp* prop : madePickable) prop->PickableOff();
+  if (!hit) return std::nullopt;
+  const double* position = picker->GetPickPosition();
+  auto* elements = vtkIntArray::SafeDownCast(picker->GetDataSet()->GetCellData()->GetArray(kElementArray));
+  const int element = elements ? elements->GetValue(picker->GetCellId()) : -1;
+  return std::make_pair(Eigen::Vector3d(position[0], position[1], position[2]) + displayOrigin, element);
+}
+
+std::pair<int, int> Studio::Impl::selectedPipePair(const char* action) const {
+  if (selection.kind != Selection::Kind::Pipe || selection.secondPipe < 0)
+    throw CommandError(std::string("select two pipes to ") + action + " (click one, Shift+click the other)");
+  return {selection.id, selection.secondPipe};
 }
 
 // ---------------------------------------------------------------------------------------------

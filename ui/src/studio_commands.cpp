@@ -37,15 +37,17 @@ void Studio::Impl::registerCommands() {
                });
 
   commands.add(
-      "select", "pipe ID | joint ID | direction N|next|previous | none",
-      "select an element (highlighted, described bottom left) or a principal direction (the plane view follows)",
+      "select", "pipe ID [ID2] | joint ID | direction N|next|previous | none",
+      "select an element (highlighted, described bottom left), two pipes (to merge or join), or a principal direction "
+      "(the plane view follows)",
       [this](const std::vector<std::string>& args) {
-        expectArguments(args, 1, 2, "select pipe ID | joint ID | direction N | none");
+        expectArguments(args, 1, 3, "select pipe ID [ID2] | joint ID | direction N | none");
         bool directionChanged = false;
         if (args[0] == "none") {
           selection = {};
         } else {
-          expectArguments(args, 2, 2, "select pipe ID | joint ID | direction N|next|previous | none");
+          expectArguments(args, 2, args[0] == "pipe" ? 3 : 2,
+                          "select pipe ID [ID2] | joint ID | direction N|next|previous | none");
           const int directionCount = static_cast<int>(directions.size());
           const bool step = args[0] == "direction" && (args[1] == "next" || args[1] == "previous");
           if (step && directionCount == 0) throw CommandError("no directions yet: run the directions stage");
@@ -55,6 +57,12 @@ void Studio::Impl::registerCommands() {
           if (args[0] == "pipe") {
             if (!document.network().findPipe(id)) throw CommandError("no pipe " + args[1]);
             selection = {Selection::Kind::Pipe, id};
+            if (args.size() == 3) {
+              const int second = parseInt(args[2], "the second pipe's id");
+              if (!document.network().findPipe(second)) throw CommandError("no pipe " + args[2]);
+              if (second == id) throw CommandError("select two different pipes");
+              selection.secondPipe = second;
+            }
             // The plane view follows to a direction where the pipe's circle was found.
             const int direction = directionShowingPipe(id);
             if (direction >= 0 && direction != selectedDirection) {
@@ -80,7 +88,7 @@ void Studio::Impl::registerCommands() {
         updateOverlays();
         return args[0] == "none"        ? std::string("selection cleared")
                : args[0] == "direction" ? "selected direction " + std::to_string(selectedDirection)
-                                        : "selected " + args[0] + " " + args[1];
+                                        : "selected " + args[0] + " " + args[1] + (args.size() == 3 ? " and " + args[2] : "");
       });
 
   commands.add("fly", "", "move the 3-D camera to the selected pipe or joint",
@@ -325,6 +333,54 @@ void Studio::Impl::registerCommands() {
                  return edit(pipe + " radius " + format("%.17g", parseDouble(args[0], "the radius")));
                });
 
+  commands.add("merge", "", "merge the second selected pipe into the first (Shift+click selects the second)",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 0, 0, "merge");
+                 const auto [first, second] = selectedPipePair("merge");
+                 return edit("pipe " + std::to_string(first) + " merge " + std::to_string(second));
+               });
+
+  commands.add("join", "", "add a joint between the two selected pipes, typed as the joints stage would",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 0, 0, "join");
+                 const auto [first, second] = selectedPipePair("join");
+                 return edit("joint add " + std::to_string(first) + " " + std::to_string(second));
+               });
+
+  commands.add(
+      "pick", "split|fit X Y [REACH]",
+      "at window pixel (X, Y), origin bottom left (from a key: under the mouse): split the selected pipe where the "
+      "pixel shows it, or fit a new pipe around the scan point there (within REACH m, default 0.25) and select it",
+      [this](const std::vector<std::string>& args) {
+        expectArguments(args, 3, 4, "pick split X Y | pick fit X Y [REACH]");
+        const int x = parseInt(args[1], "X"), y = parseInt(args[2], "Y");
+        const std::string pixel = "pixel (" + args[1] + ", " + args[2] + ")";
+        auto worldText = [](const Eigen::Vector3d& point) {
+          return format("%.17g", point.x()) + " " + format("%.17g", point.y()) + " " + format("%.17g", point.z());
+        };
+        owner.render();  // Picking needs the current layout and camera.
+        if (args[0] == "split") {
+          expectArguments(args, 3, 3, "pick split X Y");
+          if (selection.kind != Selection::Kind::Pipe) throw CommandError("select a pipe to split");
+          const auto hit = pickSurface(x, y, {"network/pipes", "network/deleted-pipes"});
+          if (!hit || hit->second != selection.id)
+            throw CommandError(pixel + " is not on pipe " + std::to_string(selection.id));
+          return edit("pipe " + std::to_string(selection.id) + " split " + worldText(hit->first));
+        }
+        if (args[0] != "fit") throw CommandError("usage: pick split X Y | pick fit X Y [REACH]");
+        const auto hit = pickSurface(x, y, {"input/points", "preprocess/points"});
+        if (!hit) throw CommandError("no scan point shown at " + pixel + " (G shows the input points)");
+        std::string line = "pipe fit-point " + worldText(hit->first);
+        if (args.size() == 4) line += " " + format("%.17g", parseDouble(args[3], "the reach"));
+        std::vector<int> before;
+        for (const Pipe& pipe : document.network().pipes) before.push_back(pipe.id);
+        const std::string fitted = edit(line);
+        for (const Pipe& pipe : document.network().pipes)
+          if (std::find(before.begin(), before.end(), pipe.id) == before.end())
+            commands.run("select pipe " + std::to_string(pipe.id));
+        return fitted;
+      });
+
   commands.add("widgets", "on|off", "show or hide the stage bar and the parameter slider",
                [this](const std::vector<std::string>& args) {
                  expectArguments(args, 1, 1, "widgets on|off");
@@ -352,14 +408,17 @@ void Studio::Impl::registerCommands() {
                  return "wrote " + args[0];
                });
 
-  commands.add("click", "X Y [double]",
-               "click at window pixel (X, Y), origin bottom left: picks like the mouse (double: also flies)",
+  commands.add("click", "X Y [double|shift]",
+               "click at window pixel (X, Y), origin bottom left: picks like the mouse (double: also flies; shift: "
+               "adds a second pipe to the selected one)",
                [this](const std::vector<std::string>& args) {
-                 expectArguments(args, 2, 3, "click X Y [double]");
-                 if (args.size() == 3 && args[2] != "double") throw CommandError("usage: click X Y [double]");
+                 expectArguments(args, 2, 3, "click X Y [double|shift]");
+                 if (args.size() == 3 && args[2] != "double" && args[2] != "shift")
+                   throw CommandError("usage: click X Y [double|shift]");
                  owner.render();  // Picking needs the current layout and camera.
                  message.clear();
-                 pick(parseInt(args[0], "X"), parseInt(args[1], "Y"), args.size() == 3);
+                 pick(parseInt(args[0], "X"), parseInt(args[1], "Y"), args.size() == 3 && args[2] == "double",
+                      args.size() == 3 && args[2] == "shift");
                  return message.empty() ? std::string("nothing there") : message;
                });
 
@@ -449,21 +508,29 @@ void Studio::Impl::registerCommands() {
                  {"j", "layer network/joints toggle"},
                  {"v", "rerun directions"},
                  {"l", "rerun placement"},
-                 {"x", "rerun extents"}};
+                 {"x", "rerun extents"},
+                 {"w", "radius snap"},
+                 {"shift+m", "merge"},
+                 {"shift+j", "join"},
+                 {"shift+s", "pick split X Y"},
+                 {"shift+f", "pick fit X Y"}};
 }
 
 std::vector<std::string> Studio::Impl::keyHelpLines() const {
   std::vector<std::string> lines;
   for (const auto& [key, line] : keyBindings) {
-    // "ctrl+z" is shown as "Ctrl+Z", "delete" as "Delete".
+    // "ctrl+z" is shown as "Ctrl+Z", "shift+m" as "Shift+M", "delete" as "Delete".
     std::string shown = key;
     shown[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(shown[0])));
-    if (shown.size() == 6 && shown.rfind("Ctrl+", 0) == 0)
-      shown[5] = static_cast<char>(std::toupper(static_cast<unsigned char>(shown[5])));
+    const std::size_t plus = shown.find('+');
+    if (plus != std::string::npos && plus + 2 == shown.size())
+      shown[plus + 1] = static_cast<char>(std::toupper(static_cast<unsigned char>(shown[plus + 1])));
     lines.push_back(shown + std::string(shown.size() < 8 ? 8 - shown.size() : 1, ' ') + line);
   }
   lines.push_back("click   select a pipe, joint, direction or circle");
   lines.push_back("double-click  fly to the clicked pipe or joint");
+  lines.push_back("Shift+click  add a second pipe to the selected one");
+  lines.push_back("X Y     the pixel under the mouse");
   return lines;
 }
 

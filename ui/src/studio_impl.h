@@ -123,6 +123,7 @@ struct DirectionRef {
 struct Selection {
   enum class Kind { None, Pipe, Joint } kind = Kind::None;
   int id = 0;
+  int secondPipe = -1;  ///< A second selected pipe (Shift+click), for merge and join; -1 when none.
 };
 
 /// A points layer drawn whole when the camera is still and as a subsample while it moves.
@@ -212,7 +213,13 @@ struct Studio::Impl {
   void onKey();
   void onLeftPress();
   void onLeftRelease();
-  void pick(int x, int y, bool doubleClick);
+  /// Picks at window pixel (x, y) like a click; `addPipe` (Shift+click) makes a picked pipe the second selected one.
+  void pick(int x, int y, bool doubleClick, bool addPipe = false);
+  /// The world point (metres) of the front-most surface of the named scene layers under window pixel (x, y), and
+  /// the element there (-1 for points); nullopt when nothing visible is there.
+  std::optional<std::pair<Eigen::Vector3d, int>> pickSurface(int x, int y, std::initializer_list<const char*> names);
+  /// The two selected pipes (first, second); throws naming `action` when fewer are selected.
+  std::pair<int, int> selectedPipePair(const char* action) const;
   void registerCommands();
   std::vector<std::string> keyHelpLines() const;
 

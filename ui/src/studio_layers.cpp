@@ -227,6 +227,9 @@ void Studio::Impl::buildSelectionLayer() {
   if (selection.kind == Selection::Kind::Pipe) {
     const Pipe& pipe = *network.findPipe(selection.id);
     highlight.addTube({pipe.start - displayOrigin, pipe.end - displayOrigin}, pipe.radius * 1.12, kHighlight, pipe.id);
+    if (const Pipe* second = network.findPipe(selection.secondPipe))
+      highlight.addTube({second->start - displayOrigin, second->end - displayOrigin}, second->radius * 1.12, kHighlight,
+                        second->id);
   } else if (selection.kind == Selection::Kind::Joint) {
     const Joint& joint = *network.findJoint(selection.id);
     std::vector<Eigen::Vector3d> axis;
