@@ -9,13 +9,16 @@
 
 #include <nlohmann/json.hpp>
 
+#include <vtkBoxRepresentation.h>
 #include <vtkCallbackCommand.h>
 #include <vtkCamera.h>
 #include <vtkCellData.h>
 #include <vtkCellPicker.h>
 #include <vtkIntArray.h>
 #include <vtkObjectFactory.h>
+#include <vtkPointHandleRepresentation3D.h>
 #include <vtkPolyData.h>
+#include <vtkProperty.h>
 #include <vtkRenderWindow.h>
 #include <vtkRenderWindowInteractor.h>
 #include <vtkTextProperty.h>
@@ -89,6 +92,32 @@ Studio::Impl::Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowIntera
   observe(
       interactor, vtkCommand::LeftButtonReleaseEvent, [this](vtkObject*, unsigned long, void*) { onLeftRelease(); },
       0.0f, true);
+
+  // Hand-edit widgets. The box cannot rotate, so its bounds are the box `pipe fit-box` gets.
+  vtkNew<vtkBoxRepresentation> boxRepresentation;
+  boxRepresentation->SetPlaceFactor(1.0);
+  boxRepresentation->GetOutlineProperty()->SetColor(1.0, 0.85, 0.2);
+  boxRepresentation->GetOutlineProperty()->SetLineWidth(static_cast<float>(2.0 * options.uiScale));
+  boxRepresentation->GetHandleProperty()->SetColor(1.0, 0.85, 0.2);
+  fitBox->SetRepresentation(boxRepresentation);
+  fitBox->SetInteractor(interactor);
+  fitBox->SetDefaultRenderer(scene);
+  fitBox->RotationEnabledOff();
+  vtkNew<vtkPointHandleRepresentation3D> handleRepresentation;
+  handleRepresentation->GetProperty()->SetColor(1.0, 0.85, 0.2);
+  handleRepresentation->GetProperty()->SetLineWidth(static_cast<float>(2.0 * options.uiScale));
+  handleRepresentation->SetHandleSize(24.0 * options.uiScale);
+  endHandle->SetRepresentation(handleRepresentation);
+  endHandle->SetInteractor(interactor);
+  endHandle->SetDefaultRenderer(scene);
+  observe(endHandle, vtkCommand::EndInteractionEvent, [this](vtkObject*, unsigned long, void*) {
+    try {
+      message = applyEndHandle();
+    } catch (const std::exception& error) {
+      message = error.what();
+    }
+    updateOverlays();
+  });
 
   statusText = makeText(0.92, 0.92, 0.92);
   infoText = makeText(1.0, 0.9, 0.45);
@@ -206,6 +235,8 @@ void Studio::Impl::open(Document opened) {
       for (const auto& point : joint.axis) bounds.extend(point);
     displayOrigin = bounds.empty() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(bounds.min);
   }
+  fitBox->Off();  // Its box was in the old document's display co-ordinates.
+  handlePipe = -1;
   selection = {};
   selectedDirection = -1;
   viewMode = document.hasPipeline() ? ViewMode::All : ViewMode::Scene;
@@ -678,6 +709,16 @@ std::string Studio::Impl::edit(const std::string& line) {
   return outcome.message;
 }
 
+std::string Studio::Impl::editSelectingNewPipe(const std::string& line) {
+  std::vector<int> before;
+  for (const Pipe& pipe : document.network().pipes) before.push_back(pipe.id);
+  const std::string fitted = edit(line);
+  for (const Pipe& pipe : document.network().pipes)
+    if (std::find(before.begin(), before.end(), pipe.id) == before.end())
+      commands.run("select pipe " + std::to_string(pipe.id));
+  return fitted;
+}
+
 void Studio::Impl::networkChanged() {
   const PipeNetwork& network = document.network();
   if (selection.kind == Selection::Kind::Pipe && !network.findPipe(selection.id)) selection = {};
@@ -876,6 +917,44 @@ std::pair<int, int> Studio::Impl::selectedPipePair(const char* action) const {
   if (selection.kind != Selection::Kind::Pipe || selection.secondPipe < 0)
     throw CommandError(std::string("select two pipes to ") + action + " (click one, Shift+click the other)");
   return {selection.id, selection.secondPipe};
+}
+
+void Studio::Impl::showFitBox(const std::array<double, 6>& bounds) {
+  double shown[6];
+  for (int axis = 0; axis < 3; ++axis) {
+    shown[2 * axis] = bounds[2 * axis] - displayOrigin[axis];
+    shown[2 * axis + 1] = bounds[2 * axis + 1] - displayOrigin[axis];
+  }
+  fitBox->GetRepresentation()->PlaceWidget(shown);
+  fitBox->On();
+}
+
+void Studio::Impl::placeEndHandle() {
+  const Pipe* pipe = selection.kind == Selection::Kind::Pipe ? document.network().findPipe(selection.id) : nullptr;
+  if (!handleOn || !pipe) {
+    handlePipe = -1;
+    endHandle->Off();
+    return;
+  }
+  if (pipe->id != handlePipe) {
+    const double* eye = scene->GetActiveCamera()->GetPosition();
+    const Eigen::Vector3d camera = Eigen::Vector3d(eye[0], eye[1], eye[2]) + displayOrigin;
+    handleAtStart = (pipe->start - camera).norm() <= (pipe->end - camera).norm();
+    handlePipe = pipe->id;
+  }
+  Eigen::Vector3d position = (handleAtStart ? pipe->start : pipe->end) - displayOrigin;
+  auto* representation = vtkHandleRepresentation::SafeDownCast(endHandle->GetRepresentation());
+  representation->SetWorldPosition(position.data());
+  endHandle->On();
+}
+
+std::string Studio::Impl::applyEndHandle() {
+  if (handlePipe < 0) throw CommandError("no end handle shown: select a pipe and turn the handle on");
+  double position[3];
+  vtkHandleRepresentation::SafeDownCast(endHandle->GetRepresentation())->GetWorldPosition(position);
+  const Eigen::Vector3d world = Eigen::Vector3d(position[0], position[1], position[2]) + displayOrigin;
+  return edit("pipe " + std::to_string(handlePipe) + " move-end " + (handleAtStart ? "start " : "end ") +
+              formatPoint(world));
 }
 
 // ---------------------------------------------------------------------------------------------

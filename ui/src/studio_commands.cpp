@@ -5,6 +5,8 @@
 #include "piperun/error.h"
 
 #include <vtkCamera.h>
+#include <vtkHandleRepresentation.h>
+#include <vtkWidgetRepresentation.h>
 #include <vtkNew.h>
 #include <vtkPNGWriter.h>
 #include <vtkPolyData.h>
@@ -355,9 +357,6 @@ void Studio::Impl::registerCommands() {
         expectArguments(args, 3, 4, "pick split X Y | pick fit X Y [REACH]");
         const int x = parseInt(args[1], "X"), y = parseInt(args[2], "Y");
         const std::string pixel = "pixel (" + args[1] + ", " + args[2] + ")";
-        auto worldText = [](const Eigen::Vector3d& point) {
-          return format("%.17g", point.x()) + " " + format("%.17g", point.y()) + " " + format("%.17g", point.z());
-        };
         owner.render();  // Picking needs the current layout and camera.
         if (args[0] == "split") {
           expectArguments(args, 3, 3, "pick split X Y");
@@ -365,21 +364,104 @@ void Studio::Impl::registerCommands() {
           const auto hit = pickSurface(x, y, {"network/pipes", "network/deleted-pipes"});
           if (!hit || hit->second != selection.id)
             throw CommandError(pixel + " is not on pipe " + std::to_string(selection.id));
-          return edit("pipe " + std::to_string(selection.id) + " split " + worldText(hit->first));
+          return edit("pipe " + std::to_string(selection.id) + " split " + formatPoint(hit->first));
         }
         if (args[0] != "fit") throw CommandError("usage: pick split X Y | pick fit X Y [REACH]");
         const auto hit = pickSurface(x, y, {"input/points", "preprocess/points"});
         if (!hit) throw CommandError("no scan point shown at " + pixel + " (G shows the input points)");
-        std::string line = "pipe fit-point " + worldText(hit->first);
+        std::string line = "pipe fit-point " + formatPoint(hit->first);
         if (args.size() == 4) line += " " + format("%.17g", parseDouble(args[3], "the reach"));
-        std::vector<int> before;
-        for (const Pipe& pipe : document.network().pipes) before.push_back(pipe.id);
-        const std::string fitted = edit(line);
-        for (const Pipe& pipe : document.network().pipes)
-          if (std::find(before.begin(), before.end(), pipe.id) == before.end())
-            commands.run("select pipe " + std::to_string(pipe.id));
-        return fitted;
+        return editSelectingNewPipe(line);
       });
+
+  commands.add(
+      "box", "show [X0 Y0 Z0 X1 Y1 Z1] | hide | toggle | fit",
+      "show the fit box (around the selection, else the view centre; or between two corners, metres), hide it, or "
+      "fit a new pipe to the points inside it (pipe fit-box with its bounds) and select it",
+      [this](const std::vector<std::string>& args) {
+        const char* usage = "box show [X0 Y0 Z0 X1 Y1 Z1] | hide | toggle | fit";
+        expectArguments(args, 1, 7, usage);
+        const std::string action = args[0] == "toggle" ? (fitBox->GetEnabled() ? "hide" : "show") : args[0];
+        if (action == "hide" || action == "fit") {
+          expectArguments(args, 1, 1, usage);
+          if (action == "hide") {
+            fitBox->Off();
+            return std::string("box hidden");
+          }
+          if (!fitBox->GetEnabled()) throw CommandError("no box shown (box show, or B)");
+          const double* shown = fitBox->GetRepresentation()->GetBounds();
+          const Eigen::Vector3d low = Eigen::Vector3d(shown[0], shown[2], shown[4]) + displayOrigin;
+          const Eigen::Vector3d high = Eigen::Vector3d(shown[1], shown[3], shown[5]) + displayOrigin;
+          const std::string fitted = editSelectingNewPipe("pipe fit-box " + formatPoint(low) + " " + formatPoint(high));
+          fitBox->Off();
+          return fitted;
+        }
+        if (action != "show" || (args.size() != 1 && args.size() != 7)) throw CommandError(std::string("usage: ") + usage);
+        Eigen::Vector3d low, high;
+        if (args.size() == 7) {
+          for (int axis = 0; axis < 3; ++axis) {
+            const double a = parseDouble(args[1 + axis], "a corner co-ordinate");
+            const double b = parseDouble(args[4 + axis], "a corner co-ordinate");
+            low[axis] = std::min(a, b);
+            high[axis] = std::max(a, b);
+          }
+        } else {
+          // Around the selection with room for its points, else a box at the view centre.
+          const PipeNetwork& network = document.network();
+          std::vector<Eigen::Vector3d> axis;
+          double margin = 0.0;
+          if (selection.kind == Selection::Kind::Pipe) {
+            const Pipe& pipe = *network.findPipe(selection.id);
+            axis = {pipe.start, pipe.end};
+            margin = 1.5 * pipe.radius;
+          } else if (selection.kind == Selection::Kind::Joint) {
+            const Joint& joint = *network.findJoint(selection.id);
+            axis = joint.axis;
+            margin = 1.5 * joint.radius;
+          } else {
+            vtkCamera* camera = scene->GetActiveCamera();
+            const double* focus = camera->GetFocalPoint();
+            axis = {Eigen::Vector3d(focus[0], focus[1], focus[2]) + displayOrigin};
+            margin = 0.1 * camera->GetDistance();
+          }
+          low = high = axis.front();
+          for (const Eigen::Vector3d& point : axis) {
+            low = low.cwiseMin(point);
+            high = high.cwiseMax(point);
+          }
+          low.array() -= std::max(margin, 0.05);
+          high.array() += std::max(margin, 0.05);
+        }
+        showFitBox({low.x(), high.x(), low.y(), high.y(), low.z(), high.z()});
+        return "box from " + format("%.3f", low.x()) + " " + format("%.3f", low.y()) + " " + format("%.3f", low.z()) +
+               " to " + format("%.3f", high.x()) + " " + format("%.3f", high.y()) + " " + format("%.3f", high.z());
+      });
+
+  commands.add("handle", "on|off|toggle | drop X Y Z",
+               "show a handle on the selected pipe's end nearer the camera: releasing it moves that end (one "
+               "undoable edit); drop puts the handle at the point (metres) and releases it",
+               [this](const std::vector<std::string>& args) {
+                 const char* usage = "handle on|off|toggle | drop X Y Z";
+                 expectArguments(args, 1, 4, usage);
+                 if (args[0] == "drop") {
+                   expectArguments(args, 4, 4, usage);
+                   if (handlePipe < 0) throw CommandError("no end handle shown: select a pipe and turn the handle on");
+                   const Eigen::Vector3d world(parseDouble(args[1], "X"), parseDouble(args[2], "Y"),
+                                               parseDouble(args[3], "Z"));
+                   Eigen::Vector3d shown = world - displayOrigin;
+                   vtkHandleRepresentation::SafeDownCast(endHandle->GetRepresentation())->SetWorldPosition(shown.data());
+                   return applyEndHandle();
+                 }
+                 expectArguments(args, 1, 1, usage);
+                 if (args[0] != "on" && args[0] != "off" && args[0] != "toggle")
+                   throw CommandError(std::string("usage: ") + usage);
+                 handleOn = args[0] == "toggle" ? !handleOn : args[0] == "on";
+                 placeEndHandle();
+                 if (!handleOn) return std::string("end handle off");
+                 if (handlePipe < 0) return std::string("end handle on: select a pipe");
+                 return "end handle on the " + std::string(handleAtStart ? "start" : "end") + " of pipe " +
+                        std::to_string(handlePipe);
+               });
 
   commands.add("widgets", "on|off", "show or hide the stage bar and the parameter slider",
                [this](const std::vector<std::string>& args) {
@@ -513,7 +595,10 @@ void Studio::Impl::registerCommands() {
                  {"shift+m", "merge"},
                  {"shift+j", "join"},
                  {"shift+s", "pick split X Y"},
-                 {"shift+f", "pick fit X Y"}};
+                 {"shift+f", "pick fit X Y"},
+                 {"b", "box toggle"},
+                 {"shift+b", "box fit"},
+                 {"shift+e", "handle toggle"}};
 }
 
 std::vector<std::string> Studio::Impl::keyHelpLines() const {

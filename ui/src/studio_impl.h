@@ -11,6 +11,8 @@
 #include "piperun/edit/command_interpreter.h"
 #include "piperun/params.h"
 
+#include <vtkBoxWidget2.h>
+#include <vtkHandleWidget.h>
 #include <vtkInteractorStyleTrackballCamera.h>
 #include <vtkNew.h>
 #include <vtkPolyDataMapper.h>
@@ -113,6 +115,11 @@ inline std::string format(const char* pattern, double value) {
   return text;
 }
 
+/// "X Y Z" at full precision, as the edit commands take a point.
+inline std::string formatPoint(const Eigen::Vector3d& point) {
+  return format("%.17g", point.x()) + " " + format("%.17g", point.y()) + " " + format("%.17g", point.z());
+}
+
 /// A principal direction of one tile's round, numbered across all tiles for the views.
 struct DirectionRef {
   int tile = 0;  ///< Index into the pipeline's tile results.
@@ -200,6 +207,8 @@ struct Studio::Impl {
   void bindInterpreter();
   /// Runs an edit-vocabulary line (joint, pipe, undo, redo, save) through the interpreter.
   std::string edit(const std::string& line);
+  /// Runs an edit that fits a new pipe, then selects that pipe.
+  std::string editSelectingNewPipe(const std::string& line);
   /// After an edit, undo, redo or new network: drops a vanished selection and redraws the network.
   void networkChanged();
   /// The proposed joint after (or before) the selected one in the review queue; -1 when none is left.
@@ -220,6 +229,13 @@ struct Studio::Impl {
   std::optional<std::pair<Eigen::Vector3d, int>> pickSurface(int x, int y, std::initializer_list<const char*> names);
   /// The two selected pipes (first, second); throws naming `action` when fewer are selected.
   std::pair<int, int> selectedPipePair(const char* action) const;
+  /// Shows the fit box around world bounds (xmin, xmax, ymin, ymax, zmin, zmax; metres).
+  void showFitBox(const std::array<double, 6>& bounds);
+  /// When the end handle is on: puts it on the selected pipe's end nearer the camera (the same end while the
+  /// same pipe stays selected); hides it when no pipe is selected.
+  void placeEndHandle();
+  /// Moves the handle's pipe end to where the handle is: one undoable edit.
+  std::string applyEndHandle();
   void registerCommands();
   std::vector<std::string> keyHelpLines() const;
 
@@ -230,6 +246,11 @@ struct Studio::Impl {
   vtkNew<vtkRenderer> scene, sphere, plane, overlay;
   vtkNew<vtkRenderer> highlightLayer;  ///< Over the scene, sharing its camera.
   vtkNew<StudioInteractorStyle> style;
+  vtkNew<vtkBoxWidget2> fitBox;       ///< Axis-aligned box around the points `box fit` fits a pipe to.
+  vtkNew<vtkHandleWidget> endHandle;  ///< Drags a pipe end; releasing it moves the end.
+  bool handleOn = false;              ///< `handle on`: the handle follows the selected pipe.
+  int handlePipe = -1;                ///< The pipe whose end the handle drags; -1 when hidden.
+  bool handleAtStart = false;         ///< Which end: the pipe's start or its end.
   CommandRegistry commands;
   std::vector<std::pair<std::string, std::string>> keyBindings;  ///< key, command
 

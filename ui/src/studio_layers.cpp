@@ -240,6 +240,7 @@ void Studio::Impl::buildSelectionLayer() {
   actor->PickableOff();
   // Drawn over the scene (its own layer, same camera) so a selection inside other pipes shows.
   setLayer("selection/highlight", highlightLayer, actor, true);
+  placeEndHandle();
 }
 
 void Studio::Impl::buildSphereLayers() {
