@@ -602,7 +602,17 @@ void Studio::Impl::registerCommands() {
 }
 
 std::vector<std::string> Studio::Impl::keyHelpLines() const {
-  std::vector<std::string> lines;
+  // Consecutive bindings whose commands differ only in their last word share a line of at most 48
+  // characters, so that the list fits beside the commands: "U D K   color pipes run|radius|confidence".
+  struct Group {
+    std::string keys, prefix, lastWords;
+    std::string text() const {
+      return keys + std::string(keys.size() < 8 ? 8 - keys.size() : 2, ' ') + (prefix.empty() ? "" : prefix + " ") +
+             lastWords;
+    }
+  };
+  constexpr std::size_t kMaxLine = 48;
+  std::vector<Group> groups;
   for (const auto& [key, line] : keyBindings) {
     // "ctrl+z" is shown as "Ctrl+Z", "shift+m" as "Shift+M", "delete" as "Delete".
     std::string shown = key;
@@ -610,8 +620,20 @@ std::vector<std::string> Studio::Impl::keyHelpLines() const {
     const std::size_t plus = shown.find('+');
     if (plus != std::string::npos && plus + 2 == shown.size())
       shown[plus + 1] = static_cast<char>(std::toupper(static_cast<unsigned char>(shown[plus + 1])));
-    lines.push_back(shown + std::string(shown.size() < 8 ? 8 - shown.size() : 1, ' ') + line);
+    const std::size_t lastSpace = line.rfind(' ');
+    const std::string prefix = lastSpace == std::string::npos ? std::string() : line.substr(0, lastSpace);
+    const std::string lastWord = lastSpace == std::string::npos ? line : line.substr(lastSpace + 1);
+    if (!prefix.empty() && !groups.empty() && groups.back().prefix == prefix) {
+      const Group joined{groups.back().keys + " " + shown, prefix, groups.back().lastWords + "|" + lastWord};
+      if (joined.text().size() <= kMaxLine) {
+        groups.back() = joined;
+        continue;
+      }
+    }
+    groups.push_back({shown, prefix, lastWord});
   }
+  std::vector<std::string> lines;
+  for (const Group& group : groups) lines.push_back(group.text());
   lines.push_back("click   select a pipe, joint, direction or circle");
   lines.push_back("double-click  fly to the clicked pipe or joint");
   lines.push_back("Shift+click  add a second pipe to the selected one");
