@@ -953,6 +953,9 @@ std::string Studio::Impl::applyEndHandle() {
   double position[3];
   vtkHandleRepresentation::SafeDownCast(endHandle->GetRepresentation())->GetWorldPosition(position);
   const Eigen::Vector3d world = Eigen::Vector3d(position[0], position[1], position[2]) + displayOrigin;
+  const Pipe* pipe = document.network().findPipe(handlePipe);
+  if (pipe && (world - (handleAtStart ? pipe->start : pipe->end)).norm() < 1e-9)
+    return "pipe " + std::to_string(handlePipe) + ": end not moved";  // A click on the handle is no edit.
   return edit("pipe " + std::to_string(handlePipe) + " move-end " + (handleAtStart ? "start " : "end ") +
               formatPoint(world));
 }
