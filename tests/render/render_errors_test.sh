@@ -20,9 +20,17 @@ expect() {  # CODE PATTERN COMMAND...: the command exits with CODE and its stder
 
 printf 'view sphere\nselect pipe 999\n' >"$work/bad_pipe.txt"
 printf 'explode\n' >"$work/unknown.txt"
+printf 'merge\n' >"$work/merge_one.txt"
+printf 'pick split 10 10\n' >"$work/split_nothing.txt"
+printf 'box fit\n' >"$work/no_box.txt"
+printf 'handle drop 1 2 3\n' >"$work/no_handle.txt"
 expect 2 "piperun-render: error: .*missing\.ply" "$render" "$work/missing.ply" -o "$work/out.png"
 expect 2 "bad_pipe\.txt:2: no pipe 999" "$render" "$scene" --no-run --script "$work/bad_pipe.txt" -o "$work/out.png"
 expect 2 "unknown\.txt:1: unknown command 'explode'" "$render" "$scene" --no-run --script "$work/unknown.txt" -o "$work/out.png"
+expect 2 "merge_one\.txt:1: select two pipes to merge" "$render" "$scene" --no-run --script "$work/merge_one.txt" -o "$work/out.png"
+expect 2 "split_nothing\.txt:1: select a pipe to split" "$render" "$scene" --no-run --script "$work/split_nothing.txt" -o "$work/out.png"
+expect 2 "no_box\.txt:1: no box shown" "$render" "$scene" --no-run --script "$work/no_box.txt" -o "$work/out.png"
+expect 2 "no_handle\.txt:1: no end handle shown" "$render" "$scene" --no-run --script "$work/no_handle.txt" -o "$work/out.png"
 expect 1 "--size: expected WIDTHxHEIGHT" "$render" "$scene" --size 12 -o "$work/out.png"
 expect 1 "INPUT and -o OUT.png are required" "$render" "$scene"
 exit $((failures > 0))
