@@ -45,3 +45,10 @@ render "$work/scene.ply" --script "$work/save.txt" -o "$work/saved.png" >/dev/nu
 cp "$work/review.piperun" "$work/review.piperun.autosave"
 touch -d "@$(($(stat -c %Y "$work/review.piperun") + 60))" "$work/review.piperun.autosave"
 render "$work/review.piperun" --size 1280x800 -o docs/images/studio-recovery.png 2>/dev/null
+
+# Hand edits in the window: the fit box around a selected pipe; two pipes selected with the end
+# handle on the first.
+printf 'color pipes plain\nselect pipe 1\nfly\ncamera zoom 0.8\nbox show\n' >"$work/box.txt"
+render "$work/scene.ply" --script "$work/box.txt" --view scene --size 800x500 -o docs/images/studio-fit-box.png
+printf 'layer input/points off\ncolor pipes plain\nselect pipe 3\nfly\nhandle on\nclick 400 195 shift\n' >"$work/two.txt"
+render "$work/scene.ply" --script "$work/two.txt" --view scene --size 800x500 -o docs/images/studio-two-pipes.png
