@@ -73,7 +73,8 @@ std::string keySym(int key) {
       {GLFW_KEY_ESCAPE, "Escape"}, {GLFW_KEY_ENTER, "Return"}, {GLFW_KEY_KP_ENTER, "Return"},
       {GLFW_KEY_HOME, "Home"},     {GLFW_KEY_LEFT, "Left"},    {GLFW_KEY_RIGHT, "Right"},
       {GLFW_KEY_UP, "Up"},         {GLFW_KEY_DOWN, "Down"},    {GLFW_KEY_SPACE, "space"},
-      {GLFW_KEY_DELETE, "Delete"}, {GLFW_KEY_TAB, "Tab"},      {GLFW_KEY_INSERT, "Insert"}};
+      {GLFW_KEY_DELETE, "Delete"}, {GLFW_KEY_TAB, "Tab"},      {GLFW_KEY_INSERT, "Insert"},
+      {GLFW_KEY_BACKSPACE, "BackSpace"}};
   if (key >= GLFW_KEY_A && key <= GLFW_KEY_Z) return std::string(1, static_cast<char>('a' + key - GLFW_KEY_A));
   if (key >= GLFW_KEY_0 && key <= GLFW_KEY_9) return std::string(1, static_cast<char>('0' + key - GLFW_KEY_0));
   const auto found = kNames.find(key);
@@ -118,6 +119,11 @@ void installCallbacks(GLFWwindow* window) {
                                            action == GLFW_REPEAT ? 1 : 0, sym.c_str());
     app.interactor->InvokeEvent(vtkCommand::KeyPressEvent);
     app.interactor->InvokeEvent(vtkCommand::CharEvent);
+    app.redraw = true;
+  });
+  glfwSetCharCallback(window, [](GLFWwindow* w, unsigned codepoint) {
+    auto& app = self(w);
+    app.studio->typeText(codepoint);
     app.redraw = true;
   });
   glfwSetFramebufferSizeCallback(window, [](GLFWwindow* w, int width, int height) {

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The hand edits in a real X window (Xvfb): Shift+S with the mouse on the selected pipe splits it
 # there, dragging the end handle moves that end, Shift+click adds a second pipe to the selection
-# (drawn magenta), and Ctrl+S saves both edits in the project's history.
+# (drawn magenta), a command typed on the command line (':') sets a radius, and Ctrl+S saves the
+# edits in the project's history.
 # Usage: studio_hand_edits_xvfb_test.sh PIPERUN_STUDIO SCENE WORK_DIR
 set -euo pipefail
 studio=$1 scene=$2 work=$3
@@ -86,9 +87,16 @@ first=$(along_pipe_5 "$work/start.png") second=$(along_pipe_5 "$work/two.png")
 echo "magenta share along pipe 5: $first before the Shift+click, $second after"
 awk -v b="$first" -v a="$second" 'BEGIN { exit !(b < 0.01 && a > 0.05) }' || { echo "Shift+click did not add pipe 5" >&2; exit 1; }
 
+# The command line: ':' opens it, the typed command runs on Return.
+xdotool type --delay 30 ":pipe 1 radius 0.05"
+sleep 0.5
+xdotool key Return
+sleep 0.5
+
 xdotool key --window "$window" ctrl+s
 for _ in $(seq 50); do [[ -f "$work/scene.piperun" ]] && break; sleep 0.1; done
 commands=$(grep '"command":' "$work/scene.piperun" | cut -d'"' -f4)
 echo "$commands"
 grep -q "^pipe 3 split " <<<"$commands" || { echo "Shift+S did not split pipe 3" >&2; exit 1; }
 grep -q "^pipe 3 move-end start " <<<"$commands" || { echo "the handle did not move pipe 3's start" >&2; exit 1; }
+grep -q "^pipe 1 radius 0.05$" <<<"$commands" || { echo "the typed command line did not set pipe 1's radius" >&2; exit 1; }

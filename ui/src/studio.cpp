@@ -549,7 +549,11 @@ void Studio::Impl::updateOverlays() {
            << " runs";
     if (pipeline) status << "  " << directions.size() << " directions";
   }
-  if (!message.empty()) status << "\n" << message;
+  if (commandLine) {
+    status << "\n:" << *commandLine << "_   (Return runs, Esc closes)";
+  } else if (!message.empty()) {
+    status << "\n" << message;
+  }
   statusText->SetInput(status.str().c_str());
   infoText->SetInput(selectionInfo().c_str());
 
@@ -775,6 +779,7 @@ void Studio::Impl::onKey() {
   std::string key = interactor->GetKeySym() ? interactor->GetKeySym() : "";
   std::transform(key.begin(), key.end(), key.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (commandLineKey(key)) return;
   if (interactor->GetControlKey()) key = "ctrl+" + key;
   // Shift+key runs its own binding when it has one, else the key's (Shift+N is N).
   const std::string shifted = "shift+" + key;
@@ -798,6 +803,38 @@ void Studio::Impl::onKey() {
     updateOverlays();
     return;
   }
+}
+
+bool Studio::Impl::commandLineKey(const std::string& key) {
+  if (!commandLine) return false;
+  // While the command line is open, keys edit it instead of running their bindings.
+  if (key == "return") {
+    const std::string line = *commandLine;
+    commandLine.reset();
+    try {
+      message = line.empty() ? std::string() : commands.run(line);
+    } catch (const std::exception& error) {
+      message = error.what();
+    }
+  } else if (key == "escape") {
+    commandLine.reset();
+  } else if (key == "backspace" && !commandLine->empty()) {
+    commandLine->pop_back();
+  }
+  updateOverlays();
+  return true;
+}
+
+void Studio::Impl::typeCharacter(unsigned codepoint) {
+  if (codepoint < 0x20 || codepoint > 0x7e) return;  // Commands are ASCII.
+  const char character = static_cast<char>(codepoint);
+  if (!commandLine) {
+    if (character != ':') return;
+    commandLine.emplace();
+  } else {
+    commandLine->push_back(character);
+  }
+  updateOverlays();
 }
 
 void Studio::Impl::onLeftPress() {
@@ -1005,6 +1042,8 @@ void Studio::runScript(const std::filesystem::path& path) {
 const CommandRegistry& Studio::commands() const { return impl_->commands; }
 
 std::vector<std::string> Studio::keyHelpLines() const { return impl_->keyHelpLines(); }
+
+void Studio::typeText(unsigned codepoint) { impl_->typeCharacter(codepoint); }
 
 bool Studio::poll() { return impl_->poll(); }
 

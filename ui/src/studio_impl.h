@@ -220,6 +220,10 @@ struct Studio::Impl {
 
   // Interaction.
   void onKey();
+  /// The command line's keys while it is open (Return runs, Escape closes, BackSpace erases);
+  /// false when it is closed.
+  bool commandLineKey(const std::string& key);
+  void typeCharacter(unsigned codepoint);
   void onLeftPress();
   void onLeftRelease();
   /// Picks at window pixel (x, y) like a click; `addPipe` (Shift+click) makes a picked pipe the second selected one.
@@ -280,6 +284,7 @@ struct Studio::Impl {
   bool widgetsShown = true;
   bool quit = false;
   std::string message;
+  std::optional<std::string> commandLine;  ///< The typed command while the command line is open.
 
   std::unique_ptr<CommandInterpreter> interpreter;  ///< Edits document.project(); rebound on open.
 

@@ -61,6 +61,9 @@ class Studio {
   /// Key bindings as "key - command" lines, for the help overlay and docs/STUDIO.md.
   std::vector<std::string> keyHelpLines() const;
 
+  /// Text typed into the window (a Unicode code point, as GLFW's character callback gives it): ':'
+  /// opens the command line, whose characters then collect here until Return runs the command.
+  void typeText(unsigned codepoint);
   /// Picks up a finished background run and progress; true when the window should be redrawn.
   bool poll();
   /// Lays out the views for the window's current size and renders.
