@@ -638,6 +638,7 @@ std::vector<std::string> Studio::Impl::keyHelpLines() const {
   lines.push_back("double-click  fly to the clicked pipe or joint");
   lines.push_back("Shift+click  add a second pipe to the selected one");
   lines.push_back("X Y     the pixel under the mouse");
+  lines.push_back(":       type a command (Return runs it)");
   return lines;
 }
 
