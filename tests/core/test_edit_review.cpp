@@ -7,6 +7,7 @@
 #include "piperun/io/point_writer.h"
 #include "piperun/params.h"
 #include "piperun/synth/scene_generator.h"
+#include "test_scene.h"
 #include "test_util.h"
 
 #include <gtest/gtest.h>
@@ -17,21 +18,7 @@
 namespace piperun {
 namespace {
 
-// One small generated scene shared by the tests, as in test_pipeline.cpp.
-const GeneratedScene& scene() {
-  static const GeneratedScene generated = [] {
-    SceneParams params;
-    params.seed = 11;
-    params.densityScale = 0.5;
-    return generateScene(params);
-  }();
-  return generated;
-}
-
-std::shared_ptr<const PointCloud> sceneCloud() {
-  static const auto cloud = std::make_shared<const PointCloud>(scene().cloud.clone());
-  return cloud;
-}
+std::shared_ptr<const PointCloud> sceneCloud() { return test::smallSceneCloud(); }
 
 std::string snapshot(const PipeNetwork& network) { return networkToJson(network); }
 

@@ -4,6 +4,7 @@
 #include "piperun/io/point_reader.h"
 #include "piperun/pipeline.h"
 #include "piperun/synth/scene_generator.h"
+#include "test_scene.h"
 #include "test_util.h"
 
 #include <gtest/gtest.h>
@@ -15,21 +16,8 @@
 namespace piperun {
 namespace {
 
-// One small generated scene shared by the tests (generation costs more than a test should).
-const GeneratedScene& scene() {
-  static const GeneratedScene generated = [] {
-    SceneParams params;
-    params.seed = 11;
-    params.densityScale = 0.5;
-    return generateScene(params);
-  }();
-  return generated;
-}
-
-std::shared_ptr<const PointCloud> sceneCloud() {
-  static const auto cloud = std::make_shared<const PointCloud>(scene().cloud.clone());
-  return cloud;
-}
+const GeneratedScene& scene() { return test::smallScene(); }
+std::shared_ptr<const PointCloud> sceneCloud() { return test::smallSceneCloud(); }
 
 TEST(Pipeline, RunsEveryStageAndFindsPipes) {
   Pipeline pipeline(sceneCloud());

@@ -13,24 +13,8 @@ rm -f "$work"/*.png "$work"/studio.log "$work"/*.piperun*
 cp "$scene" "$work/scene.ply"  # Ctrl+S saves the project beside the scan.
 scene="$work/scene.ply"
 
-xvfb_pid="" studio_pid=""
-cleanup() {
-  [[ -n "$studio_pid" ]] && kill "$studio_pid" 2>/dev/null || true
-  [[ -n "$xvfb_pid" ]] && kill "$xvfb_pid" 2>/dev/null || true
-}
-trap cleanup EXIT
-
-# Xvfb picks a free display and writes its number to fd 3.
-Xvfb -displayfd 3 -screen 0 1280x860x24 -nolisten tcp 3>"$work/display" 2>"$work/xvfb.log" &
-xvfb_pid=$!
-display=""
-for _ in $(seq 100); do
-  display=$(head -n1 "$work/display" 2>/dev/null || true)
-  [[ "$display" =~ ^[0-9]+$ ]] && break
-  sleep 0.1
-done
-[[ "$display" =~ ^[0-9]+$ ]] || { cat "$work/xvfb.log"; echo "Xvfb did not start" >&2; exit 1; }
-export DISPLAY=":$display"
+source "$(dirname "$0")/xvfb_session.sh"
+start_xvfb "$work"
 
 # Propose the joints the pipeline is less sure of; hide the points and grey the pipes so that only
 # the highlight is magenta; centre the view on pipe 1; make the merge stage stale.
