@@ -4,6 +4,7 @@
 #include "piperun/params.h"
 
 #include "piperun/error.h"
+#include "json_text.h"
 
 #include <nlohmann/json.hpp>
 
@@ -184,14 +185,7 @@ std::string paramsToJson(const PipelineParams& params, int indent) {
 }
 
 PipelineParams paramsFromJson(const std::string& text, const std::filesystem::path& source, const PipelineParams& base) {
-  ordered_json document;
-  try {
-    document = ordered_json::parse(text);
-  } catch (const ordered_json::parse_error& error) {
-    std::string message = error.what();
-    if (const auto colon = message.find(": "); colon != std::string::npos) message = message.substr(colon + 2);
-    throw InputError(source, byteLocation(error.byte > 0 ? error.byte - 1 : 0), "invalid JSON: " + message);
-  }
+  const ordered_json document = parseJsonText<ordered_json>(text, source);
   if (!document.is_object()) throw InputError(source, "/", "expected a JSON object of parameters");
   PipelineParams params = base;
   const auto findField = [](const std::string& section, const std::string& key) -> const Field* {

@@ -2,6 +2,7 @@
 
 #include "io/atomic_file.h"
 #include "io/network_json.h"
+#include "json_text.h"
 #include "piperun/error.h"
 #include "piperun/params.h"
 
@@ -154,14 +155,7 @@ std::string projectToJson(const Project& project) {
 }
 
 Project projectFromJson(const std::string& text, const std::filesystem::path& source, std::vector<std::string>* warnings) {
-  json document;
-  try {
-    document = json::parse(text);
-  } catch (const json::parse_error& error) {
-    std::string message = error.what();
-    if (const auto colon = message.find(": "); colon != std::string::npos) message = message.substr(colon + 2);
-    throw InputError(source, byteLocation(error.byte > 0 ? error.byte - 1 : 0), "invalid JSON: " + message);
-  }
+  const json document = parseJsonText<json>(text, source);
   const json& format = member(document, source, "", "format");
   if (format != kProjectFormatName) fail(source, "/format", "expected \"piperun-project\"");
   const json& version = member(document, source, "", "version");

@@ -218,7 +218,8 @@ std::string pcfDocument(const std::vector<ExportElement>& elements) {
         case ElementKind::Tee: {
           const auto found = tees.find(element);
           if (found == tees.end()) {
-            // Without its main pipe a tee is only its branch stub.
+            // Its main pipe is not exported (deleted) or has no length: the tee is written as a plain
+            // pipe piece from the main axis to the branch.
             pcf.pipe(start, end, element->radius);
             break;
           }

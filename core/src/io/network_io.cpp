@@ -2,6 +2,7 @@
 
 #include "io/atomic_file.h"
 #include "io/network_json.h"
+#include "json_text.h"
 #include "piperun/error.h"
 
 #include <nlohmann/json.hpp>
@@ -265,17 +266,7 @@ std::string networkToJson(const PipeNetwork& network, const NetworkMetadata& met
 }
 
 PipeNetwork networkFromJson(const std::string& text, const std::filesystem::path& source, NetworkMetadata* metadata) {
-  json document;
-  try {
-    document = json::parse(text);
-  } catch (const json::parse_error& error) {
-    // nlohmann's message starts with its own "[json.exception.parse_error.101] parse error at ...".
-    std::string message = error.what();
-    if (const auto colon = message.find(": "); colon != std::string::npos) message = message.substr(colon + 2);
-    // nlohmann counts bytes from 1; the other readers report 0-based offsets.
-    throw InputError(source, byteLocation(error.byte > 0 ? error.byte - 1 : 0), "invalid JSON: " + message);
-  }
-  return networkFromJsonValue(document, source, metadata);
+  return networkFromJsonValue(parseJsonText<json>(text, source), source, metadata);
 }
 
 PipeNetwork networkFromJsonValue(const json& document, const std::filesystem::path& source, NetworkMetadata* metadata) {

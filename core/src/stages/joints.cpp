@@ -32,7 +32,7 @@ namespace piperun {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr double kSectionLength = 0.04;  // Sections of a gap or stub tested for point support (m).
+constexpr double kSectionLength = 0.04;  // Sections of a gap tested for point support (m).
 constexpr double kSupportNormalAngleDeg = 30.0;
 
 double radians(double degrees) { return degrees * kPi / 180.0; }
@@ -122,7 +122,7 @@ struct Hypothesis {
   double skewLimit = 0.0;
   Eigen::Vector3d corner;   // Elbow: P_I; tee: the point on the main axis.
   double bendAngle = 0.0;   // Elbow: angle between the two pipes' directions (rad).
-  double gap = 0.0;         // Boundary: gap length; tee: stub from the main surface to the branch end.
+  double gap = 0.0;         // Boundary: gap length; tee: from the main pipe's surface to the branch end.
   double gapLimit = 0.0;
   double reach = 0.0;       // Points within this of `center` are gathered for the hypothesis.
   Eigen::Vector3d center;
@@ -223,7 +223,7 @@ class JointBuilder {
     h.type = JointType::Tee;
     h.a = branch;
     h.mainPipe = main;
-    h.gap = alongBranch - mainPipe.radius;  // Stub from the main pipe's surface to the branch end.
+    h.gap = alongBranch - mainPipe.radius;  // From the main pipe's surface to the branch end.
     h.gapLimit = searchDistance(branch.radius);
     // The branch end does not pass the main's axis (it may reach into the main pipe: a branch of
     // the main's size shares points with it around the junction).
@@ -394,15 +394,15 @@ class JointBuilder {
 
   void reconstructTee(Hypothesis& h, const std::vector<std::uint32_t>& nearby) const {
     const PipeSegment& main = input_.pipes[static_cast<std::size_t>(h.mainPipe)];
-    // The stub from the main pipe's surface to the branch end; a branch that already reaches the
-    // main pipe is direct evidence.
+    // The gap between the main pipe's surface and the branch end is checked for points; a branch
+    // that already reaches the main pipe is direct evidence.
     const Eigen::Vector3d toBranch = (h.a.point - h.corner).normalized();
     const Eigen::Vector3d surface = h.corner + main.radius * toBranch;
-    const double stub = std::max(0.0, h.gap);
-    h.support = stub <= std::max(kSectionLength, 0.5 * h.a.radius)
+    const double branchGap = std::max(0.0, h.gap);
+    h.support = branchGap <= std::max(kSectionLength, 0.5 * h.a.radius)
                     ? 1.0
                     : straightCoverage(surface, h.a.point, h.a.radius, nearby, h.supportPoints);
-    h.geometric = (1.0 - h.skew / h.skewLimit) * (1.0 - stub / h.gapLimit);
+    h.geometric = (1.0 - h.skew / h.skewLimit) * (1.0 - branchGap / h.gapLimit);
     h.confidence = 0.5 * h.geometric + 0.5 * h.support;
     h.axis = {h.corner, h.a.point};
     h.valid = true;
