@@ -153,8 +153,12 @@ CommandOutcome CommandInterpreter::finishRun(const PendingRun& run) {
   project_.edits = std::move(carried.session);
   outcome.dropped = std::move(carried.dropped);
   outcome.message = "network: " + std::to_string(project_.edits.network().pipes.size()) + " pipes, " +
-                    std::to_string(project_.edits.network().joints.size()) + " joints; " + std::to_string(kept) +
-                    " edits carried over, " + std::to_string(outcome.dropped.size()) + " not";
+                    std::to_string(project_.edits.network().joints.size()) + " joints";
+  // Only a review in progress has something to carry over.
+  if (kept > 0 || !outcome.dropped.empty()) {
+    outcome.message += "; " + std::to_string(kept) + " edits carried over, " + std::to_string(outcome.dropped.size()) +
+                       " not";
+  }
   return outcome;
 }
 
