@@ -16,8 +16,9 @@ class ConstructedScene {
  public:
   explicit ConstructedScene(double noise = 0.0, bool oneSided = false) : noise_(noise), oneSided_(oneSided) {}
 
-  /// A straight pipe sampled every 5 mm along and 10° around; returns its index.
-  int addPipe(const Eigen::Vector3d& start, const Eigen::Vector3d& end, double radius) {
+  /// A straight pipe sampled every 5 mm along and 10° around; returns its index. An unlisted pipe
+  /// leaves only its points, as a pipe the earlier stages missed.
+  int addPipe(const Eigen::Vector3d& start, const Eigen::Vector3d& end, double radius, bool listed = true) {
     const Eigen::Vector3d axis = (end - start).normalized();
     const Eigen::Vector3d u = axis.unitOrthogonal();
     const Eigen::Vector3d v = axis.cross(u);
@@ -34,8 +35,24 @@ class ConstructedScene {
         segment.inliers.push_back(addPoint(center + radius * radial, radial));
       }
     }
+    if (!listed) return -1;
     pipes_.push_back(std::move(segment));
     return static_cast<int>(pipes_.size()) - 1;
+  }
+
+  /// The four side faces of an upright box of square section `width` centred on (x, y), sampled
+  /// every 5 mm, with the faces' normals.
+  void addPost(double x, double y, double width, double bottom, double top) {
+    const double half = 0.5 * width;
+    for (const Eigen::Vector3d& normal : {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, 1, 0),
+                                         Eigen::Vector3d(0, -1, 0)}) {
+      const Eigen::Vector3d side = Eigen::Vector3d::UnitZ().cross(normal);
+      for (double z = bottom; z <= top; z += 0.005) {
+        for (double across = -half; across <= half; across += 0.005) {
+          addPoint(Eigen::Vector3d(x, y, z) + half * normal + across * side, normal);
+        }
+      }
+    }
   }
 
   /// The elbow surface between tangent points: centre circle around `center` from `start`, turning
@@ -246,6 +263,66 @@ TEST(Joints, AnEndTakesAtMostOneJointTheBestSupported) {
   ASSERT_FALSE(result.joints.empty());
   EXPECT_EQ(result.joints[0].type, JointType::Elbow);
   EXPECT_EQ(result.joints[0].pipeIds, (std::vector<int>{1, 2}));
+}
+
+TEST(Joints, ALegBetweenTwoElbowsThatNoPipeCoversIsCompleted) {
+  // Pipe 1 comes along +x to a corner at the origin, a 30 cm leg (points only, as a leg too short
+  // for the Gaussian sphere) rises along +y to a second corner, pipe 2 leaves along +z. Both
+  // elbows have R = 3r. Pipe 3, far off, runs along y: the network's directions are x, y and z.
+  const double r = 0.05, R = 0.15, corner = 0.6;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  scene.addElbow({-R, R, 0}, {-R, 0, 0}, Eigen::Vector3d::UnitZ(), kPi / 2, r);
+  scene.addPipe({0, R, 0}, {0, corner - R, 0}, r, false);
+  scene.addElbow({0, corner - R, R}, {0, corner - R, 0}, Eigen::Vector3d::UnitX(), kPi / 2, r);
+  scene.addPipe({0, corner, R}, {0, corner, 1.5}, r);
+  scene.addPipe({3, 0, 0}, {3, 1.2, 0}, r);
+
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.completedPipes, 1u);
+  ASSERT_EQ(result.pipes.size(), 4u);
+  const PipeSegment& leg = result.pipes[3];  // Completed pipes come after the input pipes.
+  EXPECT_NEAR(leg.radius, r, 1e-12);
+  EXPECT_GT(std::fabs((leg.end - leg.start).normalized().y()), 0.999);
+  EXPECT_NEAR(leg.start.x(), 0.0, 0.01);
+  EXPECT_NEAR(leg.start.z(), 0.0, 0.01);
+  EXPECT_FALSE(leg.inliers.empty());
+  // Elbows at both corners; the leg is trimmed to their tangent points.
+  int elbows = 0;
+  for (const Joint& joint : result.joints) {
+    if (joint.type != JointType::Elbow) continue;
+    ++elbows;
+    EXPECT_NEAR(joint.bendRadius, R, 0.1 * R);
+    EXPECT_EQ(joint.status, JointStatus::Accepted);
+  }
+  EXPECT_EQ(elbows, 2);
+  EXPECT_NEAR(std::min(leg.start.y(), leg.end.y()), R, 0.02);
+  EXPECT_NEAR(std::max(leg.start.y(), leg.end.y()), corner - R, 0.02);
+  // Pipes 1, 2 and the leg are one run; pipe 3 another.
+  ASSERT_EQ(result.runs.size(), 2u);
+  EXPECT_EQ(result.runs[0].pipeIds, (std::vector<int>{1, 2, 4}));
+
+  JointsParams off;
+  off.maxCompletionLength = 0.0;
+  const JointsResult without = scene.connect(off);
+  EXPECT_EQ(without.pipes.size(), 3u);
+  EXPECT_EQ(without.diagnostics.completedPipes, 0u);
+  EXPECT_TRUE(without.joints.empty());
+}
+
+TEST(Joints, ASquarePostAtAPipeEndIsNotCompletedAsAPipe) {
+  // A 1.5" rail ends at a 5 cm square post, as handrails do; a pipe along z elsewhere makes z one
+  // of the network's directions. The post's faces lie within the support band of a rail-sized
+  // cylinder, but not on its radius.
+  const double r = 0.0211;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 1.1}, {-0.025, 0, 1.1}, r);
+  scene.addPost(0.0, 0.0, 0.05, 0.0, 1.1 - r);
+  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.completedPipes, 0u);
+  EXPECT_EQ(result.pipes.size(), 2u);
+  EXPECT_TRUE(result.joints.empty());
 }
 
 TEST(Joints, RunsAreConnectedComponentsOverAcceptedJoints) {

@@ -45,7 +45,8 @@ merge
 save merged.piperun
 radius snap
 save snapped.piperun
-joint 21 reject
+# Joint 22 is the elbow between pipes 1 and 4 (ids as the pipeline numbers them: pipes, then joints).
+joint 22 reject
 select pipe 1 4
 join
 save joined.piperun

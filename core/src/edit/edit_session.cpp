@@ -169,7 +169,9 @@ void addJoint(PipeNetwork& network, int firstId, int secondId, const EditContext
     segments[k].rms = pipe.fitRms;
     segments[k].confidence = pipe.confidence;
   }
-  const JointsResult joined = connectPipes({cloud, segments}, context.joints);
+  JointsParams twoPipes = context.joints;
+  twoPipes.maxCompletionLength = 0.0;  // Only these two pipes: nothing is completed beyond their ends.
+  const JointsResult joined = connectPipes({cloud, segments}, twoPipes);
   if (joined.joints.empty() || joined.pipes.size() != 2) {
     throw EditError("no elbow, tee or boundary joint fits pipes " + std::to_string(firstId) + " and " + std::to_string(secondId) +
                     " (their ends are too far apart, or their axes do not meet within the joints limits)");

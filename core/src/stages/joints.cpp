@@ -12,7 +12,15 @@
 //    the main pipe's axis. Boundary joints bridge the gap between collinear ends.
 // 3. Confidence = how well the criteria hold, blended with the point support on the joint's
 //    surface; the best-supported hypothesis takes an end first, an end takes at most one joint.
-// 4. Runs: connected components of the pipes over accepted joints.
+// 4. Completion: an end no joint took looks beyond an elbow, along each of the network's
+//    directions, for a pipe the earlier stages missed (short legs between elbows, tails into
+//    equipment: too few points to stand out on the Gaussian sphere). Knowing the radius, only the
+//    corner's place along the end's extension is unknown: each unexplained point votes for the
+//    corners that put it on the surface. The peak's pipe must cover its sections, leave empty space
+//    around the tube, carry the continued radius and have normals that turn with the surface (a
+//    flat face's do not); it is kept when it takes the elbow with the end it grew from (steps 1–3
+//    run again with it).
+// 5. Runs: connected components of the pipes over accepted joints.
 
 #include "piperun/stages/joints.h"
 
@@ -36,6 +44,16 @@ constexpr double kSectionLength = 0.04;  // Sections of a gap tested for point s
 constexpr double kSupportNormalAngleDeg = 30.0;
 
 double radians(double degrees) { return degrees * kPi / 180.0; }
+
+/// Whether point i's normal is within the support angle of the unit `radial` (normals are unoriented).
+bool normalAgrees(const PointCloud& cloud, std::uint32_t i, const Eigen::Vector3d& radial) {
+  if (cloud.normals.empty()) return true;
+  return std::fabs(cloud.normals[i].cast<double>().dot(radial)) >= std::cos(radians(kSupportNormalAngleDeg));
+}
+
+bool isFragment(const PipeSegment& pipe, const JointsParams& params) {
+  return (pipe.end - pipe.start).norm() < params.minPipeDiameters * 2.0 * pipe.radius;
+}
 
 struct PipeEnd {
   int pipe = 0;
@@ -185,9 +203,11 @@ class JointBuilder {
     if (!parameters) return;
     const auto [alongA, alongB] = *parameters;
     const double search = searchDistance(larger);
-    // The corner lies ahead of both ends, or at most a radius behind one: ends fitted into the
-    // elbow reach about the corner.
-    if (alongA < -larger || alongB < -larger || alongA > search || alongB > search) return;
+    // The corner lies ahead of both ends, or behind one by as much as the ends of pipes fitted
+    // into the elbow overshoot it: about a radius at a square bend, more at a gentle one, whose
+    // surface stays within a cylinder's band for longer.
+    const double overshoot = larger / std::tan(0.5 * bendAngle);
+    if (alongA < -overshoot || alongB < -overshoot || alongA > search || alongB > search) return;
     const Eigen::Vector3d onA = a.point + alongA * a.outward;
     const Eigen::Vector3d onB = b.point + alongB * b.outward;
     Hypothesis h;
@@ -249,10 +269,8 @@ class JointBuilder {
  private:
   Eigen::Vector3d position(std::uint32_t i) const { return input_.cloud.positions[i].cast<double>(); }
 
-  /// Whether point i's normal is within the support angle of `radial` (normals are unoriented).
   bool normalAgrees(std::uint32_t i, const Eigen::Vector3d& radial) const {
-    if (input_.cloud.normals.empty()) return true;
-    return std::fabs(input_.cloud.normals[i].cast<double>().dot(radial)) >= std::cos(radians(kSupportNormalAngleDeg));
+    return piperun::normalAgrees(input_.cloud, i, radial);
   }
 
   /// Inliers per metre of axis of a pipe: the density a joint of the same size should show.
@@ -456,21 +474,59 @@ std::vector<double> elbowRadiusVotes(const Eigen::Vector3d& point, const Eigen::
   return roots;
 }
 
-JointsResult connectPipes(const JointsInput& input, const JointsParams& params, Progress& progress) {
-  const auto started = std::chrono::steady_clock::now();
+namespace {
+
+/// For each sphere (centre, radius), the points of the cloud inside it that `keep` accepts, in
+/// index order, from one pass over the cloud through a grid of the spheres.
+template <class Keep>
+std::vector<std::vector<std::uint32_t>> pointsInSpheres(const PointCloud& cloud,
+                                                        const std::vector<std::pair<Eigen::Vector3d, double>>& spheres,
+                                                        double cellSize, Keep&& keep) {
+  std::vector<std::vector<std::uint32_t>> inside(spheres.size());
+  if (spheres.empty()) return inside;
+  HashGrid grid(cellSize);
+  for (std::size_t s = 0; s < spheres.size(); ++s) {
+    const auto& [center, reach] = spheres[s];
+    const Eigen::Vector3i low = grid.cellOf(center - Eigen::Vector3d::Constant(reach));
+    const Eigen::Vector3i high = grid.cellOf(center + Eigen::Vector3d::Constant(reach));
+    for (int x = low.x(); x <= high.x(); ++x) {
+      for (int y = low.y(); y <= high.y(); ++y) {
+        for (int z = low.z(); z <= high.z(); ++z) grid.insert({x, y, z}, static_cast<std::uint32_t>(s));
+      }
+    }
+  }
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3d p = cloud.positions[i].cast<double>();
+    const auto* bucket = grid.find(grid.cellOf(p));
+    if (!bucket || !keep(i)) continue;
+    for (std::uint32_t s : *bucket) {
+      const auto& [center, reach] = spheres[s];
+      if ((p - center).squaredNorm() <= reach * reach) inside[s].push_back(static_cast<std::uint32_t>(i));
+    }
+  }
+  return inside;
+}
+
+/// The joints chosen among the hypotheses between a set of pipes.
+struct Resolution {
+  std::vector<Hypothesis> hypotheses;
+  std::vector<std::size_t> chosen;  // Into hypotheses, in the order they took their ends.
+  std::vector<char> endTaken;       // By PipeEnd::key().
+  JointsResult::Diagnostics diagnostics;
+};
+
+/// Hypotheses between `input.pipes`, reconstructed with their points, and the conflicts resolved.
+/// `explained` flags the points that are inliers of some pipe.
+Resolution resolveJoints(const JointsInput& input, const JointsParams& params, const std::vector<char>& explained,
+                         double cellSize, Progress& progress) {
   const auto& pipes = input.pipes;
   const int pipeCount = static_cast<int>(pipes.size());
-  std::vector<char> explained(input.cloud.size(), 0);
-  for (const auto& pipe : pipes) {
-    for (std::uint32_t i : pipe.inliers) explained[i] = 1;
-  }
-  JointBuilder builder(input, params, explained);
-  JointsResult result;
+  const JointBuilder builder(input, params, explained);
+  Resolution resolution;
 
   // Spatial index over the pipes' axes.
   double largestRadius = 0.0;
   for (const auto& pipe : pipes) largestRadius = std::max(largestRadius, pipe.radius);
-  const double cellSize = std::max(params.minSearchDistance, 0.25);
   HashGrid pipeGrid(cellSize);
   for (int p = 0; p < pipeCount; ++p) {
     const PipeSegment& pipe = pipes[static_cast<std::size_t>(p)];
@@ -483,14 +539,11 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   }
 
   // Hypotheses, in a deterministic order (by end, then by partner).
-  std::vector<Hypothesis> hypotheses;
+  auto& hypotheses = resolution.hypotheses;
   std::vector<int> near;
-  const auto isFragment = [&](int p) {
-    const PipeSegment& pipe = pipes[static_cast<std::size_t>(p)];
-    return (pipe.end - pipe.start).norm() < params.minPipeDiameters * 2.0 * pipe.radius;
-  };
+  const auto fragment = [&](int p) { return isFragment(pipes[static_cast<std::size_t>(p)], params); };
   for (int p = 0; p < pipeCount; ++p) {
-    if (isFragment(p)) continue;
+    if (fragment(p)) continue;
     for (int side = 0; side < 2; ++side) {
       const PipeEnd end = endOf(pipes, p, side);
       const double partnerRadius = end.radius / params.minRadiusRatio;
@@ -498,12 +551,12 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
                            largestRadius;
       near.clear();
       pipeGrid.forEachInCube(end.point, reach, [&](std::uint32_t other) {
-        if (static_cast<int>(other) != p && !isFragment(static_cast<int>(other))) near.push_back(static_cast<int>(other));
+        if (static_cast<int>(other) != p && !fragment(static_cast<int>(other))) near.push_back(static_cast<int>(other));
       });
       std::sort(near.begin(), near.end());
       near.erase(std::unique(near.begin(), near.end()), near.end());
       for (int other : near) {
-        ++result.diagnostics.candidatePairs;
+        ++resolution.diagnostics.candidatePairs;
         builder.tryTee(end, other, hypotheses);
         for (int otherSide = 0; otherSide < 2; ++otherSide) {
           if (2 * other + otherSide < end.key()) continue;  // Each end pair once.
@@ -514,35 +567,10 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   }
   progress.checkCancelled();
 
-  // The points near each hypothesis, from one pass over the cloud through a grid of the
-  // hypotheses' reach spheres.
-  HashGrid hypothesisGrid(cellSize);
-  for (std::size_t h = 0; h < hypotheses.size(); ++h) {
-    const double reach = hypotheses[h].reach;
-    const Eigen::Vector3i low = hypothesisGrid.cellOf(hypotheses[h].center - Eigen::Vector3d::Constant(reach));
-    const Eigen::Vector3i high = hypothesisGrid.cellOf(hypotheses[h].center + Eigen::Vector3d::Constant(reach));
-    for (int x = low.x(); x <= high.x(); ++x) {
-      for (int y = low.y(); y <= high.y(); ++y) {
-        for (int z = low.z(); z <= high.z(); ++z) hypothesisGrid.insert({x, y, z}, static_cast<std::uint32_t>(h));
-      }
-    }
-  }
-  std::vector<std::vector<std::uint32_t>> nearby(hypotheses.size());
-  if (!hypotheses.empty()) {
-    for (std::size_t i = 0; i < input.cloud.size(); ++i) {
-      const Eigen::Vector3d p = input.cloud.positions[i].cast<double>();
-      const auto* bucket = hypothesisGrid.find(hypothesisGrid.cellOf(p));
-      if (!bucket) continue;
-      for (std::uint32_t h : *bucket) {
-        if ((p - hypotheses[h].center).squaredNorm() <= hypotheses[h].reach * hypotheses[h].reach) {
-          nearby[h].push_back(static_cast<std::uint32_t>(i));
-        }
-      }
-    }
-  }
-  progress.report("joints", 0.3);
+  std::vector<std::pair<Eigen::Vector3d, double>> spheres;
+  for (const auto& hypothesis : hypotheses) spheres.emplace_back(hypothesis.center, hypothesis.reach);
+  const auto nearby = pointsInSpheres(input.cloud, spheres, cellSize, [](std::size_t) { return true; });
   progress.checkCancelled();
-
   tbb::parallel_for(std::size_t{0}, hypotheses.size(),
                     [&](std::size_t h) { builder.reconstruct(hypotheses[h], nearby[h]); });
   progress.checkCancelled();
@@ -551,13 +579,14 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   std::vector<std::size_t> order;
   for (std::size_t h = 0; h < hypotheses.size(); ++h) {
     if (!hypotheses[h].valid) continue;
-    ++result.diagnostics.hypotheses[static_cast<std::size_t>(hypotheses[h].type)];
+    ++resolution.diagnostics.hypotheses[static_cast<std::size_t>(hypotheses[h].type)];
     order.push_back(h);
   }
   std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
     return hypotheses[x].confidence > hypotheses[y].confidence;
   });
-  std::vector<char> endTaken(2 * static_cast<std::size_t>(pipeCount), 0);
+  auto& endTaken = resolution.endTaken;
+  endTaken.assign(2 * static_cast<std::size_t>(pipeCount), 0);
   // Where each end lies once the chosen elbows have moved it: two elbows on one short pipe must
   // leave it a length.
   std::vector<Eigen::Vector3d> endPoint(2 * static_cast<std::size_t>(pipeCount));
@@ -569,7 +598,6 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
     const Eigen::Vector3d& other = endPoint[static_cast<std::size_t>(end.key() ^ 1)];
     return (moved - other).dot(end.outward) >= kSectionLength;
   };
-  std::vector<std::size_t> chosen;
   for (std::size_t h : order) {
     const Hypothesis& hypothesis = hypotheses[h];
     const bool twoEnds = hypothesis.type != JointType::Tee;
@@ -577,7 +605,7 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
     if (endTaken[static_cast<std::size_t>(hypothesis.a.key())] ||
         (twoEnds && endTaken[static_cast<std::size_t>(hypothesis.b.key())]) ||
         (elbow && (!keepsLength(hypothesis.a, hypothesis.newA) || !keepsLength(hypothesis.b, hypothesis.newB)))) {
-      ++result.diagnostics.conflicts;
+      ++resolution.diagnostics.conflicts;
       continue;
     }
     endTaken[static_cast<std::size_t>(hypothesis.a.key())] = 1;
@@ -586,13 +614,338 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
       endPoint[static_cast<std::size_t>(hypothesis.a.key())] = hypothesis.newA;
       endPoint[static_cast<std::size_t>(hypothesis.b.key())] = hypothesis.newB;
     }
-    chosen.push_back(h);
+    resolution.chosen.push_back(h);
   }
+  return resolution;
+}
+
+/// The directions of the network: the pipes' axes grouped within a few degrees, each group's
+/// length-weighted mean, for groups of at least half a metre of pipe (longest pipes first, so the
+/// grouping does not depend on the input order of equal pipes... nor on thread count).
+std::vector<Eigen::Vector3d> networkDirections(const std::vector<PipeSegment>& pipes) {
+  constexpr double kGroupAngleDeg = 3.0;
+  constexpr double kMinGroupLength = 0.5;
+  std::vector<std::size_t> order(pipes.size());
+  for (std::size_t p = 0; p < pipes.size(); ++p) order[p] = p;
+  const auto length = [&](std::size_t p) { return (pipes[p].end - pipes[p].start).norm(); };
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return length(x) > length(y); });
+  std::vector<Eigen::Vector3d> sums;
+  for (std::size_t p : order) {
+    const Eigen::Vector3d axis = unitAxis(pipes[p]);
+    bool grouped = false;
+    for (Eigen::Vector3d& sum : sums) {
+      const double cosine = axis.dot(sum.normalized());
+      if (std::fabs(cosine) >= std::cos(radians(kGroupAngleDeg))) {
+        sum += (cosine < 0.0 ? -length(p) : length(p)) * axis;
+        grouped = true;
+        break;
+      }
+    }
+    if (!grouped) sums.push_back(length(p) * axis);
+  }
+  std::vector<Eigen::Vector3d> directions;
+  for (const Eigen::Vector3d& sum : sums) {
+    if (sum.norm() >= kMinGroupLength) directions.push_back(sum.normalized());
+  }
+  return directions;
+}
+
+/// A pipe the earlier stages missed, found beyond a free end: short legs between elbows and tails
+/// into equipment hold too few points for the Gaussian sphere, but knowing the radius, the end and
+/// the network's directions leaves only the corner's place to find.
+struct Completion {
+  PipeEnd from;
+  PipeSegment pipe;  // From the corner beyond `from` to its last supported section.
+};
+
+class EndCompletion {
+ public:
+  EndCompletion(const JointsInput& input, const JointsParams& params, const JointBuilder& builder)
+      : input_(input), params_(params), builder_(builder) {}
+
+  /// The radius of the sphere around an end that holds every point a completion may use.
+  double reach(const PipeEnd& end) const {
+    return builder_.searchDistance(end.radius) + params_.maxBendRadii * end.radius + params_.maxCompletionLength +
+           end.radius + params_.supportDistance;
+  }
+
+  /// The best-supported completion of `end` along one of `directions` (either way), from the
+  /// points `nearby` (not explained by any pipe).
+  std::optional<Completion> complete(const PipeEnd& end, const std::vector<Eigen::Vector3d>& directions,
+                                     const std::vector<std::uint32_t>& nearby) const {
+    std::optional<Completion> best;
+    for (const Eigen::Vector3d& direction : directions) {
+      for (const double sign : {1.0, -1.0}) {
+        auto candidate = completeAlong(end, sign * direction, nearby);
+        if (candidate && (!best || candidate->pipe.inliers.size() > best->pipe.inliers.size())) best = std::move(candidate);
+      }
+    }
+    return best;
+  }
+
+ private:
+  static constexpr int kMaxLeadSections = 3;  // The straight must start this close to the elbow...
+  static constexpr int kMaxGapSections = 3;   // ...and it ends at a gap longer than this.
+  static constexpr double kMaxClutterShare = 0.5;  // Points off the surface, against those on it.
+  static constexpr double kMaxFlatShare = 0.4;          // Normals sharing one direction (see flatShare).
+  static constexpr double kMinRadiusTolerance = 0.0015;  // The mean offset of the points from the radius (m)...
+  static constexpr double kRadiusToleranceRadii = 0.03;  // ...may be this share of the radius, or the above.
+
+  /// The largest share of `points` whose normals, seen along the pipe (`x` × `y` is its axis),
+  /// point within 5° of one direction: a pipe's normals turn with the surface, a flat face's
+  /// (a post, a box side) stay put.
+  double flatShare(const std::vector<std::uint32_t>& points, const Eigen::Vector3d& x, const Eigen::Vector3d& y) const {
+    if (input_.cloud.normals.empty() || points.empty()) return 0.0;
+    constexpr int kDegrees = 180;  // Normals are unoriented: angles modulo 180°.
+    constexpr int kHalfWindow = 5;
+    std::array<int, kDegrees> histogram{};
+    for (std::uint32_t i : points) {
+      const Eigen::Vector3d normal = input_.cloud.normals[i].cast<double>();
+      double angle = std::atan2(normal.dot(y), normal.dot(x));
+      if (angle < 0.0) angle += kPi;
+      ++histogram[static_cast<std::size_t>(std::min(kDegrees - 1, static_cast<int>(angle / kPi * kDegrees)))];
+    }
+    int most = 0;
+    for (int k = 0; k < kDegrees; ++k) {
+      int window = 0;
+      for (int j = -kHalfWindow; j <= kHalfWindow; ++j) window += histogram[static_cast<std::size_t>((k + j + kDegrees) % kDegrees)];
+      most = std::max(most, window);
+    }
+    return static_cast<double>(most) / static_cast<double>(points.size());
+  }
+
+  std::optional<Completion> completeAlong(const PipeEnd& end, const Eigen::Vector3d& along,
+                                          const std::vector<std::uint32_t>& nearby) const {
+    const double cosine = end.outward.dot(along);
+    const double bend = std::acos(std::clamp(cosine, -1.0, 1.0));
+    if (bend < radians(params_.minElbowAngleDeg) || bend > radians(params_.maxElbowAngleDeg)) return std::nullopt;
+    const double sine = std::sin(bend);
+    // In the plane across `along`: `across` points from the end's line towards the corners, `aside`
+    // is the bend plane's normal. The new pipe's axis passes at (t sin θ, 0) for a corner t past the end.
+    const Eigen::Vector3d across = (end.outward - cosine * along) / sine;
+    const Eigen::Vector3d aside = along.cross(across);
+    const double r = end.radius;
+    const double band = params_.supportDistance;
+    // The straight begins past the shortest elbow's tangent point.
+    const double firstAlong = params_.minBendRadii * r * std::tan(0.5 * bend);
+    const double lastAlong = firstAlong + params_.maxCompletionLength;
+    const double minCorner = -r;
+    const double maxCorner = builder_.searchDistance(r);
+
+    // Each point votes for the corners that put it on the surface: (α − t sin θ)² + c² = r².
+    const double binWidth = 0.5 * band / sine;
+    const auto bins = static_cast<std::size_t>(std::ceil((maxCorner - minCorner) / binWidth)) + 1;
+    std::vector<double> histogram(bins, 0.0);
+    for (std::uint32_t i : nearby) {
+      const Eigen::Vector3d w = input_.cloud.positions[i].cast<double>() - end.point;
+      const double alpha = w.dot(across);
+      const double c = w.dot(aside);
+      if (std::fabs(c) >= r) continue;
+      const double half = std::sqrt(r * r - c * c);
+      for (const double root : {alpha - half, alpha + half}) {
+        const double corner = root / sine;
+        const double distanceAlong = w.dot(along) - corner * cosine;
+        if (corner < minCorner || corner > maxCorner || distanceAlong < firstAlong || distanceAlong > lastAlong) continue;
+        const Eigen::Vector3d radial = (alpha - root) * across + c * aside;
+        if (!normalAgrees(input_.cloud, i, radial / r)) continue;
+        const double position = (corner - minCorner) / binWidth;
+        const auto bin = std::min(bins - 1, static_cast<std::size_t>(position));
+        const double fraction = position - static_cast<double>(bin);
+        histogram[bin] += 1.0 - fraction;
+        if (bin + 1 < bins) histogram[bin + 1] += fraction;
+      }
+    }
+    std::size_t peak = 0;
+    double peakVotes = 0.0;
+    for (std::size_t k = 0; k < bins; ++k) {
+      const double smoothed = 2.0 * histogram[k] + (k > 0 ? histogram[k - 1] : 0.0) + (k + 1 < bins ? histogram[k + 1] : 0.0);
+      if (smoothed > peakVotes) {
+        peakVotes = smoothed;
+        peak = k;
+      }
+    }
+    if (peakVotes <= 0.0) return std::nullopt;
+    const Eigen::Vector3d corner = end.point + (minCorner + static_cast<double>(peak) * binWidth) * end.outward;
+
+    // Sections along the new pipe holding a point on its surface.
+    const auto sections = static_cast<std::size_t>(std::ceil(params_.maxCompletionLength / kSectionLength));
+    std::vector<std::vector<std::uint32_t>> bySection(sections);
+    // Points well inside the tube or in a shell around it, per section: a wall, a box face or a
+    // steel flange that grazes the surface carries on past it, a pipe leaves empty space.
+    std::vector<std::size_t> clutterBySection(sections, 0);
+    for (std::uint32_t i : nearby) {
+      const Eigen::Vector3d d = input_.cloud.positions[i].cast<double>() - corner;
+      const double distanceAlong = d.dot(along);
+      if (distanceAlong < firstAlong || distanceAlong >= lastAlong) continue;
+      const auto section = std::min(sections - 1, static_cast<std::size_t>((distanceAlong - firstAlong) / kSectionLength));
+      const Eigen::Vector3d radial = d - distanceAlong * along;
+      const double distance = radial.norm();
+      if (distance < r - 2.0 * band || (distance > r + 2.0 * band && distance <= 2.0 * (r + band))) {
+        ++clutterBySection[section];
+      }
+      if (std::fabs(distance - r) > band || !normalAgrees(input_.cloud, i, radial / std::max(distance, 1e-12))) continue;
+      bySection[section].push_back(i);
+    }
+    std::size_t first = 0;
+    while (first < sections && bySection[first].empty()) ++first;
+    if (first >= static_cast<std::size_t>(kMaxLeadSections)) return std::nullopt;
+    std::size_t last = first;
+    for (std::size_t k = first + 1; k < sections && k - last <= static_cast<std::size_t>(kMaxGapSections); ++k) {
+      if (!bySection[k].empty()) last = k;
+    }
+    std::size_t covered = 0;
+    std::size_t clutter = 0;
+    Completion completion;
+    for (std::size_t k = 0; k <= last; ++k) {
+      covered += bySection[k].empty() ? 0 : 1;
+      clutter += clutterBySection[k];
+      completion.pipe.inliers.insert(completion.pipe.inliers.end(), bySection[k].begin(), bySection[k].end());
+    }
+    const double coverage = static_cast<double>(covered) / static_cast<double>(last + 1);
+    const double length = firstAlong + static_cast<double>(last + 1) * kSectionLength;
+    if (completion.pipe.inliers.size() < params_.minCompletionPoints || coverage < params_.minCompletionCoverage ||
+        static_cast<double>(clutter) > kMaxClutterShare * static_cast<double>(completion.pipe.inliers.size()) ||
+        length - firstAlong < 2.0 * r * params_.minPipeDiameters) {
+      return std::nullopt;
+    }
+    std::sort(completion.pipe.inliers.begin(), completion.pipe.inliers.end());
+    double sum = 0.0;
+    double squares = 0.0;
+    for (std::uint32_t i : completion.pipe.inliers) {
+      const Eigen::Vector3d d = input_.cloud.positions[i].cast<double>() - corner;
+      const double offset = (d - d.dot(along) * along).norm() - r;
+      sum += offset;
+      squares += offset * offset;
+    }
+    // The points must sit on the radius of the pipe being continued, not merely within the band: a
+    // square post or a flange face next to a pipe end fits the band but not the radius.
+    const auto count = static_cast<double>(completion.pipe.inliers.size());
+    const double meanOffset = sum / count;
+    const double spread = std::sqrt(std::max(0.0, squares / count - meanOffset * meanOffset));
+    if (std::fabs(meanOffset) > std::max({kMinRadiusTolerance, kRadiusToleranceRadii * r, 2.5 * spread / std::sqrt(count)})) {
+      return std::nullopt;
+    }
+    if (flatShare(completion.pipe.inliers, across, aside) > kMaxFlatShare) return std::nullopt;
+    completion.from = end;
+    completion.pipe.start = corner;
+    completion.pipe.end = corner + length * along;
+    completion.pipe.radius = r;
+    completion.pipe.rms = std::sqrt(squares / count);
+    completion.pipe.confidence = coverage;
+    return completion;
+  }
+
+  const JointsInput& input_;
+  const JointsParams& params_;
+  const JointBuilder& builder_;
+};
+
+/// Completions of the ends no joint took, best-supported first; a point supports one completion.
+std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsParams& params,
+                                         const std::vector<char>& explained, const Resolution& resolution,
+                                         double cellSize) {
+  const JointBuilder builder(input, params, explained);
+  const EndCompletion completer(input, params, builder);
+  std::vector<PipeEnd> ends;
+  std::vector<std::pair<Eigen::Vector3d, double>> spheres;
+  for (int p = 0; p < static_cast<int>(input.pipes.size()); ++p) {
+    if (isFragment(input.pipes[static_cast<std::size_t>(p)], params)) continue;
+    for (int side = 0; side < 2; ++side) {
+      if (resolution.endTaken[static_cast<std::size_t>(2 * p + side)]) continue;
+      ends.push_back(endOf(input.pipes, p, side));
+      spheres.emplace_back(ends.back().point, completer.reach(ends.back()));
+    }
+  }
+  const auto nearby = pointsInSpheres(input.cloud, spheres, cellSize, [&](std::size_t i) { return !explained[i]; });
+  const auto directions = networkDirections(input.pipes);
+  std::vector<std::optional<Completion>> found(ends.size());
+  tbb::parallel_for(std::size_t{0}, ends.size(),
+                    [&](std::size_t e) { found[e] = completer.complete(ends[e], directions, nearby[e]); });
+
+  std::vector<std::size_t> order;
+  for (std::size_t e = 0; e < ends.size(); ++e) {
+    if (found[e]) order.push_back(e);
+  }
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
+    return found[x]->pipe.inliers.size() > found[y]->pipe.inliers.size();
+  });
+  std::vector<char> used(input.cloud.size(), 0);
+  std::vector<Completion> completions;
+  for (std::size_t e : order) {
+    const auto& inliers = found[e]->pipe.inliers;
+    const auto shared = static_cast<std::size_t>(std::count_if(inliers.begin(), inliers.end(), [&](std::uint32_t i) { return used[i] != 0; }));
+    if (2 * shared > inliers.size()) continue;  // The same pipe, completed from its other side.
+    for (std::uint32_t i : inliers) used[i] = 1;
+    completions.push_back(std::move(*found[e]));
+  }
+  return completions;
+}
+
+}  // namespace
+
+JointsResult connectPipes(const JointsInput& input, const JointsParams& params, Progress& progress) {
+  const auto started = std::chrono::steady_clock::now();
+  const double cellSize = std::max(params.minSearchDistance, 0.25);
+  std::vector<char> explained(input.cloud.size(), 0);
+  for (const auto& pipe : input.pipes) {
+    for (std::uint32_t i : pipe.inliers) explained[i] = 1;
+  }
+  std::vector<PipeSegment> pipes = input.pipes;
+  Resolution resolution = resolveJoints(input, params, explained, cellSize, progress);
+  progress.report("joints", 0.4);
+
+  // Free ends completed by the pipes the earlier stages missed; a completion is kept when it takes
+  // an elbow with the end it grew from (the others go and the rest are resolved again).
+  std::size_t completed = 0;
+  if (params.maxCompletionLength > 0.0) {
+    std::vector<Completion> completions = completeFreeEnds(input, params, explained, resolution, cellSize);
+    while (!completions.empty()) {
+      std::vector<PipeSegment> augmented = input.pipes;
+      std::vector<char> augmentedExplained = explained;
+      for (const Completion& completion : completions) {
+        augmented.push_back(completion.pipe);
+        for (std::uint32_t i : completion.pipe.inliers) augmentedExplained[i] = 1;
+      }
+      Resolution again = resolveJoints({input.cloud, augmented}, params, augmentedExplained, cellSize, progress);
+      std::vector<char> joined(completions.size(), 0);
+      for (std::size_t h : again.chosen) {
+        const Hypothesis& hypothesis = again.hypotheses[h];
+        if (hypothesis.type != JointType::Elbow) continue;
+        for (std::size_t c = 0; c < completions.size(); ++c) {
+          const int startKey = 2 * static_cast<int>(input.pipes.size() + c);
+          const int fromKey = completions[c].from.key();
+          if ((hypothesis.a.key() == fromKey && hypothesis.b.key() == startKey) ||
+              (hypothesis.b.key() == fromKey && hypothesis.a.key() == startKey)) {
+            joined[c] = 1;
+          }
+        }
+      }
+      if (std::count(joined.begin(), joined.end(), 1) == static_cast<std::ptrdiff_t>(completions.size())) {
+        pipes = std::move(augmented);
+        resolution = std::move(again);
+        completed = completions.size();
+        break;
+      }
+      std::vector<Completion> kept;
+      for (std::size_t c = 0; c < completions.size(); ++c) {
+        if (joined[c]) kept.push_back(std::move(completions[c]));
+      }
+      completions = std::move(kept);
+    }
+  }
+  progress.report("joints", 0.8);
+
+  JointsResult result;
+  result.diagnostics = resolution.diagnostics;
+  result.diagnostics.completedPipes = completed;
+  auto& hypotheses = resolution.hypotheses;
+  const auto& chosen = resolution.chosen;
+  const int pipeCount = static_cast<int>(pipes.size());
 
   // Fragments lying on a chosen elbow's arc are bits of the elbow fitted as cylinders: they go.
   std::vector<char> absorbed(static_cast<std::size_t>(pipeCount), 0);
   for (int p = 0; p < pipeCount; ++p) {
-    if (!isFragment(p)) continue;
+    if (!isFragment(pipes[static_cast<std::size_t>(p)], params)) continue;
     const PipeSegment& fragment = pipes[static_cast<std::size_t>(p)];
     for (std::size_t h : chosen) {
       const Hypothesis& elbow = hypotheses[h];

@@ -34,7 +34,7 @@ struct JointsParams {
   double maxBoundaryAngleDeg = 5.0;    ///< Ends whose axes continue each other within this angle are a boundary joint.
   double maxBoundaryGapDiameters = 8.0;  ///< A boundary joint bridges at most this many diameters (at least
                                        ///< minSearchDistance): gaps behind beams, valves, flanges.
-  double minElbowAngleDeg = 20.0;      ///< Bend angles (between one pipe's direction and the next) from this...
+  double minElbowAngleDeg = 8.0;       ///< Bend angles (between one pipe's direction and the next) from this...
   double maxElbowAngleDeg = 135.0;     ///< ...to this make an elbow.
   double minTeeAngleDeg = 60.0;        ///< A branch meets its main pipe at least this far from parallel.
   double minBendRadii = 1.0;           ///< An elbow's major radius R is voted between this...
@@ -44,6 +44,12 @@ struct JointsParams {
                                        ///< found elbow's arc are absorbed by it.
   double supportDistance = 0.01;       ///< Points within this of a joint's surface support it (m).
   double acceptConfidence = 0.5;       ///< Joints with at least this confidence are accepted, others proposed.
+  double maxCompletionLength = 1.0;    ///< An end no joint took looks for a pipe the earlier stages missed beyond an
+                                       ///< elbow, along one of the network's directions, up to this long (m; 0: off):
+                                       ///< short legs between elbows and tails into equipment have too few points
+                                       ///< to stand out on the Gaussian sphere.
+  std::size_t minCompletionPoints = 12;  ///< Such a pipe needs this many points on its surface...
+  double minCompletionCoverage = 0.5;  ///< ...in this share of its sections at least, and must take the elbow.
 };
 
 struct JointsInput {
@@ -52,8 +58,8 @@ struct JointsInput {
 };
 
 /// The joined network in the cloud's frame. The pipes keep their input order, less the fragments
-/// an elbow absorbed, with ids from 1 in that order (elbows move their ends to the tangent points);
-/// joint ids continue after the last pipe id.
+/// an elbow absorbed, followed by the pipes completed beyond free ends, with ids from 1 in that
+/// order (elbows move their ends to the tangent points); joint ids continue after the last pipe id.
 /// Runs are the connected components of the pipes over accepted joints, every pipe in exactly one
 /// run, numbered from 1 in the order of their first pipe.
 struct JointsResult {
@@ -67,6 +73,7 @@ struct JointsResult {
     std::array<std::size_t, 3> hypotheses{};  ///< Valid hypotheses by JointType (elbow, tee, boundary).
     std::size_t conflicts = 0;             ///< Hypotheses dropped: an end already taken, or a pipe left too short.
     std::size_t absorbedFragments = 0;     ///< Fragment pipes removed because they lie on an elbow.
+    std::size_t completedPipes = 0;        ///< Pipes found beyond free ends (appended after the input pipes).
     double seconds = 0.0;
   } diagnostics;
 };
