@@ -17,8 +17,8 @@
 //    equipment: too few points to stand out on the Gaussian sphere). Knowing the radius, only the
 //    corner's place along the end's extension is unknown: each unexplained point votes for the
 //    corners that put it on the surface. The peak's pipe must cover its sections, leave empty space
-//    around the tube, carry the continued radius and have normals that turn with the surface (a
-//    flat face's do not); it is kept when it takes the elbow with the end it grew from (steps 1–3
+//    around the tube, carry the continued radius and not be a flat face (normals of one direction
+//    on points in a line); it is kept when it takes the elbow with the end it grew from (steps 1–3
 //    run again with it).
 // 5. Runs: connected components of the pipes over accepted joints.
 
@@ -26,6 +26,7 @@
 
 #include "piperun/edit/runs.h"
 
+#include <Eigen/Eigenvalues>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -687,7 +688,8 @@ class EndCompletion {
   static constexpr int kMaxLeadSections = 3;  // The straight must start this close to the elbow...
   static constexpr int kMaxGapSections = 3;   // ...and it ends at a gap longer than this.
   static constexpr double kMaxClutterShare = 0.5;  // Points off the surface, against those on it.
-  static constexpr double kMaxFlatShare = 0.4;          // Normals sharing one direction (see flatShare).
+  static constexpr double kMaxFlatShare = 0.4;          // Normals sharing one direction (see flatShare)...
+  static constexpr double kLineToCircle = 0.9;          // ...and a line fitting the points this well against the circle.
   static constexpr double kMinRadiusTolerance = 0.0015;  // The mean offset of the points from the radius (m)...
   static constexpr double kRadiusToleranceRadii = 0.03;  // ...may be this share of the radius, or the above.
 
@@ -712,6 +714,25 @@ class EndCompletion {
       most = std::max(most, window);
     }
     return static_cast<double>(most) / static_cast<double>(points.size());
+  }
+
+  /// RMS distance of `points`, seen along the pipe (`x` × `y` is its axis), from the straight line
+  /// that fits them best across the pipe.
+  double lineRms(const std::vector<std::uint32_t>& points, const Eigen::Vector3d& origin, const Eigen::Vector3d& x,
+                 const Eigen::Vector3d& y) const {
+    std::vector<Eigen::Vector2d> across;
+    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+    for (std::uint32_t i : points) {
+      const Eigen::Vector3d d = input_.cloud.positions[i].cast<double>() - origin;
+      across.emplace_back(d.dot(x), d.dot(y));
+      mean += across.back();
+    }
+    mean /= static_cast<double>(across.size());
+    Eigen::Matrix2d covariance = Eigen::Matrix2d::Zero();
+    for (const Eigen::Vector2d& q : across) covariance += (q - mean) * (q - mean).transpose();
+    covariance /= static_cast<double>(across.size());
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> solver(covariance, Eigen::EigenvaluesOnly);
+    return std::sqrt(std::max(0.0, solver.eigenvalues()(0)));
   }
 
   std::optional<Completion> completeAlong(const PipeEnd& end, const Eigen::Vector3d& along,
@@ -825,7 +846,13 @@ class EndCompletion {
     if (std::fabs(meanOffset) > std::max({kMinRadiusTolerance, kRadiusToleranceRadii * r, 2.5 * spread / std::sqrt(count)})) {
       return std::nullopt;
     }
-    if (flatShare(completion.pipe.inliers, across, aside) > kMaxFlatShare) return std::nullopt;
+    // A flat face: normals that keep one direction and points that lie on a line across the pipe
+    // at least as well as on its circle. (Normals alone are not enough: on thin, sparse pipes they
+    // point at the scanner.)
+    if (flatShare(completion.pipe.inliers, across, aside) > kMaxFlatShare &&
+        lineRms(completion.pipe.inliers, corner, across, aside) < kLineToCircle * std::sqrt(squares / count)) {
+      return std::nullopt;
+    }
     completion.from = end;
     completion.pipe.start = corner;
     completion.pipe.end = corner + length * along;
