@@ -620,9 +620,9 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
   return resolution;
 }
 
-/// The directions of the network: the pipes' axes grouped within a few degrees, each group's
-/// length-weighted mean, for groups of at least half a metre of pipe (longest pipes first, so the
-/// grouping does not depend on the input order of equal pipes... nor on thread count).
+/// The directions of the network: the pipes' axes grouped within a few degrees (longest pipes
+/// first, ties in input order), each group's length-weighted mean, for groups of at least half a
+/// metre of pipe.
 std::vector<Eigen::Vector3d> networkDirections(const std::vector<PipeSegment>& pipes) {
   constexpr double kGroupAngleDeg = 3.0;
   constexpr double kMinGroupLength = 0.5;
