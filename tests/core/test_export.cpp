@@ -325,7 +325,7 @@ TEST(Export, PlyReadBackByVtkWithElementIds) {
   }
   EXPECT_EQ(found, expected);
   expectBounds(parts.at({0, 1}), {0, -kMainRadius, 1 - kMainRadius}, {2, kMainRadius, 1 + kMainRadius}, 1e-6);
-  // The tee's stub: from the main axis down to the branch pipe, of the branch radius.
+  // The tee's mesh is its branch piece: from the main axis down to the branch pipe, of the branch radius.
   expectBounds(parts.at({2, 2}), {1 - kBranchRadius, -kBranchRadius, 1 - kMainRadius}, {1 + kBranchRadius, kBranchRadius, 1},
                1e-6);
 }
