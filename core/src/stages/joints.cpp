@@ -56,6 +56,42 @@ bool isFragment(const PipeSegment& pipe, const JointsParams& params) {
   return (pipe.end - pipe.start).norm() < params.minPipeDiameters * 2.0 * pipe.radius;
 }
 
+/// Votes for values in [low, high], each split linearly between its two nearest bins; the peak is
+/// the bin with the most votes once smoothed by a triangular (1, 2, 1) kernel.
+class VoteHistogram {
+ public:
+  VoteHistogram(double low, double high, double binWidth)
+      : low_(low), width_(binWidth), bins_(static_cast<std::size_t>(std::ceil((high - low) / binWidth)) + 1, 0.0) {}
+
+  void vote(double value) {
+    const double position = (value - low_) / width_;
+    const auto bin = std::min(bins_.size() - 1, static_cast<std::size_t>(position));
+    const double fraction = position - static_cast<double>(bin);
+    bins_[bin] += 1.0 - fraction;
+    if (bin + 1 < bins_.size()) bins_[bin + 1] += fraction;
+  }
+
+  /// The value at the peak (the first of equal peaks) and its smoothed votes; (low, 0) without votes.
+  std::pair<double, double> peak() const {
+    std::size_t best = 0;
+    double most = 0.0;
+    for (std::size_t k = 0; k < bins_.size(); ++k) {
+      const double smoothed =
+          2.0 * bins_[k] + (k > 0 ? bins_[k - 1] : 0.0) + (k + 1 < bins_.size() ? bins_[k + 1] : 0.0);
+      if (smoothed > most) {
+        most = smoothed;
+        best = k;
+      }
+    }
+    return {low_ + static_cast<double>(best) * width_, most};
+  }
+
+ private:
+  double low_;
+  double width_;
+  std::vector<double> bins_;
+};
+
 struct PipeEnd {
   int pipe = 0;
   int side = 0;                      // 0: start, 1: end
@@ -270,9 +306,6 @@ class JointBuilder {
  private:
   Eigen::Vector3d position(std::uint32_t i) const { return input_.cloud.positions[i].cast<double>(); }
 
-  bool normalAgrees(std::uint32_t i, const Eigen::Vector3d& radial) const {
-    return piperun::normalAgrees(input_.cloud, i, radial);
-  }
 
   /// Inliers per metre of axis of a pipe: the density a joint of the same size should show.
   double linearDensity(int pipe) const {
@@ -296,7 +329,8 @@ class JointBuilder {
       if (along < 0.0 || along >= length) continue;
       const Eigen::Vector3d radial = d - along * axis;
       const double distance = radial.norm();
-      if (std::fabs(distance - r) > params_.supportDistance || !normalAgrees(i, radial / std::max(distance, 1e-12))) {
+      if (std::fabs(distance - r) > params_.supportDistance ||
+          !normalAgrees(input_.cloud, i, radial / std::max(distance, 1e-12))) {
         continue;
       }
       covered[std::min(sections - 1, static_cast<std::size_t>(along / kSectionLength))] = 1;
@@ -343,8 +377,7 @@ class JointBuilder {
     // Points the straight pipes explain stay out: each ring of a pipe would vote for the R whose
     // tangent point it lies at, a plateau that buries the elbow's peak.
     const double binWidth = std::max(0.001, 0.02 * r);
-    const auto bins = static_cast<std::size_t>(std::ceil((maxBend - minBend) / binWidth)) + 1;
-    std::vector<double> histogram(bins, 0.0);
+    VoteHistogram histogram(minBend, maxBend, binWidth);
     std::vector<std::pair<double, std::uint32_t>> votes;
     for (std::uint32_t i : nearby) {
       if (explained_[i]) continue;
@@ -352,23 +385,14 @@ class JointBuilder {
       for (double bendRadius : elbowRadiusVotes(p, h.corner, bisector, normal, halfAngle, r)) {
         if (bendRadius < minBend || bendRadius > maxBend) continue;
         Eigen::Vector3d radial;
-        if (!onElbow(p, bendRadius, radial) || !normalAgrees(i, radial.normalized())) continue;
+        if (!onElbow(p, bendRadius, radial) || !normalAgrees(input_.cloud, i, radial.normalized())) continue;
         votes.emplace_back(bendRadius, i);
-        const double position = (bendRadius - minBend) / binWidth;
-        const auto bin = static_cast<std::size_t>(position);
-        const double fraction = position - static_cast<double>(bin);
-        histogram[bin] += 1.0 - fraction;
-        if (bin + 1 < bins) histogram[bin + 1] += fraction;
+        histogram.vote(bendRadius);
       }
     }
     double bendRadius = std::clamp(std::min(toEndA, toEndB) / tangentPerRadius, minBend, maxBend);
     if (!votes.empty()) {
-      std::vector<double> smoothed(bins, 0.0);
-      for (std::size_t k = 0; k < bins; ++k) {
-        smoothed[k] = 2.0 * histogram[k] + (k > 0 ? histogram[k - 1] : 0.0) + (k + 1 < bins ? histogram[k + 1] : 0.0);
-      }
-      const auto peak = static_cast<std::size_t>(std::max_element(smoothed.begin(), smoothed.end()) - smoothed.begin());
-      const double peakRadius = minBend + static_cast<double>(peak) * binWidth;
+      const double peakRadius = histogram.peak().first;
       // Refine: the mean of the votes within two bins of the peak.
       double sum = 0.0;
       std::size_t count = 0;
@@ -387,7 +411,8 @@ class JointBuilder {
       Eigen::Vector3d radial;
       if (!onElbow(p, bendRadius, radial)) continue;
       const double distance = radial.norm();
-      if (std::fabs(distance - r) <= params_.supportDistance && normalAgrees(i, radial / std::max(distance, 1e-12))) {
+      if (std::fabs(distance - r) <= params_.supportDistance &&
+          normalAgrees(input_.cloud, i, radial / std::max(distance, 1e-12))) {
         h.supportPoints.push_back(i);
       }
     }
@@ -678,7 +703,9 @@ class EndCompletion {
     for (const Eigen::Vector3d& direction : directions) {
       for (const double sign : {1.0, -1.0}) {
         auto candidate = completeAlong(end, sign * direction, nearby);
-        if (candidate && (!best || candidate->pipe.inliers.size() > best->pipe.inliers.size())) best = std::move(candidate);
+        if (candidate && (!best || candidate->pipe.inliers.size() > best->pipe.inliers.size())) {
+          best = std::move(candidate);
+        }
       }
     }
     return best;
@@ -689,7 +716,8 @@ class EndCompletion {
   static constexpr int kMaxGapSections = 3;   // ...and it ends at a gap longer than this.
   static constexpr double kMaxClutterShare = 0.5;  // Points off the surface, against those on it.
   static constexpr double kMaxFlatShare = 0.4;          // Normals sharing one direction (see flatShare)...
-  static constexpr double kLineToCircle = 0.9;          // ...and a line fitting the points this well against the circle.
+  static constexpr double kLineToCircle = 0.9;          // ...with a line fit's RMS under this share of the
+                                                        // circle's: a flat face.
   static constexpr double kMinRadiusTolerance = 0.0015;  // The mean offset of the points from the radius (m)...
   static constexpr double kRadiusToleranceRadii = 0.03;  // ...may be this share of the radius, or the above.
 
@@ -710,7 +738,9 @@ class EndCompletion {
     int most = 0;
     for (int k = 0; k < kDegrees; ++k) {
       int window = 0;
-      for (int j = -kHalfWindow; j <= kHalfWindow; ++j) window += histogram[static_cast<std::size_t>((k + j + kDegrees) % kDegrees)];
+      for (int j = -kHalfWindow; j <= kHalfWindow; ++j) {
+        window += histogram[static_cast<std::size_t>((k + j + kDegrees) % kDegrees)];
+      }
       most = std::max(most, window);
     }
     return static_cast<double>(most) / static_cast<double>(points.size());
@@ -754,9 +784,7 @@ class EndCompletion {
     const double maxCorner = builder_.searchDistance(r);
 
     // Each point votes for the corners that put it on the surface: (α − t sin θ)² + c² = r².
-    const double binWidth = 0.5 * band / sine;
-    const auto bins = static_cast<std::size_t>(std::ceil((maxCorner - minCorner) / binWidth)) + 1;
-    std::vector<double> histogram(bins, 0.0);
+    VoteHistogram histogram(minCorner, maxCorner, 0.5 * band / sine);
     for (std::uint32_t i : nearby) {
       const Eigen::Vector3d w = input_.cloud.positions[i].cast<double>() - end.point;
       const double alpha = w.dot(across);
@@ -766,27 +794,16 @@ class EndCompletion {
       for (const double root : {alpha - half, alpha + half}) {
         const double corner = root / sine;
         const double distanceAlong = w.dot(along) - corner * cosine;
-        if (corner < minCorner || corner > maxCorner || distanceAlong < firstAlong || distanceAlong > lastAlong) continue;
+        if (corner < minCorner || corner > maxCorner || distanceAlong < firstAlong || distanceAlong > lastAlong) {
+          continue;
+        }
         const Eigen::Vector3d radial = (alpha - root) * across + c * aside;
-        if (!normalAgrees(input_.cloud, i, radial / r)) continue;
-        const double position = (corner - minCorner) / binWidth;
-        const auto bin = std::min(bins - 1, static_cast<std::size_t>(position));
-        const double fraction = position - static_cast<double>(bin);
-        histogram[bin] += 1.0 - fraction;
-        if (bin + 1 < bins) histogram[bin + 1] += fraction;
+        if (normalAgrees(input_.cloud, i, radial / r)) histogram.vote(corner);
       }
     }
-    std::size_t peak = 0;
-    double peakVotes = 0.0;
-    for (std::size_t k = 0; k < bins; ++k) {
-      const double smoothed = 2.0 * histogram[k] + (k > 0 ? histogram[k - 1] : 0.0) + (k + 1 < bins ? histogram[k + 1] : 0.0);
-      if (smoothed > peakVotes) {
-        peakVotes = smoothed;
-        peak = k;
-      }
-    }
+    const auto [cornerDistance, peakVotes] = histogram.peak();
     if (peakVotes <= 0.0) return std::nullopt;
-    const Eigen::Vector3d corner = end.point + (minCorner + static_cast<double>(peak) * binWidth) * end.outward;
+    const Eigen::Vector3d corner = end.point + cornerDistance * end.outward;
 
     // Sections along the new pipe holding a point on its surface.
     const auto sections = static_cast<std::size_t>(std::ceil(params_.maxCompletionLength / kSectionLength));
@@ -798,13 +815,16 @@ class EndCompletion {
       const Eigen::Vector3d d = input_.cloud.positions[i].cast<double>() - corner;
       const double distanceAlong = d.dot(along);
       if (distanceAlong < firstAlong || distanceAlong >= lastAlong) continue;
-      const auto section = std::min(sections - 1, static_cast<std::size_t>((distanceAlong - firstAlong) / kSectionLength));
+      const auto section =
+          std::min(sections - 1, static_cast<std::size_t>((distanceAlong - firstAlong) / kSectionLength));
       const Eigen::Vector3d radial = d - distanceAlong * along;
       const double distance = radial.norm();
       if (distance < r - 2.0 * band || (distance > r + 2.0 * band && distance <= 2.0 * (r + band))) {
         ++clutterBySection[section];
       }
-      if (std::fabs(distance - r) > band || !normalAgrees(input_.cloud, i, radial / std::max(distance, 1e-12))) continue;
+      if (std::fabs(distance - r) > band || !normalAgrees(input_.cloud, i, radial / std::max(distance, 1e-12))) {
+        continue;
+      }
       bySection[section].push_back(i);
     }
     std::size_t first = 0;
@@ -843,7 +863,9 @@ class EndCompletion {
     const auto count = static_cast<double>(completion.pipe.inliers.size());
     const double meanOffset = sum / count;
     const double spread = std::sqrt(std::max(0.0, squares / count - meanOffset * meanOffset));
-    if (std::fabs(meanOffset) > std::max({kMinRadiusTolerance, kRadiusToleranceRadii * r, 2.5 * spread / std::sqrt(count)})) {
+    const double radiusTolerance =
+        std::max({kMinRadiusTolerance, kRadiusToleranceRadii * r, 2.5 * spread / std::sqrt(count)});
+    if (std::fabs(meanOffset) > radiusTolerance) {
       return std::nullopt;
     }
     // A flat face: normals that keep one direction and points that lie on a line across the pipe
@@ -900,7 +922,8 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
   std::vector<Completion> completions;
   for (std::size_t e : order) {
     const auto& inliers = found[e]->pipe.inliers;
-    const auto shared = static_cast<std::size_t>(std::count_if(inliers.begin(), inliers.end(), [&](std::uint32_t i) { return used[i] != 0; }));
+    const auto shared = static_cast<std::size_t>(
+        std::count_if(inliers.begin(), inliers.end(), [&](std::uint32_t i) { return used[i] != 0; }));
     if (2 * shared > inliers.size()) continue;  // The same pipe, completed from its other side.
     for (std::uint32_t i : inliers) used[i] = 1;
     completions.push_back(std::move(*found[e]));
