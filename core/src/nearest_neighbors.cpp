@@ -1,0 +1,381 @@
+#include "nearest_neighbors.h"
+
+#include "piperun/point_cloud.h"
+
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <utility>
+
+namespace piperun {
+namespace {
+
+/// k neighbours on a surface fill a disc of radius ≈ spacing · √(k / π); the finest cells are this
+/// many such radii wide, so the 3 × 3 × 3 block around most points holds all their neighbours.
+constexpr double kEdgePerNeighborRadius = 1.3;
+/// Each coarser level's cells are this many times wider than the level below.
+constexpr double kLevelRatio = 6.0;
+/// Beyond this reach (cells each way) a search moves to the next coarser level: a block of
+/// (2 · reach + 1)² rows costs more than a level's grid.
+constexpr std::int64_t kMaxReach = 8;
+/// Cells per parallel task; fixed, so the work split does not depend on the thread count.
+constexpr std::size_t kCellsPerChunk = 256;
+/// Cells per axis at most, so keys (x · ny + y) · nz + z fit 63 bits.
+constexpr double kMaxCellsPerAxis = 1 << 20;
+
+constexpr float kInfinity = std::numeric_limits<float>::infinity();
+
+using Cube = Eigen::Array<std::int64_t, 3, 1>;
+using KeyedPoint = std::pair<std::uint64_t, std::uint32_t>;  // (cell key, point)
+
+/// Cubic cells of one edge, counted from the low corner of the points' bounds, and the points in
+/// each occupied cell.
+class CellGrid {
+ public:
+  CellGrid(const std::vector<Eigen::Vector3f>& positions, const BoundingBox& bounds, double edge)
+      : low_(bounds.min), edge_(std::max(edge, bounds.size().maxCoeff() / kMaxCellsPerAxis)) {
+    if (!(edge_ > 0.0)) edge_ = 1.0;  // all points coincide: one cell
+    counts_ = ((bounds.max - low_) / edge_).array().floor().cast<std::int64_t>() + 1;
+    std::vector<KeyedPoint> keyed(positions.size());
+    tbb::parallel_for(std::size_t{0}, positions.size(), [&](std::size_t i) {
+      keyed[i] = {keyOf(positions[i]), static_cast<std::uint32_t>(i)};
+    });
+    tbb::parallel_sort(keyed.begin(), keyed.end());  // (key, point) pairs are distinct: a total order
+    points_.resize(keyed.size());
+    x_.resize(keyed.size());
+    y_.resize(keyed.size());
+    z_.resize(keyed.size());
+    for (std::size_t i = 0; i < keyed.size(); ++i) {
+      points_[i] = keyed[i].second;
+      const Eigen::Vector3f& p = positions[keyed[i].second];
+      x_[i] = p.x();
+      y_[i] = p.y();
+      z_[i] = p.z();
+      if (i == 0 || keyed[i].first != keyed[i - 1].first) {
+        keys_.push_back(keyed[i].first);
+        begins_.push_back(static_cast<std::uint32_t>(i));
+      }
+    }
+    begins_.push_back(static_cast<std::uint32_t>(keyed.size()));
+    indexRows();
+  }
+
+  double edge() const { return edge_; }
+
+  /// Every point, grouped by cell in key order, and the key of each cell.
+  const std::vector<std::uint32_t>& pointsByCell() const { return points_; }
+  const std::vector<std::uint64_t>& cellKeys() const { return keys_; }
+  const std::vector<std::uint32_t>& cellBegins() const { return begins_; }
+
+  std::uint64_t keyOf(const Eigen::Vector3f& p) const { return key(cubeOf(p)); }
+  Cube cubeOfKey(std::uint64_t k) const {
+    const auto ny = static_cast<std::uint64_t>(counts_.y()), nz = static_cast<std::uint64_t>(counts_.z());
+    return Cube(static_cast<std::int64_t>(k / (ny * nz)), static_cast<std::int64_t>(k / nz % ny),
+                static_cast<std::int64_t>(k % nz));
+  }
+
+  /// Cells [first, last) of a row (x, y); empty when no cell of the row is occupied.
+  struct Row {
+    std::uint32_t first = 0, last = 0;
+  };
+
+  /// The points in the cells within `reach` cells of `centre` (per axis), with their coordinates.
+  struct Block {
+    std::vector<std::uint32_t> points;
+    std::vector<float> x, y, z;
+    // The rows of the last block: cells are visited along z, so the next block often spans them too.
+    Eigen::Array4i rowSpan = Eigen::Array4i::Constant(-1);  // first x, first y, last x, last y
+    std::vector<Row> rows;
+  };
+
+  void gatherBlock(const Cube& centre, std::int64_t reach, Block& out) const {
+    out.points.clear();
+    out.x.clear();
+    out.y.clear();
+    out.z.clear();
+    const Cube first = (centre - reach).max(0);
+    const Cube last = (centre + reach).min(counts_ - 1);
+    const Eigen::Array4i span(static_cast<int>(first.x()), static_cast<int>(first.y()), static_cast<int>(last.x()),
+                              static_cast<int>(last.y()));
+    if ((span != out.rowSpan).any()) {
+      out.rowSpan = span;
+      out.rows.clear();
+      for (std::int64_t x = first.x(); x <= last.x(); ++x) {
+        for (std::int64_t y = first.y(); y <= last.y(); ++y) {
+          out.rows.push_back(findRow(static_cast<std::uint64_t>(x) * static_cast<std::uint64_t>(counts_.y()) +
+                                     static_cast<std::uint64_t>(y)));
+        }
+      }
+    }
+    // A row (x, y) holds consecutive keys along z: its cells from first.z to last.z are one range
+    // of the cell-ordered arrays, found by a short search within the row.
+    const auto nz = static_cast<std::uint64_t>(counts_.z());
+    for (const Row& row : out.rows) {
+      if (row.first == row.last) continue;
+      const auto rowFirst = keys_.begin() + row.first, rowLast = keys_.begin() + row.last;
+      const std::uint64_t rowStart = *rowFirst / nz * nz;
+      const auto cellFirst = std::lower_bound(rowFirst, rowLast, rowStart + static_cast<std::uint64_t>(first.z()));
+      const auto cellLast = std::upper_bound(cellFirst, rowLast, rowStart + static_cast<std::uint64_t>(last.z()));
+      if (cellFirst == cellLast) continue;
+      const std::uint32_t from = begins_[static_cast<std::size_t>(cellFirst - keys_.begin())];
+      const std::uint32_t to = begins_[static_cast<std::size_t>(cellLast - keys_.begin())];
+      out.points.insert(out.points.end(), points_.begin() + from, points_.begin() + to);
+      out.x.insert(out.x.end(), x_.begin() + from, x_.begin() + to);
+      out.y.insert(out.y.end(), y_.begin() + from, y_.begin() + to);
+      out.z.insert(out.z.end(), z_.begin() + from, z_.begin() + to);
+    }
+  }
+
+  /// Distance from `p` to the nearest face of the block within `reach` cells of `centre` through
+  /// which a point could lie outside it (faces on the grid's border hide nothing, so a block over
+  /// the whole grid has infinite clearance).
+  double clearance(const Eigen::Vector3f& p, const Cube& centre, std::int64_t reach) const {
+    double nearest = std::numeric_limits<double>::infinity();
+    for (int axis = 0; axis < 3; ++axis) {
+      const double x = static_cast<double>(p[axis]) - low_[axis];
+      if (centre[axis] - reach > 0) nearest = std::min(nearest, x - static_cast<double>(centre[axis] - reach) * edge_);
+      if (centre[axis] + reach < counts_[axis] - 1) {
+        nearest = std::min(nearest, static_cast<double>(centre[axis] + reach + 1) * edge_ - x);
+      }
+    }
+    return nearest - 1e-6 * edge_;  // the rounding of a point on a face into either cell must not matter
+  }
+
+ private:
+  Cube cubeOf(const Eigen::Vector3f& p) const {
+    return ((p.cast<double>() - low_) / edge_).array().floor().cast<std::int64_t>().max(0).min(counts_ - 1);
+  }
+  std::uint64_t key(const Cube& c) const {
+    return (static_cast<std::uint64_t>(c.x()) * static_cast<std::uint64_t>(counts_.y()) + static_cast<std::uint64_t>(c.y())) *
+               static_cast<std::uint64_t>(counts_.z()) +
+           static_cast<std::uint64_t>(c.z());
+  }
+
+  static constexpr std::uint64_t kNoRow = std::numeric_limits<std::uint64_t>::max();
+
+  static std::uint64_t hashRow(std::uint64_t row) {
+    row = (row ^ (row >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    row = (row ^ (row >> 27)) * 0x94d049bb133111ebULL;
+    return row ^ (row >> 31);
+  }
+
+  /// Open-addressing table from row number (x · ny + y) to the row's cells.
+  void indexRows() {
+    const auto nz = static_cast<std::uint64_t>(counts_.z());
+    std::size_t rows = 0;
+    for (std::size_t c = 0; c < keys_.size(); ++c) rows += c == 0 || keys_[c] / nz != keys_[c - 1] / nz;
+    std::size_t slots = 16;
+    while (slots < 2 * rows) slots *= 2;
+    rowMask_ = slots - 1;
+    rowNumbers_.assign(slots, kNoRow);
+    rowCells_.assign(slots, Row{});
+    for (std::size_t c = 0; c < keys_.size();) {
+      const std::uint64_t row = keys_[c] / nz;
+      std::size_t end = c + 1;
+      while (end < keys_.size() && keys_[end] / nz == row) ++end;
+      std::size_t slot = hashRow(row) & rowMask_;
+      while (rowNumbers_[slot] != kNoRow) slot = (slot + 1) & rowMask_;
+      rowNumbers_[slot] = row;
+      rowCells_[slot] = {static_cast<std::uint32_t>(c), static_cast<std::uint32_t>(end)};
+      c = end;
+    }
+  }
+
+  Row findRow(std::uint64_t row) const {
+    for (std::size_t slot = hashRow(row) & rowMask_;; slot = (slot + 1) & rowMask_) {
+      if (rowNumbers_[slot] == row) return rowCells_[slot];
+      if (rowNumbers_[slot] == kNoRow) return {};
+    }
+  }
+
+  Eigen::Vector3d low_;
+  double edge_;
+  Cube counts_;
+  std::vector<std::uint64_t> keys_;    // occupied cells, ascending
+  std::vector<std::uint32_t> begins_;  // cell c holds points_[begins_[c], begins_[c + 1])
+  std::vector<std::uint32_t> points_;  // point indices grouped by cell
+  std::vector<float> x_, y_, z_;       // their coordinates, in the same order
+  std::vector<std::uint64_t> rowNumbers_;  // hash slots: row number, or kNoRow
+  std::vector<Row> rowCells_;              // hash slots: the row's cells
+  std::size_t rowMask_ = 0;
+};
+
+/// Scratch space of one task: a cell's open points, a block's candidates, their squared distances
+/// to one point and the nearest of them.
+struct Scratch {
+  std::vector<std::uint32_t> open;
+  CellGrid::Block block;
+  std::vector<float> squared;
+  std::vector<std::uint64_t> nearest;
+  float guess = 0.0f;  ///< Squared k-th distance of the task's last point: its neighbours' is alike.
+};
+
+/// (squared distance, point) packed so that integer order is (distance, index) order: the bits of
+/// a non-negative float order as the float does.
+std::uint64_t packed(float squared, std::uint32_t point) {
+  std::uint32_t bits;
+  std::memcpy(&bits, &squared, sizeof bits);
+  return (static_cast<std::uint64_t>(bits) << 32) | point;
+}
+float squaredOf(std::uint64_t packedValue) {
+  const auto bits = static_cast<std::uint32_t>(packedValue >> 32);
+  float squared;
+  std::memcpy(&squared, &bits, sizeof squared);
+  return squared;
+}
+
+/// Searches point i's neighbours among the loaded block. Writes its list and returns 0 when the
+/// k-th is nearer than `clearance`; otherwise returns the reach (in cells of `edge`) that will
+/// settle it: past the k-th found when there are k candidates, else twice the current reach.
+std::int64_t trySettle(std::uint32_t i, const Eigen::Vector3f& q, Scratch& s, double clearance, std::int64_t reach,
+                       double edge, NeighborLists& lists) {
+  const auto k = static_cast<std::size_t>(lists.k);
+  const CellGrid::Block& block = s.block;
+  const std::size_t count = block.points.size();
+  if (count < k + 1) return 2 * reach;  // the point itself is among the candidates
+  s.squared.resize(count);
+  {
+    const float* __restrict x = block.x.data();
+    const float* __restrict y = block.y.data();
+    const float* __restrict z = block.z.data();
+    float* __restrict squared = s.squared.data();
+    const float qx = q.x(), qy = q.y(), qz = q.z();
+    for (std::size_t b = 0; b < count; ++b) {
+      const float dx = x[b] - qx, dy = y[b] - qy, dz = z[b] - qz;
+      squared[b] = dx * dx + dy * dy + dz * dz;
+    }
+  }
+  s.squared[static_cast<std::size_t>(std::find(block.points.begin(), block.points.end(), i) - block.points.begin())] = kInfinity;
+  // A threshold that lets between k and a few k candidates in: from the last point's k-th distance,
+  // corrected as on a surface (the count grows with the squared radius). Counting and collecting
+  // without branches is much cheaper than selecting among all candidates.
+  float threshold = s.guess > 0.0f ? 1.3f * s.guess : static_cast<float>(edge * edge);
+  for (int attempt = 0;; ++attempt) {
+    std::size_t within = 0;
+    for (std::size_t b = 0; b < count; ++b) within += s.squared[b] <= threshold;
+    if (within >= k && (within <= 2 * k || attempt >= 8)) break;
+    const float scale = within == 0 ? 4.0f : std::clamp(1.5f * static_cast<float>(k) / static_cast<float>(within), 0.25f, 4.0f);
+    threshold *= scale;
+  }
+  s.nearest.resize(count);
+  std::size_t kept = 0;
+  for (std::size_t b = 0; b < count; ++b) {
+    s.nearest[kept] = packed(s.squared[b], block.points[b]);
+    kept += s.squared[b] <= threshold;
+  }
+  std::sort(s.nearest.begin(), s.nearest.begin() + static_cast<std::ptrdiff_t>(kept));
+  const float kth = squaredOf(s.nearest[k - 1]);
+  s.guess = kth;
+  if (static_cast<double>(kth) > clearance * clearance) {
+    return std::max(reach + 1, static_cast<std::int64_t>(std::ceil(std::sqrt(static_cast<double>(kth)) / edge)) + 1);
+  }
+  std::uint32_t* out = &lists.indices[i * k];
+  float distanceSum = 0.0f;
+  for (std::size_t j = 0; j < k; ++j) {
+    out[j] = static_cast<std::uint32_t>(s.nearest[j]);
+    if (j < static_cast<std::size_t>(lists.meanOf)) distanceSum += std::sqrt(squaredOf(s.nearest[j]));
+  }
+  if (lists.meanOf > 0) lists.meanDistance[i] = distanceSum / static_cast<float>(lists.meanOf);
+  return 0;
+}
+
+/// Settles the points [first, last) of one cell of `grid`: blocks of growing reach are gathered
+/// once for the points still open. Appends the points that need more than kMaxReach to `unsettled`.
+void settleCell(const CellGrid& grid, const Cube& centre, const std::uint32_t* first, const std::uint32_t* last,
+                const std::vector<Eigen::Vector3f>& positions, Scratch& s, NeighborLists& lists,
+                std::vector<std::uint32_t>& unsettled) {
+  std::vector<std::uint32_t>& points = s.open;
+  points.assign(first, last);
+  std::int64_t reach = 1;
+  while (!points.empty()) {
+    if (reach > kMaxReach) {
+      unsettled.insert(unsettled.end(), points.begin(), points.end());
+      return;
+    }
+    grid.gatherBlock(centre, reach, s.block);
+    std::int64_t nextReach = 0;
+    std::size_t open = 0;
+    for (const std::uint32_t i : points) {
+      const Eigen::Vector3f& q = positions[i];
+      const std::int64_t needed = trySettle(i, q, s, grid.clearance(q, centre, reach), reach, grid.edge(), lists);
+      if (needed == 0) continue;
+      nextReach = std::max(nextReach, needed);
+      points[open++] = i;
+    }
+    points.resize(open);
+    reach = nextReach;
+  }
+}
+
+}  // namespace
+
+NeighborLists findNearestNeighbors(const std::vector<Eigen::Vector3f>& positions, int k, int meanOf, double spacing,
+                                   Progress& progress, const char* task, double progressFrom, double progressTo) {
+  const std::size_t n = positions.size();
+  NeighborLists lists;
+  if (n < 2 || k <= 0) return lists;
+  lists.k = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(k), n - 1));
+  lists.meanOf = std::clamp(meanOf, 0, lists.k);
+  lists.indices.resize(n * static_cast<std::size_t>(lists.k));
+  if (lists.meanOf > 0) lists.meanDistance.resize(n);
+
+  BoundingBox bounds;
+  for (const Eigen::Vector3f& p : positions) bounds.extend(p.cast<double>());
+  const double neighborRadius = spacing * std::sqrt(static_cast<double>(lists.k) / 3.14159265358979323846);
+  double edge = kEdgePerNeighborRadius * neighborRadius;
+
+  // Level by level: the points a level leaves open (sparse regions, outliers) go to wider cells.
+  std::vector<std::uint32_t> open;
+  std::atomic<std::size_t> settled{0};
+  for (bool finest = true; finest || !open.empty(); finest = false, edge *= kLevelRatio) {
+    progress.checkCancelled();
+    const CellGrid grid(positions, bounds, edge);
+    // The open points grouped by this level's cells: all points, at the finest level.
+    std::vector<std::uint32_t> points;
+    std::vector<std::uint64_t> keys;
+    std::vector<std::uint32_t> begins;
+    if (finest) {
+      points = grid.pointsByCell();
+      keys = grid.cellKeys();
+      begins = grid.cellBegins();
+    } else {
+      std::vector<KeyedPoint> keyed(open.size());
+      for (std::size_t e = 0; e < open.size(); ++e) keyed[e] = {grid.keyOf(positions[open[e]]), open[e]};
+      std::sort(keyed.begin(), keyed.end());
+      for (std::size_t e = 0; e < keyed.size(); ++e) {
+        points.push_back(keyed[e].second);
+        if (e == 0 || keyed[e].first != keyed[e - 1].first) {
+          keys.push_back(keyed[e].first);
+          begins.push_back(static_cast<std::uint32_t>(e));
+        }
+      }
+      begins.push_back(static_cast<std::uint32_t>(keyed.size()));
+    }
+
+    const std::size_t cells = keys.size();
+    const std::size_t chunks = (cells + kCellsPerChunk - 1) / kCellsPerChunk;
+    std::vector<std::vector<std::uint32_t>> openPerChunk(chunks);
+    tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t chunk) {
+      progress.checkCancelled();
+      Scratch scratch;
+      const std::size_t lastCell = std::min(cells, (chunk + 1) * kCellsPerChunk);
+      for (std::size_t c = chunk * kCellsPerChunk; c < lastCell; ++c) {
+        settleCell(grid, grid.cubeOfKey(keys[c]), points.data() + begins[c], points.data() + begins[c + 1], positions,
+                   scratch, lists, openPerChunk[chunk]);
+      }
+      const std::size_t done = begins[lastCell] - begins[chunk * kCellsPerChunk] - openPerChunk[chunk].size();
+      const std::size_t total = settled.fetch_add(done) + done;
+      progress.report(task, progressFrom + (progressTo - progressFrom) * static_cast<double>(total) / static_cast<double>(n));
+    });
+    open.clear();
+    for (const auto& part : openPerChunk) open.insert(open.end(), part.begin(), part.end());
+  }
+  return lists;
+}
+
+}  // namespace piperun
