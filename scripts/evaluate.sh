@@ -6,6 +6,9 @@
 # stops the reconstruction before the joints stage (the same pipes, no joints).
 # Needs a build (scripts/build.sh). Prints one line per seed, then
 #   mean: precision=… recall=… f1=… radius_err_mm=… (median of the seeds' medians)
+#   observable: share=… recall_observable=… (the share of the truth the scan shows, and the recall
+#               over that part; the scenes are generated with labels for it, see docs/EVALUATION.md)
+# and, without --pipes-only, the joint totals.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PIPERUN=${PIPERUN:-build/app/piperun}
@@ -36,11 +39,11 @@ results="$work/results.txt"
 : >"$results"
 for seed in $seeds; do
   "$PIPERUN" -q generate --preset "$preset" --seed "$seed" --noise "$noise" --outliers "$outliers" \
-    --stations "$stations" -o "$work/scene.ply" --truth "$work/truth.json" >/dev/null
+    --stations "$stations" --labels -o "$work/scene.ply" --truth "$work/truth.json" >/dev/null
   start=$(date +%s.%N)
   "$PIPERUN" -q reconstruct "$work/scene.ply" -o "$work/net.json" --seed "$seed" "${sets[@]}" >/dev/null
   end=$(date +%s.%N)
-  line=$("$PIPERUN" eval "${eval_flags[@]}" "$work/truth.json" "$work/net.json" | tail -1)
+  line=$("$PIPERUN" eval "${eval_flags[@]}" --scan "$work/scene.ply" "$work/truth.json" "$work/net.json" | tail -1)
   seconds=$(awk -v a="$start" -v b="$end" 'BEGIN { printf "%.2f", b - a }')
   echo "seed=$seed $line seconds=$seconds"
   echo "$line seconds=$seconds" >>"$results"
@@ -50,6 +53,7 @@ mean() { field "$1" | awk '{ sum += $1 } END { printf "%.3f", sum / NR }'; }
 # Median of the seeds' median radius errors (mawk has no sort, so sort(1) orders them).
 median_radius=$(field radius_err_mm | sort -n | awk '{ v[NR] = $1 } END { printf "%.1f", NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }')
 echo "mean: precision=$(mean precision) recall=$(mean recall) f1=$(mean f1) radius_err_mm=$median_radius seconds=$(mean seconds) seeds=$(wc -l <"$results")"
+echo "observable: share=$(mean observable) recall_observable=$(mean recall_observable)"
 # Joint totals over the seeds ("found/truth"), and the median of the seeds' bend-radius errors
 # (seeds without a matched elbow left out).
 total() { sed -E "s/.*[[:space:]]$1=([0-9]+)\/([0-9]+).*/\1 \2/" "$results" | awk '{ a += $1; b += $2 } END { printf "%d/%d", a, b }'; }

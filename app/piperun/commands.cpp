@@ -202,9 +202,10 @@ int runEval(const EvalOptions& options) {
   params.fixedTolerance = options.tolerance;
   params.sampleStep = options.step;
   params.pipesOnly = options.pipesOnly;
-  const EvaluationResult figures = evaluateNetwork(truth, result, params);
+  const PointCloud scan = options.scan.empty() ? PointCloud{} : readPointCloud(options.scan);
+  const EvaluationResult figures = evaluateNetwork(truth, result, params, options.scan.empty() ? nullptr : &scan);
   if (options.json) {
-    const json out = {{"precision", figures.precision},
+    json out = {{"precision", figures.precision},
                       {"recall", figures.recall},
                       {"f1", figures.f1},
                       {"radius_err_mm", figures.radiusErrorMedian * 1000.0},
@@ -217,6 +218,10 @@ int runEval(const EvalOptions& options) {
                       {"predicted_joints", figures.predictedJoints},
                       {"spurious_joints", figures.spuriousJoints},
                       {"bend_radius_err", figures.bendRadiusErrorMedian}};
+    if (figures.observableMeasured) {
+      out["observable_share"] = figures.observableShare;
+      out["recall_observable"] = figures.recallObservable;
+    }
     std::printf("%s\n", out.dump(2).c_str());
     return kExitOk;
   }
@@ -334,7 +339,9 @@ int runReconstruct(const ReconstructOptions& options) {
   for (const auto& target : exports) std::printf("export: %s (%s)\n", target.path.c_str(), toString(target.format).c_str());
   if (dumped > 0) std::printf("stages: %d files in %s\n", dumped, options.dumpDirectory.c_str());
   if (!options.truth.empty()) {
-    const EvaluationResult figures = evaluateNetwork(readNetwork(options.truth), network);
+    // A labelled scan (piperun generate --labels) also gives the recall over what it shows.
+    const EvaluationResult figures =
+        evaluateNetwork(readNetwork(options.truth), network, {}, cloud->hasLabels() ? cloud.get() : nullptr);
     std::printf("evaluation against %s: %s\n", options.truth.c_str(), formatEvaluation(figures).c_str());
   }
   std::printf("points=%zu kept=%zu directions=%zu pipes=%zu joints=%zu runs=%zu seconds=%.2f\n", cloud->size(),

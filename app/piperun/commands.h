@@ -37,6 +37,7 @@ struct EvalOptions {
   double tolerance = 0.0;
   double step = 0.01;
   bool pipesOnly = false;
+  std::string scan;  ///< Labelled scan: adds the observable-recall figures.
 };
 int runEval(const EvalOptions& options);
 

@@ -75,6 +75,10 @@ int main(int argc, char** argv) {
   evalCommand->add_option("--step", eval.step, "Axis sampling step in metres")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  evalCommand->add_option("--scan", eval.scan,
+                          "The labelled scan the result came from (piperun generate --labels): also measure "
+                          "recall over the truth the scan shows")
+      ->check(CLI::ExistingFile);
 
   ConvertOptions convert;
   auto* convertCommand = app.add_subcommand("convert", "Convert a point cloud to PLY or text, streaming");

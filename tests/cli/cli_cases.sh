@@ -113,6 +113,12 @@ case "$CASE" in
     expect_out "precision=1.000 recall=1.000 f1=1.000 radius_err_mm=0.0"
     run 0 eval --json "$WORK/truth.json" "$WORK/truth.json"
     expect_out '"f1": 1.0'
+    # With the labelled scan, recall is also measured over the truth the scan shows.
+    run 0 generate --preset small --seed 3 --density 0.25 --labels -o "$WORK/labelled.ply"
+    run 0 eval --scan "$WORK/labelled.ply" "$WORK/truth.json" "$WORK/truth.json"
+    expect_out " observable=0\.[0-9]+ recall_observable=1\.000$"
+    run 1 eval --scan "$WORK/scene.ply" "$WORK/truth.json" "$WORK/truth.json"
+    expect_one_line_error "the scan has no labels"
     ;;
   generate-deterministic)
     run 0 generate --preset small --seed 5 --density 0.2 -o "$WORK/a.ply" --truth "$WORK/a.json"

@@ -130,6 +130,54 @@ TEST(Evaluation, PipesOnlyLeavesTheJointsOut) {
   EXPECT_DOUBLE_EQ(result.precision, 1.0);
 }
 
+/// A scan of the truth pipe 1 (0 to 4 m along x, r 0.1) that shows only x in [0, 1] and [3, 4]:
+/// one labelled point per centimetre on its surface, plus points of other surfaces.
+PointCloud partlyScannedPipe() {
+  PointCloud scan;
+  scan.origin = Eigen::Vector3d(100, 0, 0);  // labels are matched in world coordinates
+  for (int cm = 0; cm <= 400; ++cm) {
+    if (cm > 100 && cm < 300) continue;
+    scan.positions.emplace_back(static_cast<float>(cm) * 0.01f, 0.0f, 0.1f);
+    scan.labels.push_back(1);
+  }
+  for (int i = 0; i < 50; ++i) {  // clutter (0) and outliers (-1) along the hidden middle
+    scan.positions.emplace_back(1.5f + 0.01f * static_cast<float>(i), 0.0f, 0.1f);
+    scan.labels.push_back(i % 2 == 0 ? 0 : -1);
+  }
+  return scan;
+}
+
+TEST(Evaluation, ObservableRecallCountsOnlyWhatTheScanShows) {
+  PipeNetwork truth;
+  Pipe pipe;
+  pipe.id = 1;
+  pipe.radius = 0.1;
+  pipe.start = {100, 0, 0};
+  pipe.end = {104, 0, 0};
+  truth.pipes = {pipe};
+  PipeNetwork predicted = truth;
+  predicted.pipes[0].end = {101, 0, 0};  // finds the first scanned metre only
+  const PointCloud scan = partlyScannedPipe();
+
+  const EvaluationResult result = evaluateNetwork(truth, predicted, {}, &scan);
+  ASSERT_TRUE(result.observableMeasured);
+  // A sample is observable while its ±5 cm window holds five points: up to 1 cm beyond each
+  // scanned stretch, 0–1.01 m and 2.99–4 m, 204 of 401 samples.
+  EXPECT_EQ(result.observableTruthSamples, 204u);
+  EXPECT_NEAR(result.observableShare, 204.0 / 401.0, 1e-12);
+  // The first stretch is matched and the last is not; recall over all the truth also counts the
+  // hidden samples within the 5 cm tolerance of the found pipe (to 1.05 m).
+  EXPECT_EQ(result.matchedObservableSamples, 102u);
+  EXPECT_NEAR(result.recallObservable, 0.5, 1e-12);
+  EXPECT_NEAR(result.recall, 106.0 / 401.0, 1e-12);
+  EXPECT_NE(formatEvaluation(result).find(" observable=0.509 recall_observable=0.500"), std::string::npos);
+
+  EXPECT_FALSE(evaluateNetwork(truth, predicted).observableMeasured);
+  PointCloud unlabelled = partlyScannedPipe();
+  unlabelled.labels.clear();
+  EXPECT_THROW(evaluateNetwork(truth, predicted, {}, &unlabelled), std::invalid_argument);
+}
+
 TEST(Evaluation, FormatLine) {
   const EvaluationResult result = evaluateNetwork(lShapedRun(), lShapedRun());
   EXPECT_EQ(formatEvaluation(result).substr(0, 52), "precision=1.000 recall=1.000 f1=1.000 radius_err_mm=");

@@ -18,21 +18,74 @@ struct AxisSample {
   double radius;
 };
 
-std::vector<AxisSample> sampleNetwork(const PipeNetwork& network, double step, bool skipDiscarded, bool pipesOnly) {
+/// The samples of one element, consecutive in the sample list.
+struct ElementSamples {
+  int id = 0;
+  std::size_t first = 0, last = 0;
+  bool straight = false;  ///< Sampled from a two-point polyline: evenly from first to last.
+};
+
+struct NetworkSamples {
   std::vector<AxisSample> samples;
-  const auto add = [&](const std::vector<Eigen::Vector3d>& polyline, double radius) {
-    for (const auto& p : samplePolyline(polyline, step)) samples.push_back({p, radius});
+  std::vector<ElementSamples> elements;
+};
+
+NetworkSamples sampleNetwork(const PipeNetwork& network, double step, bool skipDiscarded, bool pipesOnly) {
+  NetworkSamples sampled;
+  const auto add = [&](int id, const std::vector<Eigen::Vector3d>& polyline, double radius) {
+    const std::size_t first = sampled.samples.size();
+    for (const auto& p : samplePolyline(polyline, step)) sampled.samples.push_back({p, radius});
+    sampled.elements.push_back({id, first, sampled.samples.size(), polyline.size() == 2});
   };
   for (const auto& pipe : network.pipes) {
     if (skipDiscarded && pipe.status == PipeStatus::Deleted) continue;
-    add({pipe.start, pipe.end}, pipe.radius);
+    add(pipe.id, {pipe.start, pipe.end}, pipe.radius);
   }
-  if (pipesOnly) return samples;
+  if (pipesOnly) return sampled;
   for (const auto& joint : network.joints) {
     if (skipDiscarded && joint.status == JointStatus::Rejected) continue;
-    add(joint.axis, joint.radius);
+    add(joint.id, joint.axis, joint.radius);
   }
-  return samples;
+  return sampled;
+}
+
+/// Flags the truth samples the scan shows: each labelled point counts for the nearest sample of
+/// its element, and a sample is observable when its window along the element holds enough points.
+std::vector<char> observableSamples(const NetworkSamples& truth, const PointCloud& scan, const EvaluationParams& params) {
+  std::unordered_map<int, std::size_t> elementOf;
+  for (std::size_t e = 0; e < truth.elements.size(); ++e) elementOf.emplace(truth.elements[e].id, e);
+  std::vector<int> pointsAt(truth.samples.size(), 0);
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    const auto found = elementOf.find(scan.labels[i]);
+    if (found == elementOf.end()) continue;
+    const ElementSamples& element = truth.elements[found->second];
+    const Eigen::Vector3d p = scan.worldPosition(i);
+    std::size_t nearest = element.first;
+    const std::size_t count = element.last - element.first;
+    if (element.straight && count > 1) {
+      const Eigen::Vector3d a = truth.samples[element.first].position, b = truth.samples[element.last - 1].position;
+      const double t = std::clamp((p - a).dot(b - a) / std::max((b - a).squaredNorm(), 1e-300), 0.0, 1.0);
+      nearest += static_cast<std::size_t>(std::lround(t * static_cast<double>(count - 1)));
+    } else {
+      double best = std::numeric_limits<double>::infinity();
+      for (std::size_t s = element.first; s < element.last; ++s) {
+        const double d = (truth.samples[s].position - p).squaredNorm();
+        if (d < best) best = d, nearest = s;
+      }
+    }
+    ++pointsAt[nearest];
+  }
+  const auto reach = static_cast<std::size_t>(std::lround(params.observableWindow / params.sampleStep));
+  std::vector<char> observable(truth.samples.size(), 0);
+  for (const ElementSamples& element : truth.elements) {
+    for (std::size_t s = element.first; s < element.last; ++s) {
+      const std::size_t from = s - std::min(reach, s - element.first), to = std::min(element.last, s + reach + 1);
+      int inWindow = 0;
+      for (std::size_t w = from; w < to; ++w) inWindow += pointsAt[w];
+      observable[s] = inWindow >= params.observableMinPoints;
+    }
+  }
+  return observable;
 }
 
 // Uniform hash grid over samples, for fixed-radius neighbour queries.
@@ -116,10 +169,17 @@ void matchJoints(const PipeNetwork& truth, const std::vector<const Joint*>& pred
 
 }  // namespace
 
-EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& predicted, const EvaluationParams& params) {
+EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& predicted, const EvaluationParams& params,
+                                 const PointCloud* labelledScan) {
   if (!(params.sampleStep > 0.0)) throw std::invalid_argument("evaluation sample step must be positive");
-  const auto truthSamples = sampleNetwork(truth, params.sampleStep, false, params.pipesOnly);
-  const auto predictedSamples = sampleNetwork(predicted, params.sampleStep, true, params.pipesOnly);
+  if (labelledScan && !labelledScan->hasLabels()) {
+    throw std::invalid_argument("the scan has no labels: generate it with piperun generate --labels");
+  }
+  const NetworkSamples truthSampled = sampleNetwork(truth, params.sampleStep, false, params.pipesOnly);
+  const std::vector<AxisSample>& truthSamples = truthSampled.samples;
+  const auto predictedSamples = sampleNetwork(predicted, params.sampleStep, true, params.pipesOnly).samples;
+  const std::vector<char> observable =
+      labelledScan ? observableSamples(truthSampled, *labelledScan, params) : std::vector<char>();
 
   const auto toleranceOf = [&](const AxisSample& sample) {
     if (params.fixedTolerance > 0.0) return params.fixedTolerance;
@@ -145,7 +205,8 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
   // Recall and radius error: each truth sample looks for predicted samples within its tolerance.
   const SampleGrid predictedGrid(predictedSamples, maxTolerance);
   std::vector<double> radiusErrors;
-  for (const auto& sample : truthSamples) {
+  for (std::size_t t = 0; t < truthSamples.size(); ++t) {
+    const AxisSample& sample = truthSamples[t];
     const double tolerance = toleranceOf(sample);
     double nearest = std::numeric_limits<double>::infinity();
     double nearestRadius = 0.0;
@@ -160,6 +221,18 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
       ++result.matchedTruthSamples;
       radiusErrors.push_back(std::fabs(nearestRadius - sample.radius));
     }
+    if (!observable.empty() && observable[t]) {
+      ++result.observableTruthSamples;
+      if (std::isfinite(nearest)) ++result.matchedObservableSamples;
+    }
+  }
+  if (labelledScan) {
+    result.observableMeasured = true;
+    const auto share = [](std::size_t part, std::size_t whole) {
+      return whole > 0 ? static_cast<double>(part) / static_cast<double>(whole) : 0.0;
+    };
+    result.observableShare = share(result.observableTruthSamples, truthSamples.size());
+    result.recallObservable = share(result.matchedObservableSamples, result.observableTruthSamples);
   }
 
   if (truthSamples.empty() && predictedSamples.empty()) {
@@ -219,7 +292,13 @@ std::string formatEvaluation(const EvaluationResult& result) {
                 result.precision, result.recall, result.f1, result.radiusErrorMedian * 1000.0, result.foundElbows,
                 result.truthElbows, result.foundTees, result.truthTees, result.spuriousJoints, result.predictedJoints,
                 result.bendRadiusErrorMedian);
-  return line;
+  std::string text = line;
+  if (result.observableMeasured) {
+    std::snprintf(line, sizeof line, " observable=%.3f recall_observable=%.3f", result.observableShare,
+                  result.recallObservable);
+    text += line;
+  }
+  return text;
 }
 
 }  // namespace piperun

@@ -2,6 +2,7 @@
 // Accuracy of a reconstructed network against ground truth (the paper's metric, docs/EVALUATION.md).
 
 #include "piperun/pipe_network.h"
+#include "piperun/point_cloud.h"
 
 #include <cstddef>
 #include <string>
@@ -16,6 +17,10 @@ struct EvaluationParams {
   double jointMinDistance = 0.05;    ///< Joints match when their positions are within
   double jointRadiusFactor = 1.0;    ///< max(jointMinDistance, jointRadiusFactor × truth radius), same type.
   bool pipesOnly = false;            ///< Sample only the straight pipes of both networks (figures "before joints").
+  /// With a labelled scan: a truth sample is observable when at least observableMinPoints points
+  /// labelled with its element lie nearest to the element's samples within ±observableWindow (m).
+  double observableWindow = 0.05;
+  int observableMinPoints = 5;
 };
 
 struct EvaluationResult {
@@ -28,6 +33,12 @@ struct EvaluationResult {
   std::size_t matchedTruthSamples = 0;
   std::size_t matchedPredictedSamples = 0;
 
+  bool observableMeasured = false;   ///< The figures below were computed (a labelled scan was given).
+  std::size_t observableTruthSamples = 0;
+  std::size_t matchedObservableSamples = 0;
+  double observableShare = 0.0;      ///< Observable truth samples / all truth samples.
+  double recallObservable = 0.0;     ///< Share of observable truth samples within tolerance of a predicted sample.
+
   int truthElbows = 0;
   int foundElbows = 0;               ///< Truth elbows matched by a predicted elbow.
   int truthTees = 0;
@@ -38,11 +49,14 @@ struct EvaluationResult {
 };
 
 /// Compares `predicted` with `truth`. Pipes with status Deleted and joints with status Rejected
-/// of the prediction are left out; every element of the truth counts.
+/// of the prediction are left out; every element of the truth counts. `labelledScan`, when given,
+/// is the scan the prediction came from with each point labelled by the truth element it samples
+/// (`piperun generate --labels`): recall is then also measured over the truth the scan shows.
 EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& predicted,
-                                 const EvaluationParams& params = {});
+                                 const EvaluationParams& params = {}, const PointCloud* labelledScan = nullptr);
 
-/// "precision=0.912 recall=0.874 f1=0.893 radius_err_mm=3.1 elbows=17/20 tees=5/6 ..."
+/// "precision=0.912 recall=0.874 f1=0.893 radius_err_mm=3.1 elbows=17/20 tees=5/6 ...", then
+/// "observable=0.906 recall_observable=0.939" when those were measured.
 std::string formatEvaluation(const EvaluationResult& result);
 
 }  // namespace piperun
