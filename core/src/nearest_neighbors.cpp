@@ -84,20 +84,19 @@ class CellGrid {
     std::uint32_t first = 0, last = 0;
   };
 
-  /// The points in the cells within `reach` cells of `centre` (per axis), with their coordinates.
+  /// The points in the cells within `reach` cells of `centre` (per axis): ranges of the
+  /// cell-ordered arrays, one per row of cells.
   struct Block {
-    std::vector<std::uint32_t> points;
-    std::vector<float> x, y, z;
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> ranges;
+    std::size_t count = 0;
     // The rows of the last block: cells are visited along z, so the next block often spans them too.
     Eigen::Array4i rowSpan = Eigen::Array4i::Constant(-1);  // first x, first y, last x, last y
     std::vector<Row> rows;
   };
 
   void gatherBlock(const Cube& centre, std::int64_t reach, Block& out) const {
-    out.points.clear();
-    out.x.clear();
-    out.y.clear();
-    out.z.clear();
+    out.ranges.clear();
+    out.count = 0;
     const Cube first = (centre - reach).max(0);
     const Cube last = (centre + reach).min(counts_ - 1);
     const Eigen::Array4i span(static_cast<int>(first.x()), static_cast<int>(first.y()), static_cast<int>(last.x()),
@@ -124,12 +123,16 @@ class CellGrid {
       if (cellFirst == cellLast) continue;
       const std::uint32_t from = begins_[static_cast<std::size_t>(cellFirst - keys_.begin())];
       const std::uint32_t to = begins_[static_cast<std::size_t>(cellLast - keys_.begin())];
-      out.points.insert(out.points.end(), points_.begin() + from, points_.begin() + to);
-      out.x.insert(out.x.end(), x_.begin() + from, x_.begin() + to);
-      out.y.insert(out.y.end(), y_.begin() + from, y_.begin() + to);
-      out.z.insert(out.z.end(), z_.begin() + from, z_.begin() + to);
+      out.ranges.emplace_back(from, to);
+      out.count += to - from;
     }
   }
+
+  /// Point indices and coordinates in cell order, the arrays a Block's ranges refer to.
+  const std::uint32_t* orderedPoints() const { return points_.data(); }
+  const float* orderedX() const { return x_.data(); }
+  const float* orderedY() const { return y_.data(); }
+  const float* orderedZ() const { return z_.data(); }
 
   /// Distance from `p` to the nearest face of the block within `reach` cells of `centre` through
   /// which a point could lie outside it (faces on the grid's border hide nothing, so a block over
@@ -232,47 +235,53 @@ float squaredOf(std::uint64_t packedValue) {
 /// Searches point i's neighbours among the loaded block. Writes its list and returns 0 when the
 /// k-th is nearer than `clearance`; otherwise returns the reach (in cells of `edge`) that will
 /// settle it: past the k-th found when there are k candidates, else twice the current reach.
-std::int64_t trySettle(std::uint32_t i, const Eigen::Vector3f& q, Scratch& s, double clearance, std::int64_t reach,
-                       double edge, NeighborLists& lists) {
+std::int64_t trySettle(std::uint32_t i, const Eigen::Vector3f& q, const CellGrid& grid, Scratch& s, double clearance,
+                       std::int64_t reach, NeighborLists& lists) {
   const auto k = static_cast<std::size_t>(lists.k);
   const CellGrid::Block& block = s.block;
-  const std::size_t count = block.points.size();
+  const std::size_t count = block.count;
   if (count < k + 1) return 2 * reach;  // the point itself is among the candidates
   s.squared.resize(count);
   {
-    const float* __restrict x = block.x.data();
-    const float* __restrict y = block.y.data();
-    const float* __restrict z = block.z.data();
+    const float* __restrict x = grid.orderedX();
+    const float* __restrict y = grid.orderedY();
+    const float* __restrict z = grid.orderedZ();
     float* __restrict squared = s.squared.data();
     const float qx = q.x(), qy = q.y(), qz = q.z();
-    for (std::size_t b = 0; b < count; ++b) {
-      const float dx = x[b] - qx, dy = y[b] - qy, dz = z[b] - qz;
-      squared[b] = dx * dx + dy * dy + dz * dz;
+    for (const auto& [from, to] : block.ranges) {
+      for (std::uint32_t b = from; b < to; ++b) {
+        const float dx = x[b] - qx, dy = y[b] - qy, dz = z[b] - qz;
+        *squared++ = dx * dx + dy * dy + dz * dz;
+      }
     }
   }
-  s.squared[static_cast<std::size_t>(std::find(block.points.begin(), block.points.end(), i) - block.points.begin())] = kInfinity;
   // A threshold that lets between k and a few k candidates in: from the last point's k-th distance,
   // corrected as on a surface (the count grows with the squared radius). Counting and collecting
   // without branches is much cheaper than selecting among all candidates.
-  float threshold = s.guess > 0.0f ? 1.3f * s.guess : static_cast<float>(edge * edge);
+  float threshold = s.guess > 0.0f ? 1.3f * s.guess : static_cast<float>(grid.edge() * grid.edge());
   for (int attempt = 0;; ++attempt) {
-    std::size_t within = 0;
+    std::size_t within = 0;  // the point itself (at distance 0, always within) is taken off below
     for (std::size_t b = 0; b < count; ++b) within += s.squared[b] <= threshold;
+    --within;
     if (within >= k && (within <= 2 * k || attempt >= 8)) break;
     const float scale = within == 0 ? 4.0f : std::clamp(1.5f * static_cast<float>(k) / static_cast<float>(within), 0.25f, 4.0f);
     threshold *= scale;
   }
   s.nearest.resize(count);
   std::size_t kept = 0;
-  for (std::size_t b = 0; b < count; ++b) {
-    s.nearest[kept] = packed(s.squared[b], block.points[b]);
-    kept += s.squared[b] <= threshold;
+  const std::uint32_t* points = grid.orderedPoints();
+  std::size_t b = 0;
+  for (const auto& [from, to] : block.ranges) {
+    for (std::uint32_t e = from; e < to; ++e, ++b) {
+      s.nearest[kept] = packed(s.squared[b], points[e]);
+      kept += static_cast<std::size_t>(s.squared[b] <= threshold) & static_cast<std::size_t>(points[e] != i);
+    }
   }
   std::sort(s.nearest.begin(), s.nearest.begin() + static_cast<std::ptrdiff_t>(kept));
   const float kth = squaredOf(s.nearest[k - 1]);
   s.guess = kth;
   if (static_cast<double>(kth) > clearance * clearance) {
-    return std::max(reach + 1, static_cast<std::int64_t>(std::ceil(std::sqrt(static_cast<double>(kth)) / edge)) + 1);
+    return std::max(reach + 1, static_cast<std::int64_t>(std::ceil(std::sqrt(static_cast<double>(kth)) / grid.edge())) + 1);
   }
   std::uint32_t* out = &lists.indices[i * k];
   float distanceSum = 0.0f;
@@ -302,7 +311,7 @@ void settleCell(const CellGrid& grid, const Cube& centre, const std::uint32_t* f
     std::size_t open = 0;
     for (const std::uint32_t i : points) {
       const Eigen::Vector3f& q = positions[i];
-      const std::int64_t needed = trySettle(i, q, s, grid.clearance(q, centre, reach), reach, grid.edge(), lists);
+      const std::int64_t needed = trySettle(i, q, grid, s, grid.clearance(q, centre, reach), reach, lists);
       if (needed == 0) continue;
       nextReach = std::max(nextReach, needed);
       points[open++] = i;
