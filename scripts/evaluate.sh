@@ -8,7 +8,7 @@
 #   mean: precision=… recall=… f1=… radius_err_mm=… (median of the seeds' medians)
 #   observable: share=… recall_observable=… (the share of the truth the scan shows, and the recall
 #               over that part; the scenes are generated with labels for it, see docs/EVALUATION.md)
-# and, without --pipes-only, the joint totals.
+# and, without --pipes-only, the joint totals, over all the truth and over the observable joints.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PIPERUN=${PIPERUN:-build/app/piperun}
@@ -61,4 +61,5 @@ median_bend=$(paste -d' ' <(field bend_radius_err) <(sed -E 's/.*elbows=([0-9]+)
   awk '$2 > 0 { print $1 }' | sort -n | awk '{ v[NR] = $1 } END { if (NR == 0) print "n/a"; else printf "%.3f", NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }')
 if [ ${#eval_flags[@]} -eq 0 ]; then
   echo "joints: elbows=$(total elbows) tees=$(total tees) spurious_joints=$(total spurious_joints) bend_radius_err=$median_bend"
+  echo "observable joints: elbows=$(total observable_elbows) tees=$(total observable_tees)"
 fi

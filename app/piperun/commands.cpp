@@ -221,6 +221,10 @@ int runEval(const EvalOptions& options) {
     if (figures.observableMeasured) {
       out["observable_share"] = figures.observableShare;
       out["recall_observable"] = figures.recallObservable;
+      out["observable_elbows_truth"] = figures.observableElbows;
+      out["observable_elbows_found"] = figures.foundObservableElbows;
+      out["observable_tees_truth"] = figures.observableTees;
+      out["observable_tees_found"] = figures.foundObservableTees;
     }
     std::printf("%s\n", out.dump(2).c_str());
     return kExitOk;

@@ -116,7 +116,7 @@ case "$CASE" in
     # With the labelled scan, recall is also measured over the truth the scan shows.
     run 0 generate --preset small --seed 3 --density 0.25 --labels -o "$WORK/labelled.ply"
     run 0 eval --scan "$WORK/labelled.ply" "$WORK/truth.json" "$WORK/truth.json"
-    expect_out " observable=0\.[0-9]+ recall_observable=1\.000$"
+    expect_out " observable=0\.[0-9]+ recall_observable=1\.000 observable_elbows=([0-9]+)/\1 observable_tees=([0-9]+)/\2$"
     run 1 eval --scan "$WORK/scene.ply" "$WORK/truth.json" "$WORK/truth.json"
     expect_one_line_error "the scan has no labels"
     ;;

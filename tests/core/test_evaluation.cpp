@@ -170,12 +170,42 @@ TEST(Evaluation, ObservableRecallCountsOnlyWhatTheScanShows) {
   EXPECT_EQ(result.matchedObservableSamples, 102u);
   EXPECT_NEAR(result.recallObservable, 0.5, 1e-12);
   EXPECT_NEAR(result.recall, 106.0 / 401.0, 1e-12);
-  EXPECT_NE(formatEvaluation(result).find(" observable=0.509 recall_observable=0.500"), std::string::npos);
+  EXPECT_NE(formatEvaluation(result).find(" observable=0.509 recall_observable=0.500 observable_elbows=0/0"),
+            std::string::npos);
 
   EXPECT_FALSE(evaluateNetwork(truth, predicted).observableMeasured);
   PointCloud unlabelled = partlyScannedPipe();
   unlabelled.labels.clear();
   EXPECT_THROW(evaluateNetwork(truth, predicted, {}, &unlabelled), std::invalid_argument);
+}
+
+TEST(Evaluation, ObservableJointsHaveEnoughPointsOnEachPipe) {
+  const PipeNetwork truth = lShapedRun();  // elbow 4 joins pipes 1 and 2, tee 5 pipes 1 and 3
+  PointCloud scan;
+  const auto label = [&](int element, int count) {
+    for (int i = 0; i < count; ++i) {
+      scan.positions.emplace_back(0.0f, 0.0f, 0.0f);
+      scan.labels.push_back(element);
+    }
+  };
+  label(1, 30);
+  label(2, 20);
+  label(3, 19);  // one short of the 20 points a pipe needs: the tee is not observable
+  label(0, 50);  // clutter
+
+  const EvaluationResult all = evaluateNetwork(truth, truth, {}, &scan);
+  EXPECT_EQ(all.observableElbows, 1);
+  EXPECT_EQ(all.foundObservableElbows, 1);
+  EXPECT_EQ(all.observableTees, 0);
+  EXPECT_NE(formatEvaluation(all).find(" observable_elbows=1/1 observable_tees=0/0"), std::string::npos);
+
+  PipeNetwork noElbow = truth;
+  noElbow.joints.erase(noElbow.joints.begin());
+  const EvaluationResult missed = evaluateNetwork(truth, noElbow, {}, &scan);
+  EXPECT_EQ(missed.observableElbows, 1);
+  EXPECT_EQ(missed.foundObservableElbows, 0);
+  EXPECT_EQ(missed.foundElbows, 0);
+  EXPECT_EQ(missed.foundTees, 1);
 }
 
 TEST(Evaluation, FormatLine) {

@@ -135,9 +135,10 @@ double median(std::vector<double> values) {
 }
 
 // Greedy one-to-one matching of joints of one type, closest pairs first (deterministic).
+// `found` receives the ids of the truth joints matched.
 void matchJoints(const PipeNetwork& truth, const std::vector<const Joint*>& predicted, JointType type,
                  const EvaluationParams& params, std::vector<char>& predictedMatched, int& truthCount,
-                 int& foundCount, std::vector<double>& bendErrors) {
+                 int& foundCount, std::vector<double>& bendErrors, std::vector<int>& found) {
   std::vector<std::tuple<double, std::size_t, std::size_t>> pairs;  // distance, truth index, predicted index
   std::vector<const Joint*> truthJoints;
   for (const auto& joint : truth.joints) {
@@ -161,8 +162,34 @@ void matchJoints(const PipeNetwork& truth, const std::vector<const Joint*>& pred
     truthMatched[t] = 1;
     predictedMatched[p] = 1;
     ++foundCount;
+    found.push_back(truthJoints[t]->id);
     if (type == JointType::Elbow && truthJoints[t]->bendRadius > 0.0) {
       bendErrors.push_back(std::fabs(predicted[p]->bendRadius - truthJoints[t]->bendRadius) / truthJoints[t]->bendRadius);
+    }
+  }
+}
+
+/// The truth elbows and tees whose pipes all have enough labelled points, and how many of them
+/// are among `foundJoints` (ids).
+void countObservableJoints(const PipeNetwork& truth, const PointCloud& scan, std::vector<int> foundJoints,
+                           const EvaluationParams& params, EvaluationResult& result) {
+  std::unordered_map<int, int> pointsOf;
+  for (const std::int32_t label : scan.labels) ++pointsOf[label];
+  std::sort(foundJoints.begin(), foundJoints.end());
+  for (const Joint& joint : truth.joints) {
+    if (joint.type != JointType::Elbow && joint.type != JointType::Tee) continue;
+    const bool observable = std::all_of(joint.pipeIds.begin(), joint.pipeIds.end(), [&](int pipe) {
+      const auto found = pointsOf.find(pipe);
+      return found != pointsOf.end() && found->second >= params.observableJointMinPoints;
+    });
+    if (!observable) continue;
+    const bool found = std::binary_search(foundJoints.begin(), foundJoints.end(), joint.id);
+    if (joint.type == JointType::Elbow) {
+      ++result.observableElbows;
+      result.foundObservableElbows += found;
+    } else {
+      ++result.observableTees;
+      result.foundObservableTees += found;
     }
   }
 }
@@ -257,12 +284,14 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
   std::vector<double> bendErrors;
   int ignoredTruth = 0;
   int ignoredFound = 0;
+  std::vector<int> foundJoints;
   matchJoints(truth, predictedJoints, JointType::Elbow, params, predictedMatched, result.truthElbows,
-              result.foundElbows, bendErrors);
+              result.foundElbows, bendErrors, foundJoints);
   matchJoints(truth, predictedJoints, JointType::Tee, params, predictedMatched, result.truthTees, result.foundTees,
-              bendErrors);
+              bendErrors, foundJoints);
   matchJoints(truth, predictedJoints, JointType::Boundary, params, predictedMatched, ignoredTruth, ignoredFound,
-              bendErrors);
+              bendErrors, foundJoints);
+  if (labelledScan) countObservableJoints(truth, *labelledScan, foundJoints, params, result);
   // A boundary joint that bridges a gap along the truth (an occlusion of a continuous pipe) is
   // right even though the truth, having no gaps, lists no such joint.
   for (std::size_t p = 0; p < predictedJoints.size(); ++p) {
@@ -294,8 +323,9 @@ std::string formatEvaluation(const EvaluationResult& result) {
                 result.bendRadiusErrorMedian);
   std::string text = line;
   if (result.observableMeasured) {
-    std::snprintf(line, sizeof line, " observable=%.3f recall_observable=%.3f", result.observableShare,
-                  result.recallObservable);
+    std::snprintf(line, sizeof line, " observable=%.3f recall_observable=%.3f observable_elbows=%d/%d observable_tees=%d/%d",
+                  result.observableShare, result.recallObservable, result.foundObservableElbows,
+                  result.observableElbows, result.foundObservableTees, result.observableTees);
     text += line;
   }
   return text;

@@ -21,6 +21,9 @@ struct EvaluationParams {
   /// labelled with its element lie nearest to the element's samples within ±observableWindow (m).
   double observableWindow = 0.05;
   int observableMinPoints = 5;
+  /// With a labelled scan: a truth elbow or tee is observable when each of its pipes has at least
+  /// this many labelled points.
+  int observableJointMinPoints = 20;
 };
 
 struct EvaluationResult {
@@ -38,6 +41,10 @@ struct EvaluationResult {
   std::size_t matchedObservableSamples = 0;
   double observableShare = 0.0;      ///< Observable truth samples / all truth samples.
   double recallObservable = 0.0;     ///< Share of observable truth samples within tolerance of a predicted sample.
+  int observableElbows = 0;          ///< Truth elbows whose pipes the scan shows, and how many of those were found.
+  int foundObservableElbows = 0;
+  int observableTees = 0;            ///< The same for tees.
+  int foundObservableTees = 0;
 
   int truthElbows = 0;
   int foundElbows = 0;               ///< Truth elbows matched by a predicted elbow.
@@ -56,7 +63,8 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
                                  const EvaluationParams& params = {}, const PointCloud* labelledScan = nullptr);
 
 /// "precision=0.912 recall=0.874 f1=0.893 radius_err_mm=3.1 elbows=17/20 tees=5/6 ...", then
-/// "observable=0.906 recall_observable=0.939" when those were measured.
+/// "observable=0.906 recall_observable=0.939 observable_elbows=73/89 observable_tees=20/22" when
+/// those were measured.
 std::string formatEvaluation(const EvaluationResult& result);
 
 }  // namespace piperun
