@@ -43,9 +43,15 @@ class ConstructedScene {
   /// The four side faces of an upright box of square section `width` centred on (x, y), sampled
   /// every 5 mm, with the faces' normals.
   void addPost(double x, double y, double width, double bottom, double top) {
+    addPostFaces(x, y, width, bottom, top,
+                 {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(0, -1, 0)});
+  }
+
+  /// The faces of a vertical square post with the given outward normals (the ones a scanner sees).
+  void addPostFaces(double x, double y, double width, double bottom, double top,
+                    const std::vector<Eigen::Vector3d>& normals) {
     const double half = 0.5 * width;
-    for (const Eigen::Vector3d& normal : {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, 1, 0),
-                                         Eigen::Vector3d(0, -1, 0)}) {
+    for (const Eigen::Vector3d& normal : normals) {
       const Eigen::Vector3d side = Eigen::Vector3d::UnitZ().cross(normal);
       for (double z = bottom; z <= top; z += 0.005) {
         for (double across = -half; across <= half; across += 0.005) {
@@ -322,6 +328,20 @@ TEST(Joints, ASquarePostAtAPipeEndIsNotCompletedAsAPipe) {
   const JointsResult result = scene.connect();
   EXPECT_EQ(result.diagnostics.completedPipes, 0u);
   EXPECT_EQ(result.pipes.size(), 2u);
+  EXPECT_TRUE(result.joints.empty());
+}
+
+TEST(Joints, APostSeenAcrossItsEdgeIsNotCompletedAsAPipe) {
+  // A thinner square post seen across an edge, two faces: its points lie on the rail's radius on
+  // average (the faces run from 0.84 r to 1.2 r off its axis) and on no line, but their normals
+  // keep to two directions at right angles.
+  const double r = 0.0211;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 1.1}, {-0.02, 0, 1.1}, r);
+  scene.addPostFaces(0.0, 0.0, 2.0 * r / 1.148, 0.0, 1.1 - r, {Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, -1, 0)});
+  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.completedPipes, 0u);
   EXPECT_TRUE(result.joints.empty());
 }
 

@@ -718,15 +718,17 @@ class EndCompletion {
   static constexpr double kMaxFlatShare = 0.4;          // Normals sharing one direction (see flatShare)...
   static constexpr double kLineToCircle = 0.9;          // ...with a line fit's RMS under this share of the
                                                         // circle's: a flat face.
+  static constexpr int kSquareToleranceDeg = 15;        // Two normal directions this close to square...
+  static constexpr double kMinFaceShare = 0.2;          // ...each holding this share of the points...
+  static constexpr double kMinSquareShare = 0.7;        // ...and together this share: two faces at an edge.
   static constexpr double kMinRadiusTolerance = 0.0015;  // The mean offset of the points from the radius (m)...
   static constexpr double kRadiusToleranceRadii = 0.03;  // ...may be this share of the radius, or the above.
 
-  /// The largest share of `points` whose normals, seen along the pipe (`x` × `y` is its axis),
-  /// point within 5° of one direction: a pipe's normals turn with the surface, a flat face's
-  /// (a post, a box side) stay put.
-  double flatShare(const std::vector<std::uint32_t>& points, const Eigen::Vector3d& x, const Eigen::Vector3d& y) const {
-    if (input_.cloud.normals.empty() || points.empty()) return 0.0;
-    constexpr int kDegrees = 180;  // Normals are unoriented: angles modulo 180°.
+  /// How the normals of `points` turn around the pipe (`x` × `y` is its axis): the share of them
+  /// within ±5° of each direction across it (unoriented, so over 180°, one bin per degree).
+  std::array<double, 180> normalWindows(const std::vector<std::uint32_t>& points, const Eigen::Vector3d& x,
+                                        const Eigen::Vector3d& y) const {
+    constexpr int kDegrees = 180;
     constexpr int kHalfWindow = 5;
     std::array<int, kDegrees> histogram{};
     for (std::uint32_t i : points) {
@@ -735,15 +737,33 @@ class EndCompletion {
       if (angle < 0.0) angle += kPi;
       ++histogram[static_cast<std::size_t>(std::min(kDegrees - 1, static_cast<int>(angle / kPi * kDegrees)))];
     }
-    int most = 0;
+    std::array<double, kDegrees> windows{};
     for (int k = 0; k < kDegrees; ++k) {
       int window = 0;
       for (int j = -kHalfWindow; j <= kHalfWindow; ++j) {
         window += histogram[static_cast<std::size_t>((k + j + kDegrees) % kDegrees)];
       }
-      most = std::max(most, window);
+      windows[static_cast<std::size_t>(k)] = static_cast<double>(window) / static_cast<double>(points.size());
     }
-    return static_cast<double>(most) / static_cast<double>(points.size());
+    return windows;
+  }
+
+  /// The largest share of the points whose normals point within 5° of one direction: a pipe's
+  /// normals turn with the surface, a flat face's (a post, a box side) stay put.
+  static double flatShare(const std::array<double, 180>& windows) {
+    return *std::max_element(windows.begin(), windows.end());
+  }
+
+  /// Whether the normals gather on two directions at right angles, as on two faces of a square post
+  /// or a box seen across its edge (a pipe's normals spread over the arc the scanner sees).
+  static bool squareEdge(const std::array<double, 180>& windows) {
+    const auto most = std::max_element(windows.begin(), windows.end());
+    const int first = static_cast<int>(most - windows.begin());
+    double second = 0.0;
+    for (int offset = 90 - kSquareToleranceDeg; offset <= 90 + kSquareToleranceDeg; ++offset) {
+      second = std::max(second, windows[static_cast<std::size_t>((first + offset) % 180)]);
+    }
+    return second >= kMinFaceShare && *most + second >= kMinSquareShare;
   }
 
   /// RMS distance of `points`, seen along the pipe (`x` × `y` is its axis), from the straight line
@@ -871,10 +891,14 @@ class EndCompletion {
     // A flat face: normals that keep one direction and points that lie on a line across the pipe
     // at least as well as on its circle. (Normals alone are not enough: on thin, sparse pipes they
     // point at the scanner.)
-    if (flatShare(completion.pipe.inliers, across, aside) > kMaxFlatShare &&
+    const bool hasNormals = !input_.cloud.normals.empty();
+    const std::array<double, 180> windows =
+        hasNormals ? normalWindows(completion.pipe.inliers, across, aside) : std::array<double, 180>{};
+    if (hasNormals && flatShare(windows) > kMaxFlatShare &&
         lineRms(completion.pipe.inliers, corner, across, aside) < kLineToCircle * std::sqrt(squares / count)) {
       return std::nullopt;
     }
+    if (hasNormals && squareEdge(windows)) return std::nullopt;
     completion.from = end;
     completion.pipe.start = corner;
     completion.pipe.end = corner + length * along;
