@@ -17,9 +17,10 @@
 //    equipment: too few points to stand out on the Gaussian sphere). Knowing the radius, only the
 //    corner's place along the end's extension is unknown: each unexplained point votes for the
 //    corners that put it on the surface. The peak's pipe must cover its sections, leave empty space
-//    around the tube, carry the continued radius and not be a flat face (normals of one direction
-//    on points in a line); it is kept when it takes the elbow with the end it grew from (steps 1–3
-//    run again with it).
+//    around the tube, carry the continued radius and be neither a flat face (normals of one
+//    direction on points in a line) nor the edge of a post (normals on two directions at right
+//    angles); it is kept when it takes the elbow with the end it grew from (steps 1–3 run again
+//    with it).
 // 5. Runs: connected components of the pipes over accepted joints.
 
 #include "piperun/stages/joints.h"
