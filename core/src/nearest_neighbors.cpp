@@ -29,6 +29,9 @@ constexpr std::size_t kCellsPerChunk = 256;
 constexpr double kMaxCellsPerAxis = 1 << 20;
 
 constexpr float kInfinity = std::numeric_limits<float>::infinity();
+/// Up to this many candidates the k nearest are placed by rank (quadratic, branch-free), beyond
+/// it by a partial sort.
+constexpr std::size_t kMaxRanked = 48;
 
 using Cube = Eigen::Array<std::int64_t, 3, 1>;
 using KeyedPoint = std::pair<std::uint64_t, std::uint32_t>;  // (cell key, point)
@@ -214,7 +217,8 @@ struct Scratch {
   std::vector<std::uint32_t> open;
   CellGrid::Block block;
   std::vector<float> squared;
-  std::vector<std::uint64_t> nearest;
+  std::vector<std::uint64_t> nearest;  // the candidates within the threshold, packed
+  std::vector<std::uint64_t> ranked;   // the k nearest of them, in order
   float guess = 0.0f;  ///< Squared k-th distance of the task's last point: its neighbours' is alike.
 };
 
@@ -277,8 +281,22 @@ std::int64_t trySettle(std::uint32_t i, const Eigen::Vector3f& q, const CellGrid
       kept += static_cast<std::size_t>(s.squared[b] <= threshold) & static_cast<std::size_t>(points[e] != i);
     }
   }
-  std::sort(s.nearest.begin(), s.nearest.begin() + static_cast<std::ptrdiff_t>(kept));
-  const float kth = squaredOf(s.nearest[k - 1]);
+  // The k smallest in order, placed by rank: the values are distinct (the index is part of them),
+  // and counting without branches beats a sort's unpredictable ones on a few dozen values.
+  s.ranked.resize(k);
+  if (kept <= kMaxRanked) {
+    const std::uint64_t* values = s.nearest.data();
+    for (std::size_t a = 0; a < kept; ++a) {
+      std::size_t rank = 0;
+      for (std::size_t b = 0; b < kept; ++b) rank += values[b] < values[a];
+      if (rank < k) s.ranked[rank] = values[a];
+    }
+  } else {
+    std::partial_sort(s.nearest.begin(), s.nearest.begin() + static_cast<std::ptrdiff_t>(k),
+                      s.nearest.begin() + static_cast<std::ptrdiff_t>(kept));
+    std::copy(s.nearest.begin(), s.nearest.begin() + static_cast<std::ptrdiff_t>(k), s.ranked.begin());
+  }
+  const float kth = squaredOf(s.ranked[k - 1]);
   s.guess = kth;
   if (static_cast<double>(kth) > clearance * clearance) {
     return std::max(reach + 1, static_cast<std::int64_t>(std::ceil(std::sqrt(static_cast<double>(kth)) / grid.edge())) + 1);
@@ -286,8 +304,8 @@ std::int64_t trySettle(std::uint32_t i, const Eigen::Vector3f& q, const CellGrid
   std::uint32_t* out = &lists.indices[i * k];
   float distanceSum = 0.0f;
   for (std::size_t j = 0; j < k; ++j) {
-    out[j] = static_cast<std::uint32_t>(s.nearest[j]);
-    if (j < static_cast<std::size_t>(lists.meanOf)) distanceSum += std::sqrt(squaredOf(s.nearest[j]));
+    out[j] = static_cast<std::uint32_t>(s.ranked[j]);
+    if (j < static_cast<std::size_t>(lists.meanOf)) distanceSum += std::sqrt(squaredOf(s.ranked[j]));
   }
   if (lists.meanOf > 0) lists.meanDistance[i] = distanceSum / static_cast<float>(lists.meanOf);
   return 0;
