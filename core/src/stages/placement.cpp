@@ -382,21 +382,25 @@ std::vector<Eigen::Vector2f> planeNormals(const StripeProjection& stripe, const 
       const double middle = 0.5 * (covariance(0, 0) + covariance(1, 1));
       const double major = middle + spread, minor = middle - spread;
       if (minor > kMaxFlatness * major || major < kMinExtent * kMinExtent * radius * radius) continue;
-      const double tangentAngle = 0.5 * std::atan2(2.0 * covariance(0, 1), 2.0 * half);
-      const Eigen::Vector2d tangent(std::cos(tangentAngle), std::sin(tangentAngle));
+      // The major axis at half the angle of (half, covariance(0, 1)); spread > 0 here (an isotropic
+      // blob failed the flatness test), so the half-angle formulas need no trigonometry.
+      const double cosDouble = half / spread;
+      const Eigen::Vector2d tangent(std::sqrt(0.5 * (1.0 + cosDouble)),
+                                    std::copysign(std::sqrt(std::max(0.0, 0.5 * (1.0 - cosDouble))), covariance(0, 1)));
       const Eigen::Vector2d across(-tangent.y(), tangent.x());
       // A neighbourhood that wraps round a circle smaller than itself has a lopsided PCA line,
       // wrong by up to half the arc it covers there; a parabola n = a + b t + c t² in the principal
       // frame (t scaled to unit spread) then gives the slope at the point itself. Elsewhere the
       // line is kept: its direction is less noisy than the parabola's slope.
       const double unit = std::sqrt(major);
+      const double perUnit = 1.0 / unit;
       Eigen::Matrix3d moments = Eigen::Matrix3d::Zero();
       Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
       for (int k = 0; k < count; ++k) {
-        const double t = (near[k] - mean).dot(tangent) / unit;
+        const double t = (near[k] - mean).dot(tangent) * perUnit;
         const Eigen::Vector3d basis(1.0, t, t * t);
         moments.noalias() += basis * basis.transpose();
-        rhs += basis * ((near[k] - mean).dot(across) / unit);
+        rhs += basis * ((near[k] - mean).dot(across) * perUnit);
       }
       double slope = 0.0;
       if (moments.determinant() > kMinSpread * count * count * count) {
