@@ -69,6 +69,7 @@ constexpr double kMaxAxisTilt = 10.0 * kDegree;  // a refined axis farther than 
                                                  // was fitted to something that is not a pipe along it
 constexpr double kDuplicateShare = 0.5;   // a cylinder sharing this share of its inliers is a copy
 constexpr double kRadiusSlack = 0.8;     // a refined radius may leave [minRadius, maxRadius] by this factor
+constexpr std::size_t kMinSectorsToTrim = 8;  // out-of-roundness leaves out the worst sector of this many
 constexpr double kMinOutOfRound = 0.001;  // out-of-roundness always tolerated (m): noise on few points
 constexpr double kShellReach = 2.5;       // outer edge of the shell tested beyond the inlier band, in bands
 constexpr double kNoiseBands = 2.5;       // a noisy scan's inlier band, in standard deviations of its surface noise...
@@ -701,7 +702,7 @@ double robustNoise(const CylinderFit& fit, const PointCloud& cloud, const Stripe
 }
 
 /// How far the inliers' surface offsets vary systematically around the axis (m): the RMS of the
-/// mean offsets in 10° sectors, less what the noise alone would give. A circle fitted to a square
+/// mean offsets in 10° sectors (the worst sector left out), less what the noise alone would give. A circle fitted to a square
 /// post or beam leaves its corners outside and its faces inside (2–4 mm for a 5 cm post with 2 mm
 /// noise in generated scenes); a pipe leaves only noise (below 0.4 mm for 95 % of them).
 double outOfRoundness(const CylinderFit& fit, const PointCloud& cloud, const StripeProjection& stripe,
@@ -724,16 +725,22 @@ double outOfRoundness(const CylinderFit& fit, const PointCloud& cloud, const Str
     sum2 += offset * offset;
   }
   const double variance = sum2 / static_cast<double>(std::max<std::size_t>(1, inliers.size()));
-  double systematic = 0.0, expected = 0.0;
-  int used = 0;
+  // (squared mean offset, its expected part from noise) per sector with enough points
+  std::vector<std::pair<double, double>> sectors;
   for (int k = 0; k < kSectors; ++k) {
     if (count[k] < kMinSectorPoints) continue;
     const double mean = sum[k] / count[k];
-    systematic += mean * mean;
-    expected += variance / count[k];
-    ++used;
+    sectors.emplace_back(mean * mean, variance / count[k]);
   }
-  return used == 0 ? 0.0 : std::sqrt(std::max(0.0, systematic - expected) / used);
+  // The most deviant sector is left out when there are enough: a mug's handle or a bracket on one
+  // side moves one sector, while a square's faces and corners move them all.
+  if (sectors.size() >= kMinSectorsToTrim) sectors.erase(std::max_element(sectors.begin(), sectors.end()));
+  double systematic = 0.0, expected = 0.0;
+  for (const auto& [squared, noise] : sectors) {
+    systematic += squared;
+    expected += noise;
+  }
+  return sectors.empty() ? 0.0 : std::sqrt(std::max(0.0, systematic - expected) / static_cast<double>(sectors.size()));
 }
 
 // ---------------------------------------------------------------------------------------------

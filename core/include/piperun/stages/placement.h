@@ -37,8 +37,8 @@ struct PlacementParams {
                                     ///< inlierDistance off the surface, along the inliers) exceed this share of the
                                     ///< inliers: the faces beyond a box edge do, a pipe's surroundings do not.
   double maxOutOfRound = 0.02;      ///< Dropped when the inliers' mean surface offset varies around the axis by more
-                                    ///< than this share of the radius (at least 1 mm; RMS over 10° sectors, noise
-                                    ///< discounted): square posts and beams do, pipes do not.
+                                    ///< than this share of the radius (at least 1 mm; RMS over 10° sectors, the worst
+                                    ///< one left out, noise discounted): square posts and beams do, pipes do not.
   int refineIterations = 8;         ///< Gauss-Newton iterations of each least-squares refinement (two are run).
 };
 
