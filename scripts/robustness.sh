@@ -22,7 +22,7 @@ for noise in 0 0.002 0.005 0.01; do
   row="| $(awk -v n="$noise" 'BEGIN { printf "%g mm", n * 1000 }') |"
   for outliers in $outliers_list; do
     f1=$(scripts/evaluate.sh --pipes-only --seeds "$seeds" --noise "$noise" --outliers "$outliers" "${extra[@]}" |
-      tail -1 | sed -E 's/.* f1=([0-9.]+).*/\1/')
+      grep '^mean:' | sed -E 's/.* f1=([0-9.]+).*/\1/')
     row="$row $f1 |"
   done
   echo "$row"
