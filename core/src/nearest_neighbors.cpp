@@ -28,7 +28,6 @@ constexpr std::size_t kCellsPerChunk = 256;
 /// Cells per axis at most, so keys (x · ny + y) · nz + z fit 63 bits.
 constexpr double kMaxCellsPerAxis = 1 << 20;
 
-constexpr float kInfinity = std::numeric_limits<float>::infinity();
 /// Up to this many candidates the k nearest are placed by rank (quadratic, branch-free), beyond
 /// it by a partial sort.
 constexpr std::size_t kMaxRanked = 48;
