@@ -437,14 +437,24 @@ std::vector<Eigen::Vector2f> planeNormals(const StripeProjection& stripe, const 
       // line is kept: its direction is less noisy than the parabola's slope.
       const double unit = std::sqrt(major);
       const double perUnit = 1.0 / unit;
-      Eigen::Matrix3d moments = Eigen::Matrix3d::Zero();
-      Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+      // Sums of t^0..t^4 and of w, t w, t² w (scalars: an Eigen outer product per point went
+      // through memory in the loop).
+      double t1 = 0.0, t2 = 0.0, t3 = 0.0, t4 = 0.0, w0 = 0.0, w1 = 0.0, w2 = 0.0;
       for (int k = 0; k < count; ++k) {
         const double t = (near[k] - mean).dot(tangent) * perUnit;
-        const Eigen::Vector3d basis(1.0, t, t * t);
-        moments.noalias() += basis * basis.transpose();
-        rhs += basis * ((near[k] - mean).dot(across) * perUnit);
+        const double tt = t * t;
+        const double w = (near[k] - mean).dot(across) * perUnit;
+        t1 += t;
+        t2 += tt;
+        t3 += t * tt;
+        t4 += tt * tt;
+        w0 += w;
+        w1 += t * w;
+        w2 += tt * w;
       }
+      Eigen::Matrix3d moments;
+      moments << static_cast<double>(count), t1, t2, t1, t2, t3, t2, t3, t4;
+      const Eigen::Vector3d rhs(w0, w1, w2);
       double slope = 0.0;
       if (moments.determinant() > kMinSpread * count * count * count) {
         const Eigen::Vector3d parabola = moments.ldlt().solve(rhs);
