@@ -258,16 +258,17 @@ std::int64_t trySettle(std::uint32_t i, const Eigen::Vector3f& q, const CellGrid
       }
     }
   }
-  // A threshold that lets between k and a few k candidates in: from the last point's k-th distance,
-  // corrected as on a surface (the count grows with the squared radius). Counting and collecting
-  // without branches is much cheaper than selecting among all candidates.
-  float threshold = s.guess > 0.0f ? 1.3f * s.guess : static_cast<float>(grid.edge() * grid.edge());
+  // A threshold that lets between k and 1.4 k candidates in (the ranking below costs their count
+  // squared): from the last point's k-th distance, corrected as on a surface (the count grows with
+  // the squared radius). Counting and collecting without branches is much cheaper than selecting
+  // among all candidates.
+  float threshold = s.guess > 0.0f ? 1.05f * s.guess : static_cast<float>(grid.edge() * grid.edge());
   for (int attempt = 0;; ++attempt) {
     std::size_t within = 0;  // the point itself (at distance 0, always within) is taken off below
     for (std::size_t b = 0; b < count; ++b) within += s.squared[b] <= threshold;
     --within;
-    if (within >= k && (within <= 2 * k || attempt >= 8)) break;
-    const float scale = within == 0 ? 4.0f : std::clamp(1.5f * static_cast<float>(k) / static_cast<float>(within), 0.25f, 4.0f);
+    if (within >= k && (10 * within <= 14 * k || attempt >= 8)) break;
+    const float scale = within == 0 ? 4.0f : std::clamp(1.2f * static_cast<float>(k) / static_cast<float>(within), 0.25f, 4.0f);
     threshold *= scale;
   }
   s.nearest.resize(count);
