@@ -681,9 +681,9 @@ PreprocessResult preprocess(const PointCloud& input, const PreprocessParams& par
   progress.report(kTask, 0.0);
 
   Clock::time_point stepStart = Clock::now();
-  const double leaf = params.autoVoxel
-                          ? std::min(params.voxelSize, std::max(kMinAutoVoxel, 2.0 * estimatePointSpacing(input)))
-                          : params.voxelSize;
+  const double inputSpacing = estimatePointSpacing(input);
+  const double leaf =
+      params.autoVoxel ? std::min(params.voxelSize, std::max(kMinAutoVoxel, 2.0 * inputSpacing)) : params.voxelSize;
   diagnostics.voxelSize = leaf;
   PointCloud sampled = voxelCentroids(input, leaf, progress);
   const std::size_t n = sampled.size();
@@ -695,8 +695,9 @@ PreprocessResult preprocess(const PointCloud& input, const PreprocessParams& par
   stepStart = Clock::now();
   const bool removeOutliers = params.outlierNeighbors > 0 && params.outlierStdRatio > 0.0;
   const int outlierK = removeOutliers ? params.outlierNeighbors : 0;
-  // The cell size of the neighbour search follows the spacing; it changes the speed, not the lists.
-  const double spacing = std::max(leaf, estimatePointSpacing(sampled));
+  // The cell size of the neighbour search follows the spacing of the voxel points (the leaf, or the
+  // scan's own spacing where that is wider); it changes the speed, not the lists.
+  const double spacing = std::max(leaf, inputSpacing);
   const NeighborLists neighbors = findNearestNeighbors(sampled.positions, std::max(outlierK, params.normalNeighbors),
                                                        outlierK, spacing, progress, kTask, kVoxelDone, kNeighborsDone);
   diagnostics.neighborSeconds = secondsSince(stepStart);
