@@ -1,11 +1,15 @@
 #include "piperun/spacing.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <unordered_map>
+#include <utility>
+#include <vector>
 
 namespace piperun {
 
@@ -34,21 +38,30 @@ double estimatePointSpacing(const PointCloud& cloud, std::size_t samples) {
   std::vector<std::size_t> queries(samples);
   for (std::size_t k = 0; k < samples; ++k) queries[k] = k * n / samples;
 
-  // Index only the points in the 27 cells around each query point.
-  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells;
+  // Index only the points in the 27 cells around each query point. The cells are numbered first;
+  // the pass over every point runs in parallel chunks whose finds are appended in chunk order.
+  std::unordered_map<std::uint64_t, std::uint32_t> cellIds;
   for (std::size_t q : queries) {
     const Eigen::Vector3i center = cellOf(cloud.positions[q], cell);
     for (int dx = -1; dx <= 1; ++dx) {
       for (int dy = -1; dy <= 1; ++dy) {
         for (int dz = -1; dz <= 1; ++dz) {
-          cells.try_emplace(cellKey(center + Eigen::Vector3i(dx, dy, dz)));
+          cellIds.try_emplace(cellKey(center + Eigen::Vector3i(dx, dy, dz)), static_cast<std::uint32_t>(cellIds.size()));
         }
       }
     }
   }
-  for (std::size_t i = 0; i < n; ++i) {
-    const auto found = cells.find(cellKey(cellOf(cloud.positions[i], cell)));
-    if (found != cells.end()) found->second.push_back(static_cast<std::uint32_t>(i));
+  constexpr std::size_t kChunk = 1 << 16;
+  std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> found((n + kChunk - 1) / kChunk);
+  tbb::parallel_for(std::size_t{0}, found.size(), [&](std::size_t chunk) {
+    for (std::size_t i = chunk * kChunk; i < std::min(n, (chunk + 1) * kChunk); ++i) {
+      const auto id = cellIds.find(cellKey(cellOf(cloud.positions[i], cell)));
+      if (id != cellIds.end()) found[chunk].emplace_back(id->second, static_cast<std::uint32_t>(i));
+    }
+  });
+  std::vector<std::vector<std::uint32_t>> members(cellIds.size());
+  for (const auto& part : found) {
+    for (const auto& [id, i] : part) members[id].push_back(i);
   }
 
   std::vector<double> distances;
@@ -60,8 +73,7 @@ double estimatePointSpacing(const PointCloud& cloud, std::size_t samples) {
     for (int dx = -1; dx <= 1; ++dx) {
       for (int dy = -1; dy <= 1; ++dy) {
         for (int dz = -1; dz <= 1; ++dz) {
-          const auto& members = cells.at(cellKey(center + Eigen::Vector3i(dx, dy, dz)));
-          for (std::uint32_t i : members) {
+          for (std::uint32_t i : members[cellIds.at(cellKey(center + Eigen::Vector3i(dx, dy, dz)))]) {
             if (i == q) continue;
             const float d = (cloud.positions[i] - p).squaredNorm();
             // Exact duplicates (several returns of one spot) say nothing about spacing.
