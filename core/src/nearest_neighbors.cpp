@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <utility>
 
 namespace piperun {
@@ -20,9 +21,9 @@ namespace {
 constexpr double kEdgePerNeighborRadius = 1.3;
 /// Each coarser level's cells are this many times wider than the level below.
 constexpr double kLevelRatio = 6.0;
-/// Beyond this reach (cells each way) a search moves to the next coarser level: a block of
-/// (2 · reach + 1)² rows costs more than a level's grid.
-constexpr std::int64_t kMaxReach = 8;
+/// Beyond this many cells across a search moves to the next coarser level: a block of that many
+/// squared rows costs more than a level's grid.
+constexpr std::int64_t kMaxBlockCells = 17;
 /// Cells per parallel task; fixed, so the work split does not depend on the thread count.
 constexpr std::size_t kCellsPerChunk = 256;
 /// Cells per axis at most, so keys (x · ny + y) · nz + z fit 63 bits.
@@ -75,6 +76,10 @@ class CellGrid {
   const std::vector<std::uint32_t>& cellBegins() const { return begins_; }
 
   std::uint64_t keyOf(const Eigen::Vector3f& p) const { return key(cubeOf(p)); }
+  /// The cube holding p + offset on every axis (not clipped to the grid).
+  Cube cubeOfOffset(const Eigen::Vector3f& p, double offset) const {
+    return ((p.cast<double>().array() + offset - low_.array()) / edge_).floor().cast<std::int64_t>();
+  }
   Cube cubeOfKey(std::uint64_t k) const {
     const auto ny = static_cast<std::uint64_t>(counts_.y()), nz = static_cast<std::uint64_t>(counts_.z());
     return Cube(static_cast<std::int64_t>(k / (ny * nz)), static_cast<std::int64_t>(k / nz % ny),
@@ -86,8 +91,8 @@ class CellGrid {
     std::uint32_t first = 0, last = 0;
   };
 
-  /// The points in the cells within `reach` cells of `centre` (per axis): ranges of the
-  /// cell-ordered arrays, one per row of cells.
+  /// The points in the cells from cube `from` to cube `to` (inclusive, per axis; clipped to the
+  /// grid): ranges of the cell-ordered arrays, one per row of cells.
   struct Block {
     std::vector<std::pair<std::uint32_t, std::uint32_t>> ranges;
     std::size_t count = 0;
@@ -96,11 +101,11 @@ class CellGrid {
     std::vector<Row> rows;
   };
 
-  void gatherBlock(const Cube& centre, std::int64_t reach, Block& out) const {
+  void gatherBlock(const Cube& from, const Cube& to, Block& out) const {
     out.ranges.clear();
     out.count = 0;
-    const Cube first = (centre - reach).max(0);
-    const Cube last = (centre + reach).min(counts_ - 1);
+    const Cube first = from.max(0);
+    const Cube last = to.min(counts_ - 1);
     const Eigen::Array4i span(static_cast<int>(first.x()), static_cast<int>(first.y()), static_cast<int>(last.x()),
                               static_cast<int>(last.y()));
     if ((span != out.rowSpan).any()) {
@@ -136,17 +141,15 @@ class CellGrid {
   const float* orderedY() const { return y_.data(); }
   const float* orderedZ() const { return z_.data(); }
 
-  /// Distance from `p` to the nearest face of the block within `reach` cells of `centre` through
-  /// which a point could lie outside it (faces on the grid's border hide nothing, so a block over
-  /// the whole grid has infinite clearance).
-  double clearance(const Eigen::Vector3f& p, const Cube& centre, std::int64_t reach) const {
+  /// Distance from `p` to the nearest face of the block of cubes `from`..`to` through which a point
+  /// could lie outside it (faces on the grid's border hide nothing, so a block over the whole grid
+  /// has infinite clearance).
+  double clearance(const Eigen::Vector3f& p, const Cube& from, const Cube& to) const {
     double nearest = std::numeric_limits<double>::infinity();
     for (int axis = 0; axis < 3; ++axis) {
       const double x = static_cast<double>(p[axis]) - low_[axis];
-      if (centre[axis] - reach > 0) nearest = std::min(nearest, x - static_cast<double>(centre[axis] - reach) * edge_);
-      if (centre[axis] + reach < counts_[axis] - 1) {
-        nearest = std::min(nearest, static_cast<double>(centre[axis] + reach + 1) * edge_ - x);
-      }
+      if (from[axis] > 0) nearest = std::min(nearest, x - static_cast<double>(from[axis]) * edge_);
+      if (to[axis] < counts_[axis] - 1) nearest = std::min(nearest, static_cast<double>(to[axis] + 1) * edge_ - x);
     }
     return nearest - 1e-6 * edge_;  // the rounding of a point on a face into either cell must not matter
   }
@@ -235,15 +238,20 @@ float squaredOf(std::uint64_t packedValue) {
   return squared;
 }
 
-/// Searches point i's neighbours among the loaded block. Writes its list and returns 0 when the
-/// k-th is nearer than `clearance`; otherwise returns the reach (in cells of `edge`) that will
-/// settle it: past the k-th found when there are k candidates, else twice the current reach.
-std::int64_t trySettle(std::uint32_t i, const Eigen::Vector3f& q, const CellGrid& grid, Scratch& s, double clearance,
-                       std::int64_t reach, NeighborLists& lists) {
+/// What a search among a block found for a point that it could not settle.
+struct Unsettled {
+  bool enough = false;  ///< The block held k candidates...
+  double kth = 0.0;     ///< ...the k-th of them this far away: the true k-th is no farther.
+};
+
+/// Searches point i's neighbours among the loaded block. Writes its list and returns nothing when
+/// the k-th is nearer than `clearance`; otherwise returns what it found.
+std::optional<Unsettled> trySettle(std::uint32_t i, const Eigen::Vector3f& q, const CellGrid& grid, Scratch& s,
+                                   double clearance, NeighborLists& lists) {
   const auto k = static_cast<std::size_t>(lists.k);
   const CellGrid::Block& block = s.block;
   const std::size_t count = block.count;
-  if (count < k + 1) return 2 * reach;  // the point itself is among the candidates
+  if (count < k + 1) return Unsettled{};  // the point itself is among the candidates
   s.squared.resize(count);
   {
     const float* __restrict x = grid.orderedX();
@@ -298,9 +306,7 @@ std::int64_t trySettle(std::uint32_t i, const Eigen::Vector3f& q, const CellGrid
   }
   const float kth = squaredOf(s.ranked[k - 1]);
   s.guess = kth;
-  if (static_cast<double>(kth) > clearance * clearance) {
-    return std::max(reach + 1, static_cast<std::int64_t>(std::ceil(std::sqrt(static_cast<double>(kth)) / grid.edge())) + 1);
-  }
+  if (static_cast<double>(kth) > clearance * clearance) return Unsettled{true, std::sqrt(static_cast<double>(kth))};
   std::uint32_t* out = &lists.indices[i * k];
   float distanceSum = 0.0f;
   for (std::size_t j = 0; j < k; ++j) {
@@ -308,34 +314,45 @@ std::int64_t trySettle(std::uint32_t i, const Eigen::Vector3f& q, const CellGrid
     if (j < static_cast<std::size_t>(lists.meanOf)) distanceSum += std::sqrt(squaredOf(s.ranked[j]));
   }
   if (lists.meanOf > 0) lists.meanDistance[i] = distanceSum / static_cast<float>(lists.meanOf);
-  return 0;
+  return std::nullopt;
 }
 
-/// Settles the points [first, last) of one cell of `grid`: blocks of growing reach are gathered
-/// once for the points still open. Appends the points that need more than kMaxReach to `unsettled`.
+/// Settles the points [first, last) of one cell of `grid`: blocks around the cell are gathered once
+/// for the points still open, each next block grown on the sides where an open point's k-th found
+/// so far reaches past the faces (then it settles there), or doubled where a point found fewer than
+/// k. Appends the points whose block would grow past kMaxBlockCells to `unsettled`.
 void settleCell(const CellGrid& grid, const Cube& centre, const std::uint32_t* first, const std::uint32_t* last,
                 const std::vector<Eigen::Vector3f>& positions, Scratch& s, NeighborLists& lists,
                 std::vector<std::uint32_t>& unsettled) {
   std::vector<std::uint32_t>& points = s.open;
   points.assign(first, last);
-  std::int64_t reach = 1;
+  Cube from = centre - 1, to = centre + 1;
   while (!points.empty()) {
-    if (reach > kMaxReach) {
+    if ((to - from + 1 > kMaxBlockCells).any()) {
       unsettled.insert(unsettled.end(), points.begin(), points.end());
       return;
     }
-    grid.gatherBlock(centre, reach, s.block);
-    std::int64_t nextReach = 0;
+    grid.gatherBlock(from, to, s.block);
+    Cube nextFrom = from, nextTo = to;
     std::size_t open = 0;
     for (const std::uint32_t i : points) {
       const Eigen::Vector3f& q = positions[i];
-      const std::int64_t needed = trySettle(i, q, grid, s, grid.clearance(q, centre, reach), reach, lists);
-      if (needed == 0) continue;
-      nextReach = std::max(nextReach, needed);
+      const std::optional<Unsettled> result = trySettle(i, q, grid, s, grid.clearance(q, from, to), lists);
+      if (!result) continue;
+      if (result->enough) {
+        // Grow each side the sphere of the k-th found crosses, by the cells it crosses into.
+        const Cube reachFrom = grid.cubeOfOffset(q, -result->kth), reachTo = grid.cubeOfOffset(q, result->kth);
+        nextFrom = nextFrom.min(reachFrom - 1);
+        nextTo = nextTo.max(reachTo + 1);
+      } else {
+        nextFrom = nextFrom.min(from - (to - from + 1));
+        nextTo = nextTo.max(to + (to - from + 1));
+      }
       points[open++] = i;
     }
     points.resize(open);
-    reach = nextReach;
+    from = nextFrom;
+    to = nextTo;
   }
 }
 
