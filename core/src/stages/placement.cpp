@@ -452,14 +452,18 @@ std::vector<Eigen::Vector2f> planeNormals(const StripeProjection& stripe, const 
         w1 += t * w;
         w2 += tt * w;
       }
-      Eigen::Matrix3d moments;
-      moments << static_cast<double>(count), t1, t2, t1, t2, t3, t2, t3, t4;
-      const Eigen::Vector3d rhs(w0, w1, w2);
+      // The normal equations [[n, t1, t2], [t1, t2, t3], [t2, t3, t4]] (b0, b1, b2) = (w0, w1, w2),
+      // solved by their cofactors (symmetric): only b1 and b2 are needed.
+      const auto n = static_cast<double>(count);
+      const double c11 = t2 * t4 - t3 * t3, c12 = t2 * t3 - t1 * t4, c13 = t1 * t3 - t2 * t2;
+      const double c22 = n * t4 - t2 * t2, c23 = t1 * t2 - n * t3, c33 = n * t2 - t1 * t1;
+      const double determinant = n * c11 + t1 * c12 + t2 * c13;
       double slope = 0.0;
-      if (moments.determinant() > kMinSpread * count * count * count) {
-        const Eigen::Vector3d parabola = moments.ldlt().solve(rhs);
-        const double curvature = 2.0 * std::abs(parabola[2]) / unit;
-        if (curvature * kMinCurvatureRadius * radius > 1.0) slope = parabola[1] + 2.0 * parabola[2] * (-mean.dot(tangent) / unit);
+      if (determinant > kMinSpread * n * n * n) {
+        const double b1 = (c12 * w0 + c22 * w1 + c23 * w2) / determinant;
+        const double b2 = (c13 * w0 + c23 * w1 + c33 * w2) / determinant;
+        const double curvature = 2.0 * std::abs(b2) / unit;
+        if (curvature * kMinCurvatureRadius * radius > 1.0) slope = b1 + 2.0 * b2 * (-mean.dot(tangent) / unit);
       }
       const Eigen::Vector2f normal = (across - slope * tangent).normalized().cast<float>();
       if (std::abs(normal.dot(stripe.normals[i])) < keepCos) normals[i] = normal;
