@@ -1,5 +1,7 @@
 #include "nearest_neighbors.h"
 
+#include "cell_table.h"
+
 #include "piperun/point_cloud.h"
 
 #include <tbb/parallel_for.h>
@@ -166,12 +168,6 @@ class CellGrid {
 
   static constexpr std::uint64_t kNoRow = std::numeric_limits<std::uint64_t>::max();
 
-  static std::uint64_t hashRow(std::uint64_t row) {
-    row = (row ^ (row >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    row = (row ^ (row >> 27)) * 0x94d049bb133111ebULL;
-    return row ^ (row >> 31);
-  }
-
   /// Open-addressing table from row number (x · ny + y) to the row's cells.
   void indexRows() {
     const auto nz = static_cast<std::uint64_t>(counts_.z());
@@ -186,7 +182,7 @@ class CellGrid {
       const std::uint64_t row = keys_[c] / nz;
       std::size_t end = c + 1;
       while (end < keys_.size() && keys_[end] / nz == row) ++end;
-      std::size_t slot = hashRow(row) & rowMask_;
+      std::size_t slot = mixBits(row) & rowMask_;
       while (rowNumbers_[slot] != kNoRow) slot = (slot + 1) & rowMask_;
       rowNumbers_[slot] = row;
       rowCells_[slot] = {static_cast<std::uint32_t>(c), static_cast<std::uint32_t>(end)};
@@ -195,7 +191,7 @@ class CellGrid {
   }
 
   Row findRow(std::uint64_t row) const {
-    for (std::size_t slot = hashRow(row) & rowMask_;; slot = (slot + 1) & rowMask_) {
+    for (std::size_t slot = mixBits(row) & rowMask_;; slot = (slot + 1) & rowMask_) {
       if (rowNumbers_[slot] == row) return rowCells_[slot];
       if (rowNumbers_[slot] == kNoRow) return {};
     }

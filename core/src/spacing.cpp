@@ -1,5 +1,7 @@
 #include "piperun/spacing.h"
 
+#include "cell_table.h"
+
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -7,7 +9,6 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
-#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -40,14 +41,12 @@ double estimatePointSpacing(const PointCloud& cloud, std::size_t samples) {
 
   // Index only the points in the 27 cells around each query point. The cells are numbered first;
   // the pass over every point runs in parallel chunks whose finds are appended in chunk order.
-  std::unordered_map<std::uint64_t, std::uint32_t> cellIds;
+  CellTable cellIds;
   for (std::size_t q : queries) {
     const Eigen::Vector3i center = cellOf(cloud.positions[q], cell);
     for (int dx = -1; dx <= 1; ++dx) {
       for (int dy = -1; dy <= 1; ++dy) {
-        for (int dz = -1; dz <= 1; ++dz) {
-          cellIds.try_emplace(cellKey(center + Eigen::Vector3i(dx, dy, dz)), static_cast<std::uint32_t>(cellIds.size()));
-        }
+        for (int dz = -1; dz <= 1; ++dz) cellIds.insert(cellKey(center + Eigen::Vector3i(dx, dy, dz)));
       }
     }
   }
@@ -55,8 +54,8 @@ double estimatePointSpacing(const PointCloud& cloud, std::size_t samples) {
   std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> found((n + kChunk - 1) / kChunk);
   tbb::parallel_for(std::size_t{0}, found.size(), [&](std::size_t chunk) {
     for (std::size_t i = chunk * kChunk; i < std::min(n, (chunk + 1) * kChunk); ++i) {
-      const auto id = cellIds.find(cellKey(cellOf(cloud.positions[i], cell)));
-      if (id != cellIds.end()) found[chunk].emplace_back(id->second, static_cast<std::uint32_t>(i));
+      const std::int64_t id = cellIds.find(cellKey(cellOf(cloud.positions[i], cell)));
+      if (id >= 0) found[chunk].emplace_back(static_cast<std::uint32_t>(id), static_cast<std::uint32_t>(i));
     }
   });
   std::vector<std::vector<std::uint32_t>> members(cellIds.size());
@@ -73,7 +72,7 @@ double estimatePointSpacing(const PointCloud& cloud, std::size_t samples) {
     for (int dx = -1; dx <= 1; ++dx) {
       for (int dy = -1; dy <= 1; ++dy) {
         for (int dz = -1; dz <= 1; ++dz) {
-          for (std::uint32_t i : members[cellIds.at(cellKey(center + Eigen::Vector3i(dx, dy, dz)))]) {
+          for (std::uint32_t i : members[static_cast<std::size_t>(cellIds.find(cellKey(center + Eigen::Vector3i(dx, dy, dz))))]) {
             if (i == q) continue;
             const float d = (cloud.positions[i] - p).squaredNorm();
             // Exact duplicates (several returns of one spot) say nothing about spacing.

@@ -41,6 +41,7 @@
 
 #include "piperun/stages/directions.h"
 
+#include "cell_table.h"
 #include "random.h"
 
 #include <Eigen/Eigenvalues>
@@ -89,13 +90,6 @@ Vector foldedUp(const Vector& d) {
   return flip ? Vector(-d) : d;
 }
 
-/// SplitMix64's finaliser: a bijective mixer, for hashing cell keys and point indices.
-std::uint64_t mix(std::uint64_t z) {
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
-}
-
 bool usableNormal(const Eigen::Vector3f& n) { return n.allFinite() && n.squaredNorm() > 0.25f; }
 
 /// A 63-bit key of the cubic cell with integer coordinates c.
@@ -103,52 +97,6 @@ std::uint64_t cellKey(const Eigen::Vector3i& c) {
   const auto part = [](int v) { return static_cast<std::uint64_t>(static_cast<std::uint32_t>(v) & 0x1FFFFFu); };
   return part(c.x()) | (part(c.y()) << 21) | (part(c.z()) << 42);
 }
-
-/// Open addressing from cell keys to dense cell ids, numbered in order of first insertion.
-class CellTable {
- public:
-  std::uint32_t insert(std::uint64_t key) {
-    if (2 * (static_cast<std::size_t>(size_) + 1) > keys_.size()) grow();
-    const std::size_t slot = probe(key);
-    if (keys_[slot] == kEmpty) {
-      keys_[slot] = key;
-      ids_[slot] = size_++;
-    }
-    return ids_[slot];
-  }
-  std::int64_t find(std::uint64_t key) const {
-    if (keys_.empty()) return -1;
-    const std::size_t slot = probe(key);
-    return keys_[slot] == kEmpty ? std::int64_t{-1} : std::int64_t{ids_[slot]};
-  }
-  std::uint32_t size() const { return size_; }
-
- private:
-  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};  // Keys use 63 bits, so never this.
-
-  std::size_t probe(std::uint64_t key) const {
-    const std::size_t mask = keys_.size() - 1;
-    std::size_t slot = static_cast<std::size_t>(mix(key)) & mask;
-    while (keys_[slot] != kEmpty && keys_[slot] != key) slot = (slot + 1) & mask;
-    return slot;
-  }
-  void grow() {
-    std::vector<std::uint64_t> keys(std::max<std::size_t>(1024, 2 * keys_.size()), kEmpty);
-    std::vector<std::uint32_t> ids(keys.size());
-    keys.swap(keys_);
-    ids.swap(ids_);
-    for (std::size_t k = 0; k < keys.size(); ++k) {
-      if (keys[k] == kEmpty) continue;
-      const std::size_t slot = probe(keys[k]);
-      keys_[slot] = keys[k];
-      ids_[slot] = ids[k];
-    }
-  }
-
-  std::vector<std::uint64_t> keys_;
-  std::vector<std::uint32_t> ids_;
-  std::uint32_t size_ = 0;
-};
 
 /// Points bucketed by cubic cell (of edge pairRadius): where each point lies, and the drawable ones
 /// by cell, to draw a random partner near a point.
@@ -727,9 +675,9 @@ DirectionsResult detectDirections(const DirectionsInput& input, const Directions
     // to an earlier one keeps the normals the earlier stripe took, all around its axis.
     std::vector<char> drawable(usable.size());
     std::vector<std::uint32_t> drawablePositions, fitPositions, testPositions;
-    const std::uint64_t split = mix(input.seed ^ mix(kStreamTag + static_cast<std::uint64_t>(round)));
+    const std::uint64_t split = mixBits(input.seed ^ mixBits(kStreamTag + static_cast<std::uint64_t>(round)));
     for (std::size_t k = 0; k < usable.size(); ++k) {
-      const bool searched = (mix(split ^ usable[k]) & 1) == 0;
+      const bool searched = (mixBits(split ^ usable[k]) & 1) == 0;
       drawable[k] = searched && !covered[k];
       const auto position = static_cast<std::uint32_t>(k);
       if (drawable[k]) drawablePositions.push_back(position);

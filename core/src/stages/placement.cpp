@@ -33,6 +33,7 @@
 
 #include "piperun/stages/placement.h"
 
+#include "cell_table.h"
 #include "random.h"
 
 #include <Eigen/Cholesky>
@@ -100,12 +101,6 @@ std::array<std::int64_t, 3> cellCoordinates(std::uint64_t key) {
           static_cast<std::int64_t>(key & kMask) - kCellHalfRange};
 }
 
-std::uint64_t hashKey(std::uint64_t z) {
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
-}
-
 class CellIndex {
  public:
   struct Range {
@@ -133,7 +128,7 @@ class CellIndex {
     mask_ = slots - 1;
     table_.assign(slots, kEmpty);
     for (std::uint32_t c = 0; c < keys_.size(); ++c) {
-      std::size_t slot = hashKey(keys_[c]) & mask_;
+      std::size_t slot = mixBits(keys_[c]) & mask_;
       while (table_[slot] != kEmpty) slot = (slot + 1) & mask_;
       table_[slot] = c;
     }
@@ -189,7 +184,7 @@ class CellIndex {
 
   /// The items of the cell with `key` (empty when there is none).
   Range find(std::uint64_t key) const {
-    for (std::size_t slot = hashKey(key) & mask_;; slot = (slot + 1) & mask_) {
+    for (std::size_t slot = mixBits(key) & mask_;; slot = (slot + 1) & mask_) {
       const std::uint32_t cell = table_[slot];
       if (cell == kEmpty) return {};
       if (keys_[cell] == key) return items(cell);
