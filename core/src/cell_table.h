@@ -1,6 +1,8 @@
 #pragma once
-// Open addressing from 63-bit cell keys to dense ids, numbered in order of first insertion; the
-// hash mixer it uses. Shared by the stages' grids.
+// Open addressing from 63-bit cell keys to dense ids, numbered in order of first insertion. Shared
+// by the stages' grids.
+
+#include "random.h"
 
 #include <algorithm>
 #include <cstddef>
@@ -8,13 +10,6 @@
 #include <vector>
 
 namespace piperun {
-
-/// SplitMix64's finaliser: a bijective mixer, for hashing cell keys and point indices.
-inline std::uint64_t mixBits(std::uint64_t z) {
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
-}
 
 class CellTable {
  public:

@@ -9,13 +9,20 @@
 
 namespace piperun {
 
+/// SplitMix64's finaliser: a bijective mixer, for seeding and for hashing cell keys and indices.
+inline std::uint64_t mixBits(std::uint64_t z) {
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
+}
+
 class Rng {
  public:
   /// A generator for `seed` and independent streams (e.g. station and strip numbers).
   explicit Rng(std::uint64_t seed, std::initializer_list<std::uint64_t> streams = {}) {
-    std::uint64_t key = mix(seed + kGolden);
-    for (const std::uint64_t stream : streams) key = mix(key ^ mix(stream + 2 * kGolden));
-    for (std::uint64_t& word : state_) word = mix(key += kGolden);
+    std::uint64_t key = mixBits(seed + kGolden);
+    for (const std::uint64_t stream : streams) key = mixBits(key ^ mixBits(stream + 2 * kGolden));
+    for (std::uint64_t& word : state_) word = mixBits(key += kGolden);
   }
 
   std::uint64_t next() {
@@ -61,12 +68,6 @@ class Rng {
  private:
   static std::uint64_t rotate(std::uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
   static constexpr std::uint64_t kGolden = 0x9e3779b97f4a7c15ULL;
-  /// SplitMix64's finaliser: a bijective mixer.
-  static std::uint64_t mix(std::uint64_t z) {
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    return z ^ (z >> 31);
-  }
 
   std::uint64_t state_[4];
   double spare_ = 0.0;
