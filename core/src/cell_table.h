@@ -1,6 +1,6 @@
 #pragma once
-// Open addressing from 63-bit cell keys to dense ids, numbered in order of first insertion. Shared
-// by the stages' grids.
+// Open addressing from 64-bit keys (cell keys, index pairs; never all ones) to dense ids, numbered
+// in order of first insertion. Shared by the stages' grids.
 
 #include "random.h"
 
@@ -32,7 +32,7 @@ class CellTable {
   std::uint32_t size() const { return size_; }
 
  private:
-  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};  // Keys use 63 bits, so never this.
+  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};  // no key is all ones
 
   std::size_t probe(std::uint64_t key) const {
     const std::size_t mask = keys_.size() - 1;

@@ -207,16 +207,12 @@ RoundSamples drawSamples(const PointCloud& cloud, const PointGrid& grid, const s
   });
 
   // A pair drawn twice would put two identical samples on the sphere: a peak made by chance.
-  std::vector<std::uint64_t> distinct(pairs);
-  std::sort(distinct.begin(), distinct.end());
-  distinct.erase(std::unique(distinct.begin(), distinct.end()), distinct.end());
-  std::vector<char> seen(distinct.size(), 0);
+  CellTable seen;
   for (std::size_t k = 0; k < pairCount; ++k) {
     const std::uint64_t pair = pairs[k];
     if (pair == kNoPair) continue;
-    const auto slot = static_cast<std::size_t>(std::lower_bound(distinct.begin(), distinct.end(), pair) - distinct.begin());
-    if (seen[slot]) continue;
-    seen[slot] = 1;
+    const std::uint32_t before = seen.size();
+    if (seen.insert(pair) < before) continue;
     ++result.pairsDrawn;
     const Eigen::Vector3f d = cloud.normals[pair >> 32].cross(cloud.normals[pair & 0xFFFFFFFFu]);
     const float length = d.norm();
