@@ -38,6 +38,7 @@
 #include "piperun/error.h"
 
 #include "nearest_neighbors.h"
+#include "union_find.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -48,7 +49,6 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -331,29 +331,6 @@ SurfaceEstimates estimateNormals(const PointCloud& cloud, const NeighborLists& l
   return estimates;
 }
 
-/// Disjoint sets over cell indices; the smallest index of a set is its root (a fixed choice).
-class DisjointSets {
- public:
-  explicit DisjointSets(std::size_t count) : parent_(count) {
-    for (std::size_t i = 0; i < count; ++i) parent_[i] = static_cast<std::uint32_t>(i);
-  }
-  std::uint32_t find(std::uint32_t i) {
-    while (parent_[i] != i) {
-      parent_[i] = parent_[parent_[i]];
-      i = parent_[i];
-    }
-    return i;
-  }
-  void unite(std::uint32_t a, std::uint32_t b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent_[std::max(a, b)] = std::min(a, b);
-  }
-
- private:
-  std::vector<std::uint32_t> parent_;
-};
-
 /// A cell of the plane grid and the plane fitted to its points.
 struct PlaneCell {
   Index3 cube;
@@ -475,19 +452,19 @@ CellGrid groupIntoCells(const PointCloud& cloud, const std::vector<char>& valid,
 std::vector<std::int64_t> coplanarRegions(const CellGrid& grid, double thickness) {
   const std::vector<PlaneCell>& cells = grid.cells;
   const std::array<Index3, 26> offsets = neighborOffsets();
-  DisjointSets regions(cells.size());
+  UnionFind regions(cells.size());  // the smallest cell of a region is its root
   for (std::size_t c = 0; c < cells.size(); ++c) {
     if (!cells[c].planar) continue;
     for (const Index3& offset : offsets) {
       const std::int64_t other = grid.cellAt(cells[c].cube + offset);
       if (other > static_cast<std::int64_t>(c) && cells[other].planar && samePlane(cells[c], cells[other], thickness)) {
-        regions.unite(static_cast<std::uint32_t>(c), static_cast<std::uint32_t>(other));
+        regions.unite(c, static_cast<std::size_t>(other));
       }
     }
   }
   std::vector<std::int64_t> regionOf(cells.size(), -1);
   for (std::size_t c = 0; c < cells.size(); ++c) {
-    if (cells[c].planar) regionOf[c] = regions.find(static_cast<std::uint32_t>(c));
+    if (cells[c].planar) regionOf[c] = static_cast<std::int64_t>(regions.find(c));
   }
   return regionOf;
 }
