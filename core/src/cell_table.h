@@ -4,12 +4,20 @@
 
 #include "random.h"
 
+#include <Eigen/Core>
+
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
 
 namespace piperun {
+
+/// A 63-bit key of the cubic cell with integer coordinates c (each wrapped to 21 bits).
+inline std::uint64_t cellKey(const Eigen::Vector3i& c) {
+  const auto part = [](int v) { return static_cast<std::uint64_t>(static_cast<std::uint32_t>(v) & 0x1FFFFFu); };
+  return part(c.x()) | (part(c.y()) << 21) | (part(c.z()) << 42);
+}
 
 class CellTable {
  public:

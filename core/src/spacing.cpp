@@ -16,11 +16,6 @@ namespace piperun {
 
 namespace {
 Eigen::Vector3i cellOf(const Eigen::Vector3f& p, float cell) { return (p / cell).array().floor().cast<int>(); }
-
-std::uint64_t cellKey(const Eigen::Vector3i& c) {
-  const auto part = [](int v) { return static_cast<std::uint64_t>(static_cast<std::uint32_t>(v) & 0x1FFFFFu); };
-  return part(c.x()) | (part(c.y()) << 21) | (part(c.z()) << 42);
-}
 }  // namespace
 
 double estimatePointSpacing(const PointCloud& cloud, std::size_t samples) {

@@ -1,5 +1,7 @@
 #include "piperun/eval/evaluation.h"
 
+#include "cell_table.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -92,7 +94,7 @@ std::vector<char> observableSamples(const NetworkSamples& truth, const PointClou
 class SampleGrid {
  public:
   SampleGrid(const std::vector<AxisSample>& samples, double cellSize) : samples_(samples), cell_(cellSize) {
-    for (std::size_t i = 0; i < samples.size(); ++i) cells_[key(cellOf(samples[i].position))].push_back(i);
+    for (std::size_t i = 0; i < samples.size(); ++i) cells_[cellKey(cellOf(samples[i].position))].push_back(i);
   }
 
   /// Calls visit(index) for every sample within `radius` (≤ the cell size) of `p`.
@@ -102,7 +104,7 @@ class SampleGrid {
     for (int dx = -1; dx <= 1; ++dx) {
       for (int dy = -1; dy <= 1; ++dy) {
         for (int dz = -1; dz <= 1; ++dz) {
-          const auto found = cells_.find(key(center + Eigen::Vector3i(dx, dy, dz)));
+          const auto found = cells_.find(cellKey(center + Eigen::Vector3i(dx, dy, dz)));
           if (found == cells_.end()) continue;
           for (std::size_t index : found->second) {
             if ((samples_[index].position - p).squaredNorm() <= radius * radius) visit(index);
@@ -114,10 +116,6 @@ class SampleGrid {
 
  private:
   Eigen::Vector3i cellOf(const Eigen::Vector3d& p) const { return (p / cell_).array().floor().cast<int>(); }
-  static std::uint64_t key(const Eigen::Vector3i& c) {
-    const auto part = [](int v) { return static_cast<std::uint64_t>(static_cast<std::uint32_t>(v) & 0x1FFFFFu); };
-    return part(c.x()) | (part(c.y()) << 21) | (part(c.z()) << 42);
-  }
 
   const std::vector<AxisSample>& samples_;
   double cell_;

@@ -92,11 +92,6 @@ Vector foldedUp(const Vector& d) {
 
 bool usableNormal(const Eigen::Vector3f& n) { return n.allFinite() && n.squaredNorm() > 0.25f; }
 
-/// A 63-bit key of the cubic cell with integer coordinates c.
-std::uint64_t cellKey(const Eigen::Vector3i& c) {
-  const auto part = [](int v) { return static_cast<std::uint64_t>(static_cast<std::uint32_t>(v) & 0x1FFFFFu); };
-  return part(c.x()) | (part(c.y()) << 21) | (part(c.z()) << 42);
-}
 
 /// Points bucketed by cubic cell (of edge pairRadius): where each point lies, and the drawable ones
 /// by cell, to draw a random partner near a point.

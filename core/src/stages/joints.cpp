@@ -27,6 +27,8 @@
 
 #include "piperun/edit/runs.h"
 
+#include "cell_table.h"
+
 #include <Eigen/Eigenvalues>
 #include <tbb/parallel_for.h>
 
@@ -134,11 +136,11 @@ class HashGrid {
 
   Eigen::Vector3i cellOf(const Eigen::Vector3d& p) const { return (p / cell_).array().floor().cast<int>(); }
   void insert(const Eigen::Vector3i& cell, std::uint32_t value) {
-    auto& bucket = cells_[key(cell)];
+    auto& bucket = cells_[cellKey(cell)];
     if (bucket.empty() || bucket.back() != value) bucket.push_back(value);
   }
   const std::vector<std::uint32_t>* find(const Eigen::Vector3i& cell) const {
-    const auto found = cells_.find(key(cell));
+    const auto found = cells_.find(cellKey(cell));
     return found == cells_.end() ? nullptr : &found->second;
   }
   /// Calls visit(value) for the payloads of every cell overlapping the cube of half-size `reach`
@@ -159,10 +161,6 @@ class HashGrid {
   }
 
  private:
-  static std::uint64_t key(const Eigen::Vector3i& c) {
-    const auto part = [](int v) { return static_cast<std::uint64_t>(static_cast<std::uint32_t>(v) & 0x1FFFFFu); };
-    return part(c.x()) | (part(c.y()) << 21) | (part(c.z()) << 42);
-  }
 
   double cell_;
   std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells_;
