@@ -21,6 +21,15 @@ inline std::uint64_t cellKey(const Eigen::Vector3i& c) {
 
 class CellTable {
  public:
+  /// A table sized for `expected` keys (it grows past them).
+  explicit CellTable(std::size_t expected = 0) {
+    if (expected == 0) return;
+    std::size_t slots = 16;
+    while (slots < 2 * (expected + 1)) slots *= 2;
+    keys_.assign(slots, kEmpty);
+    ids_.resize(slots);
+  }
+
   /// The id of `key` (which must not be all ones), a new one when the key is new.
   std::uint32_t insert(std::uint64_t key) {
     if (2 * (static_cast<std::size_t>(size_) + 1) > keys_.size()) grow();

@@ -166,35 +166,22 @@ class CellGrid {
            static_cast<std::uint64_t>(c.z());
   }
 
-  static constexpr std::uint64_t kNoRow = std::numeric_limits<std::uint64_t>::max();
-
-  /// Open-addressing table from row number (x · ny + y) to the row's cells.
+  /// The cells of each row (x · ny + y) that has any, found by row number.
   void indexRows() {
     const auto nz = static_cast<std::uint64_t>(counts_.z());
-    std::size_t rows = 0;
-    for (std::size_t c = 0; c < keys_.size(); ++c) rows += c == 0 || keys_[c] / nz != keys_[c - 1] / nz;
-    std::size_t slots = 16;
-    while (slots < 2 * rows) slots *= 2;
-    rowMask_ = slots - 1;
-    rowNumbers_.assign(slots, kNoRow);
-    rowCells_.assign(slots, Row{});
     for (std::size_t c = 0; c < keys_.size();) {
       const std::uint64_t row = keys_[c] / nz;
       std::size_t end = c + 1;
       while (end < keys_.size() && keys_[end] / nz == row) ++end;
-      std::size_t slot = mixBits(row) & rowMask_;
-      while (rowNumbers_[slot] != kNoRow) slot = (slot + 1) & rowMask_;
-      rowNumbers_[slot] = row;
-      rowCells_[slot] = {static_cast<std::uint32_t>(c), static_cast<std::uint32_t>(end)};
+      rowIds_.insert(row);  // ids follow the rows, in order
+      rows_.push_back({static_cast<std::uint32_t>(c), static_cast<std::uint32_t>(end)});
       c = end;
     }
   }
 
   Row findRow(std::uint64_t row) const {
-    for (std::size_t slot = mixBits(row) & rowMask_;; slot = (slot + 1) & rowMask_) {
-      if (rowNumbers_[slot] == row) return rowCells_[slot];
-      if (rowNumbers_[slot] == kNoRow) return {};
-    }
+    const std::int64_t id = rowIds_.find(row);
+    return id < 0 ? Row{} : rows_[static_cast<std::size_t>(id)];
   }
 
   Eigen::Vector3d low_;
@@ -204,9 +191,8 @@ class CellGrid {
   std::vector<std::uint32_t> begins_;  // cell c holds points_[begins_[c], begins_[c + 1])
   std::vector<std::uint32_t> points_;  // point indices grouped by cell
   std::vector<float> x_, y_, z_;       // their coordinates, in the same order
-  std::vector<std::uint64_t> rowNumbers_;  // hash slots: row number, or kNoRow
-  std::vector<Row> rowCells_;              // hash slots: the row's cells
-  std::size_t rowMask_ = 0;
+  CellTable rowIds_;       // row number → index into rows_
+  std::vector<Row> rows_;  // the cells of each occupied row
 };
 
 /// Scratch space of one task: a cell's open points, a block's candidates, their squared distances

@@ -123,15 +123,8 @@ class CellIndex {
       }
     }
     begins_.push_back(static_cast<std::uint32_t>(sorted.size()));
-    std::size_t slots = 16;
-    while (slots < 2 * keys_.size()) slots *= 2;
-    mask_ = slots - 1;
-    table_.assign(slots, kEmpty);
-    for (std::uint32_t c = 0; c < keys_.size(); ++c) {
-      std::size_t slot = mixBits(keys_[c]) & mask_;
-      while (table_[slot] != kEmpty) slot = (slot + 1) & mask_;
-      table_[slot] = c;
-    }
+    cellOfKey_ = CellTable(keys_.size());
+    for (const std::uint64_t key : keys_) cellOfKey_.insert(key);  // ids follow the (ascending) cells
   }
 
   std::size_t cellCount() const { return keys_.size(); }
@@ -184,20 +177,15 @@ class CellIndex {
 
   /// The items of the cell with `key` (empty when there is none).
   Range find(std::uint64_t key) const {
-    for (std::size_t slot = mixBits(key) & mask_;; slot = (slot + 1) & mask_) {
-      const std::uint32_t cell = table_[slot];
-      if (cell == kEmpty) return {};
-      if (keys_[cell] == key) return items(cell);
-    }
+    const std::int64_t cell = cellOfKey_.find(key);
+    return cell < 0 ? Range{} : items(static_cast<std::size_t>(cell));
   }
 
  private:
-  static constexpr std::uint32_t kEmpty = std::numeric_limits<std::uint32_t>::max();
   std::vector<std::uint32_t> items_;   // item indices, grouped by cell
   std::vector<std::uint64_t> keys_;    // ascending
   std::vector<std::uint32_t> begins_;  // cell c holds items_[begins_[c], begins_[c + 1])
-  std::vector<std::uint32_t> table_;   // open addressing: slot → cell
-  std::size_t mask_ = 0;
+  CellTable cellOfKey_;                // key → cell
 };
 
 /// Splits [0, count) into fixed chunks (independent of the thread count) and runs them in parallel.
