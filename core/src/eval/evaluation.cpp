@@ -51,9 +51,16 @@ NetworkSamples sampleNetwork(const PipeNetwork& network, double step, bool skipD
   return sampled;
 }
 
+/// What a labelled scan shows of the truth.
+struct ScanCoverage {
+  std::vector<char> observable;             ///< Per truth sample.
+  std::unordered_map<int, int> pointsOf;    ///< Labelled points per sampled truth element (pipes always).
+};
+
 /// Flags the truth samples the scan shows: each labelled point counts for the nearest sample of
 /// its element, and a sample is observable when its window along the element holds enough points.
-std::vector<char> observableSamples(const NetworkSamples& truth, const PointCloud& scan, const EvaluationParams& params) {
+ScanCoverage scanCoverage(const NetworkSamples& truth, const PointCloud& scan, const EvaluationParams& params) {
+  ScanCoverage coverage;
   std::unordered_map<int, std::size_t> elementOf;
   for (std::size_t e = 0; e < truth.elements.size(); ++e) elementOf.emplace(truth.elements[e].id, e);
   std::vector<int> pointsAt(truth.samples.size(), 0);
@@ -76,18 +83,19 @@ std::vector<char> observableSamples(const NetworkSamples& truth, const PointClou
       }
     }
     ++pointsAt[nearest];
+    ++coverage.pointsOf[element.id];
   }
   const auto reach = static_cast<std::size_t>(std::lround(params.observableWindow / params.sampleStep));
-  std::vector<char> observable(truth.samples.size(), 0);
+  coverage.observable.assign(truth.samples.size(), 0);
   for (const ElementSamples& element : truth.elements) {
     for (std::size_t s = element.first; s < element.last; ++s) {
       const std::size_t from = s - std::min(reach, s - element.first), to = std::min(element.last, s + reach + 1);
       int inWindow = 0;
       for (std::size_t w = from; w < to; ++w) inWindow += pointsAt[w];
-      observable[s] = inWindow >= params.observableMinPoints;
+      coverage.observable[s] = inWindow >= params.observableMinPoints;
     }
   }
-  return observable;
+  return coverage;
 }
 
 // Uniform hash grid over samples, for fixed-radius neighbour queries.
@@ -169,10 +177,8 @@ void matchJoints(const PipeNetwork& truth, const std::vector<const Joint*>& pred
 
 /// The truth elbows and tees whose pipes all have enough labelled points, and how many of them
 /// are among `foundJoints` (ids).
-void countObservableJoints(const PipeNetwork& truth, const PointCloud& scan, std::vector<int> foundJoints,
-                           const EvaluationParams& params, EvaluationResult& result) {
-  std::unordered_map<int, int> pointsOf;
-  for (const std::int32_t label : scan.labels) ++pointsOf[label];
+void countObservableJoints(const PipeNetwork& truth, const std::unordered_map<int, int>& pointsOf,
+                           std::vector<int> foundJoints, const EvaluationParams& params, EvaluationResult& result) {
   std::sort(foundJoints.begin(), foundJoints.end());
   for (const Joint& joint : truth.joints) {
     if (joint.type != JointType::Elbow && joint.type != JointType::Tee) continue;
@@ -203,8 +209,8 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
   const NetworkSamples truthSampled = sampleNetwork(truth, params.sampleStep, false, params.pipesOnly);
   const std::vector<AxisSample>& truthSamples = truthSampled.samples;
   const auto predictedSamples = sampleNetwork(predicted, params.sampleStep, true, params.pipesOnly).samples;
-  const std::vector<char> observable =
-      labelledScan ? observableSamples(truthSampled, *labelledScan, params) : std::vector<char>();
+  const ScanCoverage coverage = labelledScan ? scanCoverage(truthSampled, *labelledScan, params) : ScanCoverage{};
+  const std::vector<char>& observable = coverage.observable;
 
   const auto toleranceOf = [&](const AxisSample& sample) {
     if (params.fixedTolerance > 0.0) return params.fixedTolerance;
@@ -289,7 +295,7 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
               bendErrors, foundJoints);
   matchJoints(truth, predictedJoints, JointType::Boundary, params, predictedMatched, ignoredTruth, ignoredFound,
               bendErrors, foundJoints);
-  if (labelledScan) countObservableJoints(truth, *labelledScan, foundJoints, params, result);
+  if (labelledScan) countObservableJoints(truth, coverage.pointsOf, foundJoints, params, result);
   // A boundary joint that bridges a gap along the truth (an occlusion of a continuous pipe) is
   // right even though the truth, having no gaps, lists no such joint.
   for (std::size_t p = 0; p < predictedJoints.size(); ++p) {
