@@ -38,6 +38,28 @@ constexpr std::size_t kMaxRanked = 48;
 using Cube = Eigen::Array<std::int64_t, 3, 1>;
 using KeyedPoint = std::pair<std::uint64_t, std::uint32_t>;  // (cell key, point)
 
+/// Points grouped by cell: group g holds points[begins[g], begins[g + 1]) and has keys[g].
+struct CellGroups {
+  std::vector<std::uint32_t> points;
+  std::vector<std::uint64_t> keys;     // ascending
+  std::vector<std::uint32_t> begins;   // one per group, plus the end
+};
+
+/// The groups of (key, point) pairs sorted by key.
+CellGroups groupByKey(const std::vector<KeyedPoint>& sorted) {
+  CellGroups groups;
+  groups.points.resize(sorted.size());
+  for (std::size_t i = 0; i < sorted.size(); ++i) {
+    groups.points[i] = sorted[i].second;
+    if (i == 0 || sorted[i].first != sorted[i - 1].first) {
+      groups.keys.push_back(sorted[i].first);
+      groups.begins.push_back(static_cast<std::uint32_t>(i));
+    }
+  }
+  groups.begins.push_back(static_cast<std::uint32_t>(sorted.size()));
+  return groups;
+}
+
 /// Cubic cells of one edge, counted from the low corner of the points' bounds, and the points in
 /// each occupied cell.
 class CellGrid {
@@ -51,31 +73,23 @@ class CellGrid {
       keyed[i] = {keyOf(positions[i]), static_cast<std::uint32_t>(i)};
     });
     tbb::parallel_sort(keyed.begin(), keyed.end());  // (key, point) pairs are distinct: a total order
-    points_.resize(keyed.size());
+    cells_ = groupByKey(keyed);
     x_.resize(keyed.size());
     y_.resize(keyed.size());
     z_.resize(keyed.size());
     for (std::size_t i = 0; i < keyed.size(); ++i) {
-      points_[i] = keyed[i].second;
       const Eigen::Vector3f& p = positions[keyed[i].second];
       x_[i] = p.x();
       y_[i] = p.y();
       z_[i] = p.z();
-      if (i == 0 || keyed[i].first != keyed[i - 1].first) {
-        keys_.push_back(keyed[i].first);
-        begins_.push_back(static_cast<std::uint32_t>(i));
-      }
     }
-    begins_.push_back(static_cast<std::uint32_t>(keyed.size()));
     indexRows();
   }
 
   double edge() const { return edge_; }
 
-  /// Every point, grouped by cell in key order, and the key of each cell.
-  const std::vector<std::uint32_t>& pointsByCell() const { return points_; }
-  const std::vector<std::uint64_t>& cellKeys() const { return keys_; }
-  const std::vector<std::uint32_t>& cellBegins() const { return begins_; }
+  /// Every point, grouped by cell in key order.
+  const CellGroups& cells() const { return cells_; }
 
   std::uint64_t keyOf(const Eigen::Vector3f& p) const { return key(cubeOf(p)); }
   /// The cube holding p + offset on every axis (not clipped to the grid).
@@ -125,20 +139,20 @@ class CellGrid {
     const auto nz = static_cast<std::uint64_t>(counts_.z());
     for (const Row& row : out.rows) {
       if (row.first == row.last) continue;
-      const auto rowFirst = keys_.begin() + row.first, rowLast = keys_.begin() + row.last;
+      const auto rowFirst = cells_.keys.begin() + row.first, rowLast = cells_.keys.begin() + row.last;
       const std::uint64_t rowStart = *rowFirst / nz * nz;
       const auto cellFirst = std::lower_bound(rowFirst, rowLast, rowStart + static_cast<std::uint64_t>(first.z()));
       const auto cellLast = std::upper_bound(cellFirst, rowLast, rowStart + static_cast<std::uint64_t>(last.z()));
       if (cellFirst == cellLast) continue;
-      const std::uint32_t from = begins_[static_cast<std::size_t>(cellFirst - keys_.begin())];
-      const std::uint32_t to = begins_[static_cast<std::size_t>(cellLast - keys_.begin())];
+      const std::uint32_t from = cells_.begins[static_cast<std::size_t>(cellFirst - cells_.keys.begin())];
+      const std::uint32_t to = cells_.begins[static_cast<std::size_t>(cellLast - cells_.keys.begin())];
       out.ranges.emplace_back(from, to);
       out.count += to - from;
     }
   }
 
   /// Point indices and coordinates in cell order, the arrays a Block's ranges refer to.
-  const std::uint32_t* orderedPoints() const { return points_.data(); }
+  const std::uint32_t* orderedPoints() const { return cells_.points.data(); }
   const float* orderedX() const { return x_.data(); }
   const float* orderedY() const { return y_.data(); }
   const float* orderedZ() const { return z_.data(); }
@@ -169,10 +183,10 @@ class CellGrid {
   /// The cells of each row (x · ny + y) that has any, found by row number.
   void indexRows() {
     const auto nz = static_cast<std::uint64_t>(counts_.z());
-    for (std::size_t c = 0; c < keys_.size();) {
-      const std::uint64_t row = keys_[c] / nz;
+    for (std::size_t c = 0; c < cells_.keys.size();) {
+      const std::uint64_t row = cells_.keys[c] / nz;
       std::size_t end = c + 1;
-      while (end < keys_.size() && keys_[end] / nz == row) ++end;
+      while (end < cells_.keys.size() && cells_.keys[end] / nz == row) ++end;
       rowIds_.insert(row);  // ids follow the rows, in order
       rows_.push_back({static_cast<std::uint32_t>(c), static_cast<std::uint32_t>(end)});
       c = end;
@@ -187,12 +201,10 @@ class CellGrid {
   Eigen::Vector3d low_;
   double edge_;
   Cube counts_;
-  std::vector<std::uint64_t> keys_;    // occupied cells, ascending
-  std::vector<std::uint32_t> begins_;  // cell c holds points_[begins_[c], begins_[c + 1])
-  std::vector<std::uint32_t> points_;  // point indices grouped by cell
+  CellGroups cells_;                   // the points by cell
   std::vector<float> x_, y_, z_;       // their coordinates, in the same order
-  CellTable rowIds_;       // row number → index into rows_
-  std::vector<Row> rows_;  // the cells of each occupied row
+  CellTable rowIds_;                   // row number → index into rows_
+  std::vector<Row> rows_;              // the cells of each occupied row
 };
 
 /// Scratch space of one task: a cell's open points, a block's candidates, their squared distances
@@ -361,27 +373,19 @@ NeighborLists findNearestNeighbors(const std::vector<Eigen::Vector3f>& positions
   for (bool finest = true; finest || !open.empty(); finest = false, edge *= kLevelRatio) {
     progress.checkCancelled();
     const CellGrid grid(positions, bounds, edge);
-    // The open points grouped by this level's cells: all points, at the finest level.
-    std::vector<std::uint32_t> points;
-    std::vector<std::uint64_t> keys;
-    std::vector<std::uint32_t> begins;
-    if (finest) {
-      points = grid.pointsByCell();
-      keys = grid.cellKeys();
-      begins = grid.cellBegins();
-    } else {
+    // The open points grouped by this level's cells: at the finest level all of them, as the grid
+    // groups them.
+    CellGroups openGroups;
+    if (!finest) {
       std::vector<KeyedPoint> keyed(open.size());
       for (std::size_t e = 0; e < open.size(); ++e) keyed[e] = {grid.keyOf(positions[open[e]]), open[e]};
       std::sort(keyed.begin(), keyed.end());
-      for (std::size_t e = 0; e < keyed.size(); ++e) {
-        points.push_back(keyed[e].second);
-        if (e == 0 || keyed[e].first != keyed[e - 1].first) {
-          keys.push_back(keyed[e].first);
-          begins.push_back(static_cast<std::uint32_t>(e));
-        }
-      }
-      begins.push_back(static_cast<std::uint32_t>(keyed.size()));
+      openGroups = groupByKey(keyed);
     }
+    const CellGroups& groups = finest ? grid.cells() : openGroups;
+    const std::vector<std::uint32_t>& points = groups.points;
+    const std::vector<std::uint64_t>& keys = groups.keys;
+    const std::vector<std::uint32_t>& begins = groups.begins;
 
     const std::size_t cells = keys.size();
     const std::size_t chunks = (cells + kCellsPerChunk - 1) / kCellsPerChunk;
