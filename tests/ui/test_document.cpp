@@ -15,6 +15,17 @@ std::filesystem::path temporaryPath(const std::string& name) {
   return std::filesystem::temp_directory_path() / ("piperun_ui_document_" + name);
 }
 
+/// A three-point scan written to a temporary PLY file named `name`.
+std::filesystem::path writeSmallScan(const std::string& name) {
+  PointCloud cloud;
+  PointChunk chunk;
+  chunk.positions = {{1.0, 2.0, 3.0}, {1.5, 2.0, 3.0}, {1.0, 2.5, 3.0}};
+  cloud.append(chunk);
+  const auto path = temporaryPath(name);
+  writePointCloud(path, cloud);
+  return path;
+}
+
 TEST(Document, OpensANetworkWithoutPipeline) {
   PipeNetwork network;
   Pipe pipe;
@@ -35,12 +46,7 @@ TEST(Document, OpensANetworkWithoutPipeline) {
 }
 
 TEST(Document, OpensAScanWithAStalePipeline) {
-  PointCloud cloud;
-  PointChunk chunk;
-  chunk.positions = {{1.0, 2.0, 3.0}, {1.5, 2.0, 3.0}, {1.0, 2.5, 3.0}};
-  cloud.append(chunk);
-  const auto path = temporaryPath("scan.ply");
-  writePointCloud(path, cloud);
+  const auto path = writeSmallScan("scan.ply");
 
   const Document document = Document::open(path);
   ASSERT_TRUE(document.hasPipeline());
@@ -95,12 +101,7 @@ TEST(Document, ReopensASavedReviewWithItsHistory) {
 }
 
 TEST(Document, ProjectWithItsScanRecomputesTheStagesThatWereFresh) {
-  PointCloud cloud;
-  PointChunk chunk;
-  chunk.positions = {{1.0, 2.0, 3.0}, {1.5, 2.0, 3.0}, {1.0, 2.5, 3.0}};
-  cloud.append(chunk);
-  const auto scan = temporaryPath("project_scan.ply");
-  writePointCloud(scan, cloud);
+  const auto scan = writeSmallScan("project_scan.ply");
   Document document = Document::open(scan);
   Project& project = document.project();
   project.params.placement.centerBandwidth = 0.02;
