@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -48,17 +49,30 @@ class ConstructedScene {
   }
 
   /// The faces of a vertical square post with the given outward normals (the ones a scanner sees).
+  /// With `roundedNormals` each point's normal points away from the post's axis, as normals
+  /// estimated over neighbourhoods wider than a thin post's faces do.
   void addPostFaces(double x, double y, double width, double bottom, double top,
-                    const std::vector<Eigen::Vector3d>& normals) {
+                    const std::vector<Eigen::Vector3d>& normals, bool roundedNormals = false) {
     const double half = 0.5 * width;
     for (const Eigen::Vector3d& normal : normals) {
       const Eigen::Vector3d side = Eigen::Vector3d::UnitZ().cross(normal);
       for (double z = bottom; z <= top; z += 0.005) {
         for (double across = -half; across <= half; across += 0.005) {
-          addPoint(Eigen::Vector3d(x, y, z) + half * normal + across * side, normal);
+          const Eigen::Vector3d fromAxis = half * normal + across * side;
+          addPoint(Eigen::Vector3d(x, y, z) + fromAxis, roundedNormals ? fromAxis.normalized() : normal);
         }
       }
     }
+  }
+
+  /// The elbow of major radius `bendRadius` at `corner` between a pipe arriving along `in` and one
+  /// leaving along `out` (unit directions).
+  void addBend(const Eigen::Vector3d& corner, const Eigen::Vector3d& in, const Eigen::Vector3d& out, double bendRadius,
+               double radius) {
+    const double sweep = std::acos(std::clamp(in.dot(out), -1.0, 1.0));
+    const Eigen::Vector3d tangentIn = corner - bendRadius * std::tan(0.5 * sweep) * in;
+    const Eigen::Vector3d inward = (out - in.dot(out) * in).normalized();
+    addElbow(tangentIn + bendRadius * inward, tangentIn, in.cross(out).normalized(), sweep, radius);
   }
 
   /// The elbow surface between tangent points: centre circle around `center` from `start`, turning
@@ -314,6 +328,54 @@ TEST(Joints, ALegBetweenTwoElbowsThatNoPipeCoversIsCompleted) {
   EXPECT_EQ(without.pipes.size(), 3u);
   EXPECT_EQ(without.diagnostics.completedPipes, 0u);
   EXPECT_TRUE(without.joints.empty());
+}
+
+TEST(Joints, ASlopedLegOffTheNetworkDirectionsIsCompleted) {
+  // Pipe 1 comes along +x to a corner at the origin, a 50 cm leg (points only) climbs at 20° in the
+  // yz plane to a second corner, pipe 2 leaves along +y. Pipe 3, far off, runs along y: the network's
+  // directions are x and y, and only the leg's own points tell its slope.
+  const double r = 0.05, R = 0.15, leg = 0.5;
+  const Eigen::Vector3d x = Eigen::Vector3d::UnitX(), y = Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d slope(0.0, std::cos(20.0 * kPi / 180.0), std::sin(20.0 * kPi / 180.0));
+  const Eigen::Vector3d second = leg * slope;
+  const double tangentFirst = R;  // R tan 45°
+  const double tangentSecond = R * std::tan(10.0 * kPi / 180.0);
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, -tangentFirst * x, r);
+  scene.addBend(Eigen::Vector3d::Zero(), x, slope, R, r);
+  scene.addPipe(tangentFirst * slope, second - tangentSecond * slope, r, false);
+  scene.addBend(second, slope, y, R, r);
+  scene.addPipe(second + tangentSecond * y, second + 1.5 * y, r);
+  scene.addPipe({3, 0, 0}, {3, 1.2, 0}, r);
+
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.completedPipes, 1u);
+  ASSERT_EQ(result.pipes.size(), 4u);
+  const PipeSegment& completed = result.pipes[3];
+  EXPECT_GT(std::fabs((completed.end - completed.start).normalized().dot(slope)), std::cos(kPi / 180.0));
+  int elbows = 0;
+  for (const Joint& joint : result.joints) {
+    if (joint.type == JointType::Elbow) ++elbows;
+  }
+  EXPECT_EQ(elbows, 2);
+  ASSERT_EQ(result.runs.size(), 2u);
+  EXPECT_EQ(result.runs[0].pipeIds, (std::vector<int>{1, 2, 4}));
+}
+
+TEST(Joints, APostWithRoundedNormalsIsNotCompletedAsAPipe) {
+  // A 4 cm square post seen across an edge, whose normals turn smoothly around it (as normals
+  // estimated over neighbourhoods as wide as the post do): neither a flat face nor two faces by its
+  // normals, and on the rail's radius on average (its faces run from 0.95 r to 1.34 r off its
+  // axis); but its faces lie inside the circle and its edge outside.
+  const double r = 0.0211;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 1.1}, {-0.02, 0, 1.1}, r);
+  scene.addPostFaces(0.0, 0.0, 0.04, 0.0, 1.1 - r, {Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, -1, 0)},
+                     true);
+  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.completedPipes, 0u);
+  EXPECT_TRUE(result.joints.empty());
 }
 
 TEST(Joints, ASquarePostAtAPipeEndIsNotCompletedAsAPipe) {

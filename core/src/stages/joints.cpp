@@ -13,14 +13,15 @@
 // 3. Confidence = how well the criteria hold, blended with the point support on the joint's
 //    surface; the best-supported hypothesis takes an end first, an end takes at most one joint.
 // 4. Completion: an end no joint took looks beyond an elbow, along each of the network's
-//    directions, for a pipe the earlier stages missed (short legs between elbows, tails into
-//    equipment: too few points to stand out on the Gaussian sphere). Knowing the radius, only the
-//    corner's place along the end's extension is unknown: each unexplained point votes for the
-//    corners that put it on the surface. The peak's pipe must cover its sections, leave empty space
-//    around the tube, carry the continued radius and be neither a flat face (normals of one
-//    direction on points in a line) nor the edge of a post (normals on two directions at right
-//    angles); it is kept when it takes the elbow with the end it grew from (steps 1–3 run again
-//    with it).
+//    directions and along the direction its nearby points vote for (a sloped leg), for a pipe the
+//    earlier stages missed (short legs between elbows, tails into equipment: too few points to
+//    stand out on the Gaussian sphere). Knowing the radius, only the corner's place along the end's
+//    extension is unknown: each unexplained point votes for the corners that put it on the surface.
+//    The peak's pipe must cover its sections, leave empty space around the tube, carry the
+//    continued radius all around (a square post's faces and corners do not) and be neither a flat
+//    face (normals of one direction on points in a line) nor the edge of a post (normals on two
+//    directions at right angles); it is kept when it takes the elbow with the end it grew from
+//    (steps 1–3 run again with it).
 // 5. Runs: connected components of the pipes over accepted joints.
 
 #include "piperun/stages/joints.h"
@@ -28,11 +29,13 @@
 #include "piperun/edit/runs.h"
 
 #include "cell_table.h"
+#include "sector_offsets.h"
 
 #include <Eigen/Eigenvalues>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <optional>
@@ -696,8 +699,16 @@ class EndCompletion {
 
   /// The best-supported completion of `end` along one of `directions` (either way), from the
   /// points `nearby` (not explained by any pipe).
-  std::optional<Completion> complete(const PipeEnd& end, const std::vector<Eigen::Vector3d>& directions,
+  std::optional<Completion> complete(const PipeEnd& end, const std::vector<Eigen::Vector3d>& networkDirections,
                                      const std::vector<std::uint32_t>& nearby) const {
+    std::vector<Eigen::Vector3d> directions = networkDirections;
+    // A local direction near a network direction is that direction, measured less well.
+    const auto local = localDirection(end, nearby);
+    if (local && std::none_of(directions.begin(), directions.end(), [&](const Eigen::Vector3d& direction) {
+          return std::fabs(direction.dot(*local)) >= std::cos(radians(kLocalDirectionSnapDeg));
+        })) {
+      directions.push_back(*local);
+    }
     std::optional<Completion> best;
     for (const Eigen::Vector3d& direction : directions) {
       for (const double sign : {1.0, -1.0}) {
@@ -711,6 +722,7 @@ class EndCompletion {
   }
 
  private:
+  static constexpr double kLocalDirectionSnapDeg = 5.0;  // See complete().
   static constexpr int kMaxLeadSections = 3;  // The straight must start this close to the elbow...
   static constexpr int kMaxGapSections = 3;   // ...and it ends at a gap longer than this.
   static constexpr double kMaxClutterShare = 0.5;  // Points off the surface, against those on it.
@@ -720,8 +732,103 @@ class EndCompletion {
   static constexpr int kSquareToleranceDeg = 15;        // Two normal directions this close to square...
   static constexpr double kMinFaceShare = 0.2;          // ...each holding this share of the points...
   static constexpr double kMinSquareShare = 0.7;        // ...and together this share: two faces at an edge.
+  static constexpr int kMinSectorPoints = 5;            // Out-of-roundness over 10° sectors of this many points...
+  static constexpr std::size_t kMinSectorsToTrim = 8;   // ...the worst left out of this many...
+  static constexpr double kMaxOutOfRoundRadii = 0.02;   // ...may be this share of the radius...
+  static constexpr double kMinOutOfRound = 0.0025;      // ...or this (m): a placed axis is a little off.
   static constexpr double kMinRadiusTolerance = 0.0015;  // The mean offset of the points from the radius (m)...
   static constexpr double kRadiusToleranceRadii = 0.03;  // ...may be this share of the radius, or the above.
+
+  /// The direction of a pipe leaving the corner ahead of `end`, from the points around it: a point
+  /// on a pipe of the end's radius has its axis one radius behind it along its normal, so each
+  /// point and each corner on the end's extension give the direction from that corner to that axis
+  /// point, for points whose normals are square to it. The most voted (corner, direction) bin gives
+  /// the direction. Sloped or one-off legs are no network direction: this finds them.
+  std::optional<Eigen::Vector3d> localDirection(const PipeEnd& end, const std::vector<std::uint32_t>& nearby) const {
+    if (input_.cloud.normals.empty()) return std::nullopt;
+    constexpr double kCornerStep = 0.01;  // Corner bins along the end's extension (m).
+    constexpr double kAngleStep = 2.0;    // Direction bins (deg).
+    constexpr double kMaxNormalTilt = 15.0;  // A voter's normal is this close to square to the direction (deg).
+    constexpr double kVoteLength = 0.5;   // Points this far past a corner vote (m): the start of the leg.
+    constexpr double kMinNormalSpread = 0.1;  // Voters' normals turning this much fix the axis (see below)...
+    constexpr double kRefinedNormalTilt = 3.0;  // ...refined on those this close to square to it (deg).
+    const Eigen::Vector3d u = end.outward;
+    const Eigen::Vector3d x = u.unitOrthogonal();
+    const Eigen::Vector3d y = u.cross(x);
+    const double r = end.radius;
+    const double minCorner = -(r + params_.supportDistance / std::sin(radians(params_.minElbowAngleDeg)));
+    const double maxCorner = builder_.searchDistance(r);
+    const auto corners = static_cast<int>(std::ceil((maxCorner - minCorner) / kCornerStep)) + 1;
+    const double maxTilt = std::sin(radians(kMaxNormalTilt));
+    const int polarBins = static_cast<int>(std::ceil(180.0 / kAngleStep));
+    const int turnBins = static_cast<int>(std::ceil(360.0 / kAngleStep));
+    struct Vote {
+      std::uint64_t bin;
+      std::uint32_t point;
+      Eigen::Vector3d direction;
+    };
+    std::vector<Vote> votes;
+    for (std::uint32_t i : nearby) {
+      const Eigen::Vector3d p = input_.cloud.positions[i].cast<double>();
+      const Eigen::Vector3d normal = input_.cloud.normals[i].cast<double>();
+      const Eigen::Vector3d offset = p - end.point;
+      if (offset.norm() > maxCorner + kVoteLength + r) continue;
+      for (const double sign : {1.0, -1.0}) {
+        const Eigen::Vector3d axisPoint = p - sign * r * normal;
+        for (int c = 0; c < corners; ++c) {
+          const Eigen::Vector3d leg = axisPoint - (end.point + (minCorner + c * kCornerStep) * u);
+          const double length = leg.norm();
+          if (length < 2.0 * r || length > kVoteLength) continue;
+          const Eigen::Vector3d direction = leg / length;
+          if (std::fabs(direction.dot(normal)) > maxTilt) continue;
+          const double polar = std::acos(std::clamp(direction.dot(u), -1.0, 1.0)) * 180.0 / kPi;
+          if (polar < params_.minElbowAngleDeg || polar > params_.maxElbowAngleDeg) continue;
+          const double turn = std::atan2(direction.dot(y), direction.dot(x)) * 180.0 / kPi + 180.0;
+          const auto polarBin = std::min(polarBins - 1, static_cast<int>(polar / kAngleStep));
+          // Fewer turn bins near the pole keep the bins' areas alike.
+          const int rowBins = std::max(1, static_cast<int>(std::ceil(turnBins * std::sin(radians((polarBin + 0.5) * kAngleStep)))));
+          const auto turnBin = std::min(rowBins - 1, static_cast<int>(turn / 360.0 * rowBins));
+          const std::uint64_t key = (static_cast<std::uint64_t>(c) * static_cast<std::uint64_t>(polarBins) +
+                                     static_cast<std::uint64_t>(polarBin)) * static_cast<std::uint64_t>(turnBins) +
+                                    static_cast<std::uint64_t>(turnBin);
+          votes.push_back({key, i, direction});
+        }
+      }
+    }
+    if (votes.empty()) return std::nullopt;
+    std::stable_sort(votes.begin(), votes.end(), [](const Vote& a, const Vote& b) { return a.bin < b.bin; });
+    std::size_t bestFirst = 0, bestCount = 0;
+    for (std::size_t first = 0; first < votes.size();) {
+      std::size_t last = first;
+      while (last < votes.size() && votes[last].bin == votes[first].bin) ++last;
+      if (last - first > bestCount) {
+        bestCount = last - first;
+        bestFirst = first;
+      }
+      first = last;
+    }
+    if (bestCount < params_.minCompletionPoints) return std::nullopt;
+    // The axis is the direction square to the voters' normals when they turn enough to fix it (a
+    // square post's faces tilt the binned directions until its points fit a cylinder); on sparse
+    // pipes seen from afar the normals all face the scanner, and the binned directions decide.
+    // Voters on the elbow, whose normals lean on the leg's axis, are left out in a second pass.
+    Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+    for (std::size_t k = bestFirst; k < bestFirst + bestCount; ++k) axis += votes[k].direction;
+    axis.normalize();
+    for (const double tilt : {kMaxNormalTilt, kRefinedNormalTilt}) {
+      const double maxLean = std::sin(radians(tilt));
+      Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+      for (std::size_t k = bestFirst; k < bestFirst + bestCount; ++k) {
+        const Eigen::Vector3d normal = input_.cloud.normals[votes[k].point].cast<double>();
+        if (std::fabs(normal.dot(axis)) <= maxLean) scatter += normal * normal.transpose();
+      }
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(scatter);
+      if (solver.eigenvalues()(1) < kMinNormalSpread * solver.eigenvalues()(2)) break;
+      const Eigen::Vector3d squareToNormals = solver.eigenvectors().col(0);
+      axis = squareToNormals.dot(axis) >= 0.0 ? squareToNormals : Eigen::Vector3d(-squareToNormals);
+    }
+    return axis;
+  }
 
   /// How the normals of `points` turn around the pipe (`x` × `y` is its axis): the share of them
   /// within ±5° of each direction across it (unoriented, so over 180°, one bin per degree).
@@ -799,7 +906,9 @@ class EndCompletion {
     // The straight begins past the shortest elbow's tangent point.
     const double firstAlong = params_.minBendRadii * r * std::tan(0.5 * bend);
     const double lastAlong = firstAlong + params_.maxCompletionLength;
-    const double minCorner = -r;
+    // The found end may lie past the corner: by a radius, and on slight bends by the length over
+    // which the bent surface stays within the band.
+    const double minCorner = -(r + band / sine);
     const double maxCorner = builder_.searchDistance(r);
 
     // Each point votes for the corners that put it on the surface: (α − t sin θ)² + c² = r².
@@ -885,6 +994,16 @@ class EndCompletion {
     const double radiusTolerance =
         std::max({kMinRadiusTolerance, kRadiusToleranceRadii * r, 2.5 * spread / std::sqrt(count)});
     if (std::fabs(meanOffset) > radiusTolerance) {
+      return std::nullopt;
+    }
+    // ...and around it: a square post's faces sit inside the circle and its corners outside.
+    SectorOffsets offsets;
+    for (std::uint32_t i : completion.pipe.inliers) {
+      const Eigen::Vector3d d = input_.cloud.positions[i].cast<double>() - corner;
+      const Eigen::Vector3d radial = d - d.dot(along) * along;
+      offsets.add(std::atan2(radial.dot(aside), radial.dot(across)), radial.norm() - r);
+    }
+    if (offsets.outOfRoundness(kMinSectorPoints, kMinSectorsToTrim) > std::max(kMinOutOfRound, kMaxOutOfRoundRadii * r)) {
       return std::nullopt;
     }
     // A flat face: normals that keep one direction and points that lie on a line across the pipe

@@ -35,6 +35,7 @@
 
 #include "cell_table.h"
 #include "random.h"
+#include "sector_offsets.h"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
@@ -741,45 +742,21 @@ double robustNoise(const CylinderFit& fit, const PointCloud& cloud, const Stripe
 }
 
 /// How far the inliers' surface offsets vary systematically around the axis (m): the RMS of the
-/// mean offsets in 10° sectors (the worst sector left out), less what the noise alone would give. A circle fitted to a square
-/// post or beam leaves its corners outside and its faces inside (2–4 mm for a 5 cm post with 2 mm
+/// mean offsets in 10° sectors (the worst sector left out), less what the noise alone would give.
+/// A circle fitted to a square post or beam leaves its corners outside and its faces inside (2–4 mm for a 5 cm post with 2 mm
 /// noise in generated scenes); a pipe leaves only noise (below 0.4 mm for 95 % of them).
 double outOfRoundness(const CylinderFit& fit, const PointCloud& cloud, const StripeProjection& stripe,
                       const std::vector<std::uint32_t>& inliers) {
-  constexpr int kSectors = 36;
   constexpr int kMinSectorPoints = 10;
   const Eigen::Vector3d b1 = anyPerpendicular(fit.direction);
   const Eigen::Vector3d b2 = fit.direction.cross(b1);
-  std::array<double, kSectors> sum{};
-  std::array<int, kSectors> count{};
-  double sum2 = 0.0;
+  SectorOffsets offsets;
   for (const std::uint32_t i : inliers) {
     const Eigen::Vector3d q = cloud.positions[stripe.points[i]].cast<double>() - fit.point;
     const Eigen::Vector3d radial = q - q.dot(fit.direction) * fit.direction;
-    const double offset = radial.norm() - fit.radius;
-    const double angle = std::atan2(radial.dot(b2), radial.dot(b1)) + kPi;
-    const int sector = std::min(kSectors - 1, static_cast<int>(angle / (2.0 * kPi) * kSectors));
-    sum[sector] += offset;
-    ++count[sector];
-    sum2 += offset * offset;
+    offsets.add(std::atan2(radial.dot(b2), radial.dot(b1)), radial.norm() - fit.radius);
   }
-  const double variance = sum2 / static_cast<double>(std::max<std::size_t>(1, inliers.size()));
-  // (squared mean offset, its expected part from noise) per sector with enough points
-  std::vector<std::pair<double, double>> sectors;
-  for (int k = 0; k < kSectors; ++k) {
-    if (count[k] < kMinSectorPoints) continue;
-    const double mean = sum[k] / count[k];
-    sectors.emplace_back(mean * mean, variance / count[k]);
-  }
-  // The most deviant sector is left out when there are enough: a mug's handle or a bracket on one
-  // side moves one sector, while a square's faces and corners move them all.
-  if (sectors.size() >= kMinSectorsToTrim) sectors.erase(std::max_element(sectors.begin(), sectors.end()));
-  double systematic = 0.0, expected = 0.0;
-  for (const auto& [squared, noise] : sectors) {
-    systematic += squared;
-    expected += noise;
-  }
-  return sectors.empty() ? 0.0 : std::sqrt(std::max(0.0, systematic - expected) / static_cast<double>(sectors.size()));
+  return offsets.outOfRoundness(kMinSectorPoints, kMinSectorsToTrim);
 }
 
 // ---------------------------------------------------------------------------------------------
