@@ -96,7 +96,7 @@ const std::vector<Field>& fields() {
       PIPERUN_FIELD("merge", "max_radius_difference", "", Stage::Merge, merge.maxRadiusDifference, "...their radii within this share of the larger (min 3 mm)"),
       PIPERUN_FIELD("merge", "max_gap", "m", Stage::Merge, merge.maxGap, "...and they overlap or leave at most this gap"),
 
-      PIPERUN_FIELD("joints", "search_diameters", "", Stage::Joints, joints.searchDiameters, "An end looks for partners within this many diameters of the larger pipe"),
+      PIPERUN_FIELD("joints", "search_diameters", "", Stage::Joints, joints.searchDiameters, "An end looks for partners within this many diameters of the larger pipe (an elbow's two ends together twice that)"),
       PIPERUN_FIELD("joints", "min_search_distance", "m", Stage::Joints, joints.minSearchDistance, "...and at least this far"),
       PIPERUN_FIELD("joints", "max_skew_radii", "", Stage::Joints, joints.maxSkewRadii, "Centre lines may miss each other (co-planarity, collinearity) by this many radii"),
       PIPERUN_FIELD("joints", "min_skew_distance", "m", Stage::Joints, joints.minSkewDistance, "...and at least this distance"),

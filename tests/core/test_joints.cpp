@@ -203,6 +203,29 @@ TEST(Joints, OccludedElbowIsProposedWithTheLargestRadiusTheEndsAllow) {
   EXPECT_EQ(result.joints[0].status, JointStatus::Proposed);
 }
 
+TEST(Joints, AnElbowIsFoundWhenOneEndStopsShortAndTheOtherReachesIt) {
+  // The first pipe's last 45 cm were too sparse for the extents: its end lies 60 cm before the
+  // corner, past the 40 cm search distance (4 diameters). The second pipe reaches its tangent
+  // point, so together the ends are within twice the search distance.
+  const double r = 0.05, R = 0.15;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-R - 0.45, 0, 0}, r);
+  scene.addPipe({-R - 0.45, 0, 0}, {-R, 0, 0}, r, false);
+  scene.addBend(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), R, r);
+  scene.addPipe({0, R, 0}, {0, 1.5, 0}, r);
+  const JointsResult result = scene.connect();
+  ASSERT_EQ(result.joints.size(), 1u);
+  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
+  EXPECT_NEAR(result.joints[0].bendRadius, R, 0.05 * R);
+  EXPECT_NEAR(result.pipes[0].end.x(), -R, 0.01);  // Extended to the tangent point.
+
+  // Both ends that far from the corner are no elbow.
+  ConstructedScene far;
+  far.addPipe({-1.5, 0, 0}, {-R - 0.45, 0, 0}, r);
+  far.addPipe({0, R + 0.45, 0}, {0, 1.5, 0}, r);
+  EXPECT_TRUE(far.connect().joints.empty());
+}
+
 TEST(Joints, TeeExtendsTheBranchToTheMainAxis) {
   ConstructedScene scene;
   scene.addPipe({-1, 0, 0}, {1, 0, 0}, 0.1);
