@@ -246,9 +246,14 @@ class JointBuilder {
     // into the elbow overshoot it: about a radius at a square bend, more at a gentle one, whose
     // surface stays within a cylinder's band for longer.
     const double overshoot = larger / std::tan(0.5 * bendAngle);
-    // Together the ends lie within twice the search distance of the corner: one may be farther when
-    // the other is nearer (an end whose last half metre was too sparse for the extents).
-    if (alongA < -overshoot || alongB < -overshoot || std::max(alongA, 0.0) + std::max(alongB, 0.0) > 2.0 * search) return;
+    // Together the ends lie within twice the search distance of the elbow's shortest tangent
+    // points: one may be farther when the other is nearer (an end whose last half metre was too
+    // sparse for the extents).
+    const double shortestTangent = params_.minBendRadii * smaller * std::tan(0.5 * bendAngle);
+    if (alongA < -overshoot || alongB < -overshoot ||
+        std::max(alongA, 0.0) + std::max(alongB, 0.0) > 2.0 * (search + shortestTangent)) {
+      return;
+    }
     const Eigen::Vector3d onA = a.point + alongA * a.outward;
     const Eigen::Vector3d onB = b.point + alongB * b.outward;
     Hypothesis h;
