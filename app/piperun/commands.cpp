@@ -326,7 +326,9 @@ int runReconstruct(const ReconstructOptions& options) {
               pipeline.stageSeconds(Stage::Directions));
   std::printf("placement: %zu cylinders  [%.2f s]\n", cylinders, pipeline.stageSeconds(Stage::Placement));
   std::printf("extents: %zu pipe pieces  [%.2f s]\n", segments, pipeline.stageSeconds(Stage::Extents));
-  std::printf("merge: %zu pipes  [%.2f s]\n", network.pipes.size(), pipeline.stageSeconds(Stage::Merge));
+  const auto& merged = *pipeline.mergeResult();
+  std::printf("merge: %zu pipes, %zu ends carried on over sparse points  [%.2f s]\n", merged.segments.size(),
+              merged.diagnostics.extendedEnds, pipeline.stageSeconds(Stage::Merge));
   const auto countJoints = [&](JointType type) {
     return std::count_if(network.joints.begin(), network.joints.end(), [&](const Joint& j) { return j.type == type; });
   };

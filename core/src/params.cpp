@@ -95,6 +95,8 @@ const std::vector<Field>& fields() {
       PIPERUN_FIELD("merge", "max_axis_distance", "", Stage::Merge, merge.maxAxisDistance, "...their axes at most this x the smaller radius apart (min 1 cm)"),
       PIPERUN_FIELD("merge", "max_radius_difference", "", Stage::Merge, merge.maxRadiusDifference, "...their radii within this share of the larger (min 3 mm)"),
       PIPERUN_FIELD("merge", "max_gap", "m", Stage::Merge, merge.maxGap, "...and they overlap or leave at most this gap"),
+      PIPERUN_FIELD("merge", "max_extension", "m", Stage::Merge, merge.maxExtension, "Merged pipes' ends carry on over surface points up to this far (0: off)"),
+      PIPERUN_FIELD("merge", "extension_normal_angle_deg", "deg", Stage::Merge, merge.extensionNormalAngleDeg, "...points whose normals are this close to radial"),
 
       PIPERUN_FIELD("joints", "search_diameters", "", Stage::Joints, joints.searchDiameters, "An end looks for partners within this many diameters of the larger pipe (an elbow's two ends together twice that)"),
       PIPERUN_FIELD("joints", "min_search_distance", "m", Stage::Joints, joints.minSearchDistance, "...and at least this far"),

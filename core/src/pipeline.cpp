@@ -190,7 +190,7 @@ void Pipeline::runMerge(Progress& progress) {
       segments.insert(segments.end(), round.extents.segments.begin(), round.extents.segments.end());
     }
   }
-  merge_ = std::make_shared<const MergeResult>(mergeSegments(segments, params_.merge, progress));
+  merge_ = std::make_shared<const MergeResult>(mergeAndExtend(preprocess_->points, segments, params_.merge, progress));
   seconds_[index(Stage::Merge)] = secondsSince(started);
   fresh_[index(Stage::Merge)] = true;
   fresh_[index(Stage::Joints)] = false;

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 namespace piperun {
 namespace {
 
@@ -61,6 +63,90 @@ TEST(Merge, ResultDoesNotDependOnInputOrder) {
     EXPECT_DOUBLE_EQ(forward.segments[i].radius, backward.segments[i].radius);
   }
   EXPECT_GT((forward.segments[0].end - forward.segments[0].start).norm(), 1.9);  // longest first
+}
+
+/// Points on a pipe along +x (radius r, axis at y = z = 0) from x0 to x1, one ring of `perRing`
+/// points (over the half facing +z) every `step` m, with normals `tilt` radians off radial (turned
+/// towards +y, as normals estimated on a few scan columns stray). Returns their indices.
+std::vector<std::uint32_t> addPipePoints(PointCloud& cloud, double r, double x0, double x1, double step, int perRing,
+                                         double tilt) {
+  std::vector<std::uint32_t> added;
+  for (double x = x0; x <= x1 + 1e-9; x += step) {
+    for (int k = 0; k < perRing; ++k) {
+      const double angle = 3.14159265358979 * (k + 0.5) / perRing;
+      const Eigen::Vector3d radial(0.0, std::cos(angle), std::sin(angle));
+      const Eigen::Vector3d sideways(0.0, -std::sin(angle), std::cos(angle));
+      added.push_back(static_cast<std::uint32_t>(cloud.positions.size()));
+      cloud.positions.emplace_back(Eigen::Vector3d(x, 0, 0).cast<float>() + (r * radial).cast<float>());
+      cloud.normals.push_back((std::cos(tilt) * radial + std::sin(tilt) * sideways).cast<float>());
+    }
+  }
+  return added;
+}
+
+TEST(Merge, AnEndCarriesOnOverItsSparseTail) {
+  // A pipe found up to x = 2 (its inliers); past it the scan thins out to one ring of 3 points
+  // every 6 cm, whose normals stray 40° from radial (placement's 30° test left them out), up to
+  // x = 2.6, then nothing.
+  const double r = 0.05;
+  PointCloud cloud;
+  const auto inliers = addPipePoints(cloud, r, 0.0, 2.0, 0.01, 12, 0.0);
+  addPipePoints(cloud, r, 2.06, 2.6, 0.06, 3, 40.0 * 3.14159265358979 / 180.0);
+  PipeSegment found = segment({0, 0, 0}, {2, 0, 0}, r, inliers);
+  found.confidence = 1.0;
+  const auto result = mergeAndExtend(cloud, {found}, {});
+  ASSERT_EQ(result.segments.size(), 1u);
+  EXPECT_EQ(result.diagnostics.extendedEnds, 1u);
+  const PipeSegment& pipe = result.segments[0];
+  EXPECT_NEAR(std::max(pipe.start.x(), pipe.end.x()), 2.6, 1e-6);
+  EXPECT_NEAR(std::min(pipe.start.x(), pipe.end.x()), 0.0, 1e-6);
+  EXPECT_EQ(pipe.inliers.size(), cloud.size());
+
+  // Off, or with the tail's normals beyond the angle, or on a pipe the extents found gappy: no.
+  MergeParams off;
+  off.maxExtension = 0.0;
+  EXPECT_EQ(mergeAndExtend(cloud, {found}, off).diagnostics.extendedEnds, 0u);
+  MergeParams strict;
+  strict.extensionNormalAngleDeg = 30.0;
+  EXPECT_EQ(mergeAndExtend(cloud, {found}, strict).diagnostics.extendedEnds, 0u);
+  PipeSegment gappy = found;
+  gappy.confidence = 0.8;
+  EXPECT_EQ(mergeAndExtend(cloud, {gappy}, {}).diagnostics.extendedEnds, 0u);
+}
+
+TEST(Merge, AnEndStopsAtClutterAndAtAnotherPipe) {
+  const double r = 0.05;
+  // A wall across the pipe's extension 30 cm past its end (points in the shell around the tube
+  // and inside it): the tail before it is kept, not the one behind.
+  PointCloud walled;
+  const auto inliers = addPipePoints(walled, r, 0.0, 2.0, 0.01, 12, 0.0);
+  addPipePoints(walled, r, 2.04, 2.8, 0.04, 3, 0.0);
+  for (double y = -0.3; y <= 0.3; y += 0.01) {
+    for (double z = -0.3; z <= 0.3; z += 0.01) {
+      walled.positions.emplace_back(2.3f, static_cast<float>(y), static_cast<float>(z));
+      walled.normals.emplace_back(1.0f, 0.0f, 0.0f);
+    }
+  }
+  PipeSegment found = segment({0, 0, 0}, {2, 0, 0}, r, inliers);
+  found.confidence = 1.0;
+  const auto stopped = mergeAndExtend(walled, {found}, {});
+  EXPECT_NEAR(std::max(stopped.segments[0].start.x(), stopped.segments[0].end.x()), 2.28, 0.005);
+
+  // A branch whose tail runs into a main pipe crossing its line at x = 2.5: it stops at the main
+  // pipe's surface, not past it (where it would no longer make a tee).
+  PointCloud crossing;
+  const auto branchInliers = addPipePoints(crossing, r, 0.0, 2.0, 0.01, 12, 0.0);
+  addPipePoints(crossing, r, 2.04, 2.8, 0.04, 3, 0.0);
+  PipeSegment branch = segment({0, 0, 0}, {2, 0, 0}, r, branchInliers);
+  branch.confidence = 1.0;
+  PipeSegment main = segment({2.5, -1, 0}, {2.5, 1, 0}, 0.1);
+  main.confidence = 0.8;
+  const auto result = mergeAndExtend(crossing, {branch, main}, {});
+  ASSERT_EQ(result.segments.size(), 2u);
+  const PipeSegment& extended = result.segments[0].radius < 0.07 ? result.segments[0] : result.segments[1];
+  const double reached = std::max(extended.start.x(), extended.end.x());
+  EXPECT_GT(reached, 2.3);
+  EXPECT_LE(reached, 2.4 + 1e-9);
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 // Stage 5 — merging across sub-volumes and rounds: collinear pieces of the same radius that
 // overlap or abut become one pipe; duplicates from the tiles' overlaps go.
 
+#include "piperun/point_cloud.h"
 #include "piperun/progress.h"
 #include "piperun/stages/extents.h"
 
@@ -14,6 +15,10 @@ struct MergeParams {
   double maxAxisDistance = 0.3;      ///< ...at most this × the smaller radius apart (min 1 cm)...
   double maxRadiusDifference = 0.15; ///< ...radii within this share of the larger one (min 3 mm)...
   double maxGap = 0.05;              ///< ...and overlapping or separated by at most this (m) are merged.
+  double maxExtension = 1.0;         ///< Merged pipes' ends carry on along the axis over points of the surface
+                                     ///< up to this far (m; 0: off): a pipe's far, sparse end whose normals
+                                     ///< stray too far from radial for placement's inliers...
+  double extensionNormalAngleDeg = 45.0;  ///< ...over points whose normals are this close to radial (deg).
 };
 
 struct MergeResult {
@@ -21,11 +26,19 @@ struct MergeResult {
   struct Diagnostics {
     std::size_t inputSegments = 0;
     std::size_t mergedSegments = 0;
+    std::size_t extendedEnds = 0;     ///< Ends moved by mergeAndExtend.
     double seconds = 0.0;
   } diagnostics;
 };
 
 MergeResult mergeSegments(const std::vector<PipeSegment>& segments, const MergeParams& params,
                           Progress& progress = Progress::none());
+
+/// mergeSegments, then each merged pipe's ends extended over `cloud` (the points the segments'
+/// inliers index): 4 cm sections along the axis past the end that hold a point of the surface not
+/// explained by any pipe (within the band of its noise, normal near radial), with gaps of at most
+/// three sections, and no more points inside the tube or in a shell around it than on its surface.
+MergeResult mergeAndExtend(const PointCloud& cloud, const std::vector<PipeSegment>& segments, const MergeParams& params,
+                           Progress& progress = Progress::none());
 
 }  // namespace piperun
