@@ -64,12 +64,14 @@ Studio::Impl::Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowIntera
   scene->GradientBackgroundOn();
   sphere->SetBackground(0.07, 0.08, 0.09);
   plane->SetBackground(0.13, 0.14, 0.16);
+  barBase->SetBackground(0.0, 0.0, 0.0);
+  barBase->InteractiveOff();
   overlay->SetLayer(2);
   overlay->InteractiveOff();
   highlightLayer->SetLayer(1);
   highlightLayer->InteractiveOff();
   highlightLayer->SetActiveCamera(scene->GetActiveCamera());
-  for (vtkRenderer* renderer : {scene.Get(), sphere.Get(), plane.Get(), highlightLayer.Get(), overlay.Get()})
+  for (vtkRenderer* renderer : {scene.Get(), sphere.Get(), plane.Get(), barBase.Get(), highlightLayer.Get(), overlay.Get()})
     window->AddRenderer(renderer);
   plane->GetActiveCamera()->ParallelProjectionOn();
 
@@ -377,6 +379,8 @@ void Studio::Impl::layout() {
   apply(sphere, sphereRect);
   apply(plane, planeRect);
   overlay->SetViewport(0, 0, 1, 1);
+  barBase->SetDraw(bar);
+  if (bar) barBase->SetViewport(0, 0, 1, bottom);
 
   const double pad = 8.0 * scale;
   auto place = [&](vtkTextActor* title, const Rect& rect, int fontSize) {

@@ -249,6 +249,9 @@ struct Studio::Impl {
   StudioOptions options;
   vtkNew<vtkRenderer> scene, sphere, plane, overlay;
   vtkNew<vtkRenderer> highlightLayer;  ///< Over the scene, sharing its camera.
+  /// Under the stage bar: clears its strip each frame (the overlay above does not erase, so a
+  /// moved or retitled slider would leave its old drawing behind).
+  vtkNew<vtkRenderer> barBase;
   vtkNew<StudioInteractorStyle> style;
   vtkNew<vtkBoxWidget2> fitBox;       ///< Axis-aligned box around the points `box fit` fits a pipe to.
   vtkNew<vtkHandleWidget> endHandle;  ///< Drags a pipe end; releasing it moves the end.
