@@ -26,9 +26,9 @@ class SectorOffsets {
   }
 
   /// The RMS over sectors of `minSectorPoints` points or more of the sector's mean offset, less the
-  /// part noise explains. With `minSectorsToTrim` such sectors or more, the most deviant one is left
+  /// part noise explains. With kMinSectorsToTrim such sectors or more, the most deviant one is left
   /// out: a mug's handle or a bracket on one side moves one sector, a square's faces move them all.
-  double outOfRoundness(int minSectorPoints, std::size_t minSectorsToTrim) const {
+  double outOfRoundness(int minSectorPoints) const {
     const double variance = squares_ / static_cast<double>(std::max<std::size_t>(1, points_));
     // (squared mean offset, its expected part from noise) per sector with enough points
     std::vector<std::pair<double, double>> sectors;
@@ -37,7 +37,7 @@ class SectorOffsets {
       const double mean = sum_[k] / count_[k];
       sectors.emplace_back(mean * mean, variance / count_[k]);
     }
-    if (sectors.size() >= minSectorsToTrim) sectors.erase(std::max_element(sectors.begin(), sectors.end()));
+    if (sectors.size() >= kMinSectorsToTrim) sectors.erase(std::max_element(sectors.begin(), sectors.end()));
     double systematic = 0.0, expected = 0.0;
     for (const auto& [squared, noise] : sectors) {
       systematic += squared;
@@ -48,6 +48,7 @@ class SectorOffsets {
 
  private:
   static constexpr int kSectors = 36;
+  static constexpr std::size_t kMinSectorsToTrim = 8;
   std::array<double, kSectors> sum_{};
   std::array<int, kSectors> count_{};
   double squares_ = 0.0;

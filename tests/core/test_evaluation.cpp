@@ -5,6 +5,18 @@
 namespace piperun {
 namespace {
 
+/// One straight pipe of radius 0.1 m, id 1.
+PipeNetwork straightPipe(const Eigen::Vector3d& start, const Eigen::Vector3d& end) {
+  PipeNetwork network;
+  Pipe pipe;
+  pipe.id = 1;
+  pipe.radius = 0.1;
+  pipe.start = start;
+  pipe.end = end;
+  network.pipes = {pipe};
+  return network;
+}
+
 PipeNetwork lShapedRun(const Eigen::Vector3d& shift = Eigen::Vector3d::Zero()) {
   PipeNetwork network;
   Pipe a;
@@ -77,13 +89,7 @@ TEST(Evaluation, EmptyPredictionHasZeroRecall) {
 }
 
 TEST(Evaluation, HalfTheTruthGivesHalfTheRecall) {
-  PipeNetwork truth;
-  Pipe pipe;
-  pipe.id = 1;
-  pipe.radius = 0.1;
-  pipe.start = {0, 0, 0};
-  pipe.end = {4, 0, 0};
-  truth.pipes = {pipe};
+  const PipeNetwork truth = straightPipe({0, 0, 0}, {4, 0, 0});
   PipeNetwork predicted = truth;
   predicted.pipes[0].end = {2, 0, 0};
   predicted.pipes[0].radius = 0.103;
@@ -148,13 +154,7 @@ PointCloud partlyScannedPipe() {
 }
 
 TEST(Evaluation, ObservableRecallCountsOnlyWhatTheScanShows) {
-  PipeNetwork truth;
-  Pipe pipe;
-  pipe.id = 1;
-  pipe.radius = 0.1;
-  pipe.start = {100, 0, 0};
-  pipe.end = {104, 0, 0};
-  truth.pipes = {pipe};
+  const PipeNetwork truth = straightPipe({100, 0, 0}, {104, 0, 0});
   PipeNetwork predicted = truth;
   predicted.pipes[0].end = {101, 0, 0};  // finds the first scanned metre only
   const PointCloud scan = partlyScannedPipe();

@@ -28,7 +28,7 @@
 
 #include "piperun/edit/runs.h"
 
-#include "cell_table.h"
+#include "points_near.h"
 #include "sector_offsets.h"
 
 #include <Eigen/Eigenvalues>
@@ -40,7 +40,6 @@
 #include <cmath>
 #include <optional>
 #include <tuple>
-#include <unordered_map>
 
 namespace piperun {
 
@@ -131,43 +130,6 @@ std::optional<std::pair<double, double>> closestLineParameters(const Eigen::Vect
   const double e = v.dot(w);
   return std::make_pair((b * e - d) / denominator, (e - b * d) / denominator);
 }
-
-/// Uniform hash grid of integer payloads (pipes by axis samples, points by position).
-class HashGrid {
- public:
-  explicit HashGrid(double cellSize) : cell_(cellSize) {}
-
-  Eigen::Vector3i cellOf(const Eigen::Vector3d& p) const { return (p / cell_).array().floor().cast<int>(); }
-  void insert(const Eigen::Vector3i& cell, std::uint32_t value) {
-    auto& bucket = cells_[cellKey(cell)];
-    if (bucket.empty() || bucket.back() != value) bucket.push_back(value);
-  }
-  const std::vector<std::uint32_t>* find(const Eigen::Vector3i& cell) const {
-    const auto found = cells_.find(cellKey(cell));
-    return found == cells_.end() ? nullptr : &found->second;
-  }
-  /// Calls visit(value) for the payloads of every cell overlapping the cube of half-size `reach`
-  /// around `p` (a value may come several times).
-  template <class Visit>
-  void forEachInCube(const Eigen::Vector3d& p, double reach, Visit&& visit) const {
-    const Eigen::Vector3i low = cellOf(p - Eigen::Vector3d::Constant(reach));
-    const Eigen::Vector3i high = cellOf(p + Eigen::Vector3d::Constant(reach));
-    for (int x = low.x(); x <= high.x(); ++x) {
-      for (int y = low.y(); y <= high.y(); ++y) {
-        for (int z = low.z(); z <= high.z(); ++z) {
-          if (const auto* bucket = find({x, y, z})) {
-            for (std::uint32_t value : *bucket) visit(value);
-          }
-        }
-      }
-    }
-  }
-
- private:
-
-  double cell_;
-  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells_;
-};
 
 /// A joint hypothesis: geometry fixed from the pipes alone, then completed with the points.
 struct Hypothesis {
@@ -511,36 +473,6 @@ std::vector<double> elbowRadiusVotes(const Eigen::Vector3d& point, const Eigen::
 
 namespace {
 
-/// For each sphere (centre, radius), the points of the cloud inside it that `keep` accepts, in
-/// index order, from one pass over the cloud through a grid of the spheres.
-template <class Keep>
-std::vector<std::vector<std::uint32_t>> pointsInSpheres(const PointCloud& cloud,
-                                                        const std::vector<std::pair<Eigen::Vector3d, double>>& spheres,
-                                                        double cellSize, Keep&& keep) {
-  std::vector<std::vector<std::uint32_t>> inside(spheres.size());
-  if (spheres.empty()) return inside;
-  HashGrid grid(cellSize);
-  for (std::size_t s = 0; s < spheres.size(); ++s) {
-    const auto& [center, reach] = spheres[s];
-    const Eigen::Vector3i low = grid.cellOf(center - Eigen::Vector3d::Constant(reach));
-    const Eigen::Vector3i high = grid.cellOf(center + Eigen::Vector3d::Constant(reach));
-    for (int x = low.x(); x <= high.x(); ++x) {
-      for (int y = low.y(); y <= high.y(); ++y) {
-        for (int z = low.z(); z <= high.z(); ++z) grid.insert({x, y, z}, static_cast<std::uint32_t>(s));
-      }
-    }
-  }
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const Eigen::Vector3d p = cloud.positions[i].cast<double>();
-    const auto* bucket = grid.find(grid.cellOf(p));
-    if (!bucket || !keep(i)) continue;
-    for (std::uint32_t s : *bucket) {
-      const auto& [center, reach] = spheres[s];
-      if ((p - center).squaredNorm() <= reach * reach) inside[s].push_back(static_cast<std::uint32_t>(i));
-    }
-  }
-  return inside;
-}
 
 /// The joints chosen among the hypotheses between a set of pipes.
 struct Resolution {
@@ -740,11 +672,15 @@ class EndCompletion {
   static constexpr double kMinFaceShare = 0.2;          // ...each holding this share of the points...
   static constexpr double kMinSquareShare = 0.7;        // ...and together this share: two faces at an edge.
   static constexpr int kMinSectorPoints = 5;            // Out-of-roundness over 10° sectors of this many points...
-  static constexpr std::size_t kMinSectorsToTrim = 8;   // ...the worst left out of this many...
   static constexpr double kMaxOutOfRoundRadii = 0.02;   // ...may be this share of the radius...
   static constexpr double kMinOutOfRound = 0.0025;      // ...or this (m): a placed axis is a little off.
   static constexpr double kMinRadiusTolerance = 0.0015;  // The mean offset of the points from the radius (m)...
   static constexpr double kRadiusToleranceRadii = 0.03;  // ...may be this share of the radius, or the above.
+
+  /// How far behind a free end (radius r) the corner of an elbow bending by `bend` may lie: the
+  /// found end may pass the corner by a radius, and on slight bends by the length over which the
+  /// bent surface stays within the support band.
+  double cornerBehindEnd(double r, double bend) const { return r + params_.supportDistance / std::sin(bend); }
 
   /// The direction of a pipe leaving the corner ahead of `end`, from the points around it: a point
   /// on a pipe of the end's radius has its axis one radius behind it along its normal, so each
@@ -763,7 +699,7 @@ class EndCompletion {
     const Eigen::Vector3d x = u.unitOrthogonal();
     const Eigen::Vector3d y = u.cross(x);
     const double r = end.radius;
-    const double minCorner = -(r + params_.supportDistance / std::sin(radians(params_.minElbowAngleDeg)));
+    const double minCorner = -cornerBehindEnd(r, radians(params_.minElbowAngleDeg));
     const double maxCorner = builder_.searchDistance(r);
     const auto corners = static_cast<int>(std::ceil((maxCorner - minCorner) / kCornerStep)) + 1;
     const double maxTilt = std::sin(radians(kMaxNormalTilt));
@@ -913,9 +849,7 @@ class EndCompletion {
     // The straight begins past the shortest elbow's tangent point.
     const double firstAlong = params_.minBendRadii * r * std::tan(0.5 * bend);
     const double lastAlong = firstAlong + params_.maxCompletionLength;
-    // The found end may lie past the corner: by a radius, and on slight bends by the length over
-    // which the bent surface stays within the band.
-    const double minCorner = -(r + band / sine);
+    const double minCorner = -cornerBehindEnd(r, bend);
     const double maxCorner = builder_.searchDistance(r);
 
     // Each point votes for the corners that put it on the surface: (α − t sin θ)² + c² = r².
@@ -1010,7 +944,7 @@ class EndCompletion {
       const Eigen::Vector3d radial = d - d.dot(along) * along;
       offsets.add(std::atan2(radial.dot(aside), radial.dot(across)), radial.norm() - r);
     }
-    if (offsets.outOfRoundness(kMinSectorPoints, kMinSectorsToTrim) > std::max(kMinOutOfRound, kMaxOutOfRoundRadii * r)) {
+    if (offsets.outOfRoundness(kMinSectorPoints) > std::max(kMinOutOfRound, kMaxOutOfRoundRadii * r)) {
       return std::nullopt;
     }
     // A flat face: normals that keep one direction and points that lie on a line across the pipe

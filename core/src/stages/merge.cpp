@@ -18,7 +18,7 @@
 
 #include "piperun/stages/merge.h"
 
-#include "cell_table.h"
+#include "points_near.h"
 #include "union_find.h"
 
 #include <Eigen/Geometry>
@@ -140,6 +140,13 @@ bool longerFirst(const PipeSegment& a, const PipeSegment& b) {
   return a.radius < b.radius;
 }
 
+/// The band around a pipe's surface its points lie in: three times its RMS offset, at least 6 mm.
+double surfaceBand(const PipeSegment& pipe) {
+  constexpr double kMinBand = 0.006;
+  constexpr double kBandPerRms = 3.0;
+  return std::max(kMinBand, kBandPerRms * pipe.rms);
+}
+
 /// How far past `end` (along the unit `outward`) the pipe's surface carries on over the points
 /// `nearby` (unexplained, near the end), and those points; 0 and none when it does not.
 double extension(const PointCloud& cloud, const PipeSegment& pipe, const Eigen::Vector3d& end,
@@ -147,10 +154,8 @@ double extension(const PointCloud& cloud, const PipeSegment& pipe, const Eigen::
                  const std::vector<char>& claimed, const MergeParams& params, std::vector<std::uint32_t>& surface) {
   constexpr double kSection = 0.04;      // Sections along the axis (m), as the extents'...
   constexpr std::size_t kMaxGap = 3;     // ...with gaps of at most this many.
-  constexpr double kMinBand = 0.006;     // Surface band: at least this (m)...
-  constexpr double kBandPerRms = 3.0;    // ...or this many times the pipe's RMS offset.
   const double r = pipe.radius;
-  const double band = std::max(kMinBand, kBandPerRms * pipe.rms);
+  const double band = surfaceBand(pipe);
   const double minCos = std::cos(params.extensionNormalAngleDeg * kPi / 180.0);
   const auto sections = static_cast<std::size_t>(std::ceil(params.maxExtension / kSection));
   std::vector<std::vector<std::uint32_t>> bySection(sections);
@@ -228,45 +233,32 @@ std::size_t extendEnds(const PointCloud& cloud, std::vector<PipeSegment>& pipes,
   for (const PipeSegment& pipe : pipes) {
     for (std::uint32_t i : pipe.inliers) claimed[i] = 1;
   }
-  // The points near each end: a grid of cells over the boxes the extensions may reach.
-  constexpr double kCell = 0.25;
-  const auto cellOf = [&](const Eigen::Vector3d& p) { return Eigen::Vector3i((p / kCell).array().floor().cast<int>()); };
-  CellTable cells;
-  std::vector<std::vector<std::uint32_t>> endsInCell;
+  // The points near each end that may be extended: a sphere around the stretch its extension may
+  // cover, out to the shell where extension() counts clutter.
   const std::size_t endCount = 2 * pipes.size();
+  const auto outwardOf = [&](std::size_t e) { return Eigen::Vector3d((e % 2 ? 1.0 : -1.0) * unitAxis(pipes[e / 2])); };
+  std::vector<std::size_t> ends;
+  std::vector<std::pair<Eigen::Vector3d, double>> spheres;
   for (std::size_t e = 0; e < endCount; ++e) {
     const PipeSegment& pipe = pipes[e / 2];
-    const Eigen::Vector3d end = e % 2 ? pipe.end : pipe.start;
-    const Eigen::Vector3d outward = (e % 2 ? 1.0 : -1.0) * unitAxis(pipe);
-    const Eigen::Vector3d reach = Eigen::Vector3d::Constant(2.0 * pipe.radius + 0.05);
-    const Eigen::Vector3d far = end + params.maxExtension * outward;
-    const Eigen::Vector3i low = cellOf(end.cwiseMin(far) - reach), high = cellOf(end.cwiseMax(far) + reach);
-    for (int x = low.x(); x <= high.x(); ++x) {
-      for (int y = low.y(); y <= high.y(); ++y) {
-        for (int z = low.z(); z <= high.z(); ++z) {
-          const std::uint32_t id = cells.insert(cellKey({x, y, z}));
-          if (id >= endsInCell.size()) endsInCell.resize(id + 1);
-          endsInCell[id].push_back(static_cast<std::uint32_t>(e));
-        }
-      }
-    }
-  }
-  std::vector<std::vector<std::uint32_t>> nearby(endCount);
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const std::int64_t id = cells.find(cellKey(cellOf(cloud.positions[i].cast<double>())));
-    if (id < 0) continue;
-    for (std::uint32_t e : endsInCell[static_cast<std::size_t>(id)]) nearby[e].push_back(static_cast<std::uint32_t>(i));
-  }
-  std::size_t extended = 0;
-  for (std::size_t e = 0; e < endCount; ++e) {
-    PipeSegment& pipe = pipes[e / 2];
     if (pipe.confidence < kMinExtendedConfidence) continue;
+    const Eigen::Vector3d end = e % 2 ? pipe.end : pipe.start;
+    const double halfLength = 0.5 * params.maxExtension;
+    ends.push_back(e);
+    spheres.emplace_back(end + halfLength * outwardOf(e), std::hypot(halfLength, 2.0 * (pipe.radius + surfaceBand(pipe))));
+  }
+  constexpr double kCell = 0.25;
+  const auto nearby = pointsInSpheres(cloud, spheres, kCell, [](std::size_t) { return true; });
+  std::size_t extended = 0;
+  for (std::size_t k = 0; k < ends.size(); ++k) {
+    const std::size_t e = ends[k];
+    PipeSegment& pipe = pipes[e / 2];
     Eigen::Vector3d& end = e % 2 ? pipe.end : pipe.start;
-    const Eigen::Vector3d outward = (e % 2 ? 1.0 : -1.0) * unitAxis(pipe);
+    const Eigen::Vector3d outward = outwardOf(e);
     std::vector<std::uint32_t> surface;
     const double length =
         extension(cloud, pipe, end, outward, reachBeforeOtherPipes(pipes, e / 2, end, outward, params.maxExtension),
-                  nearby[e], claimed, params, surface);
+                  nearby[k], claimed, params, surface);
     if (!(length > 0.0)) continue;
     end += length * outward;
     for (std::uint32_t i : surface) claimed[i] = 1;

@@ -71,7 +71,6 @@ constexpr double kMaxAxisTilt = 10.0 * kDegree;  // a refined axis farther than 
                                                  // was fitted to something that is not a pipe along it
 constexpr double kDuplicateShare = 0.5;   // a cylinder sharing this share of its inliers is a copy
 constexpr double kRadiusSlack = 0.8;     // a refined radius may leave [minRadius, maxRadius] by this factor
-constexpr std::size_t kMinSectorsToTrim = 8;  // out-of-roundness leaves out the worst sector of this many
 constexpr double kMinOutOfRound = 0.001;  // out-of-roundness always tolerated (m): noise on few points
 constexpr double kShellReach = 2.5;       // outer edge of the shell tested beyond the inlier band, in bands
 constexpr double kNoiseBands = 2.5;       // a noisy scan's inlier band, in standard deviations of its surface noise...
@@ -756,7 +755,7 @@ double outOfRoundness(const CylinderFit& fit, const PointCloud& cloud, const Str
     const Eigen::Vector3d radial = q - q.dot(fit.direction) * fit.direction;
     offsets.add(std::atan2(radial.dot(b2), radial.dot(b1)), radial.norm() - fit.radius);
   }
-  return offsets.outOfRoundness(kMinSectorPoints, kMinSectorsToTrim);
+  return offsets.outOfRoundness(kMinSectorPoints);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -1,0 +1,87 @@
+#pragma once
+// Points and payloads near places: a uniform hash grid of integer payloads, and the points of a
+// cloud inside each of a set of spheres from one pass over the cloud. Shared by the joints stage
+// (pipe ends, hypotheses, completions) and the merge stage (the points past pipe ends).
+
+#include "piperun/point_cloud.h"
+
+#include "cell_table.h"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+namespace piperun {
+
+/// Uniform hash grid of integer payloads (pipes by axis samples, points by position).
+class HashGrid {
+ public:
+  explicit HashGrid(double cellSize) : cell_(cellSize) {}
+
+  Eigen::Vector3i cellOf(const Eigen::Vector3d& p) const { return (p / cell_).array().floor().cast<int>(); }
+  void insert(const Eigen::Vector3i& cell, std::uint32_t value) {
+    auto& bucket = cells_[cellKey(cell)];
+    if (bucket.empty() || bucket.back() != value) bucket.push_back(value);
+  }
+  const std::vector<std::uint32_t>* find(const Eigen::Vector3i& cell) const {
+    const auto found = cells_.find(cellKey(cell));
+    return found == cells_.end() ? nullptr : &found->second;
+  }
+  /// Calls visit(value) for the payloads of every cell overlapping the cube of half-size `reach`
+  /// around `p` (a value may come several times).
+  template <class Visit>
+  void forEachInCube(const Eigen::Vector3d& p, double reach, Visit&& visit) const {
+    const Eigen::Vector3i low = cellOf(p - Eigen::Vector3d::Constant(reach));
+    const Eigen::Vector3i high = cellOf(p + Eigen::Vector3d::Constant(reach));
+    for (int x = low.x(); x <= high.x(); ++x) {
+      for (int y = low.y(); y <= high.y(); ++y) {
+        for (int z = low.z(); z <= high.z(); ++z) {
+          if (const auto* bucket = find({x, y, z})) {
+            for (std::uint32_t value : *bucket) visit(value);
+          }
+        }
+      }
+    }
+  }
+
+ private:
+
+  double cell_;
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells_;
+};
+
+/// For each sphere (centre, radius), the points of the cloud inside it that `keep` accepts, in
+/// index order, from one pass over the cloud through a grid of the spheres.
+template <class Keep>
+std::vector<std::vector<std::uint32_t>> pointsInSpheres(const PointCloud& cloud,
+                                                        const std::vector<std::pair<Eigen::Vector3d, double>>& spheres,
+                                                        double cellSize, Keep&& keep) {
+  std::vector<std::vector<std::uint32_t>> inside(spheres.size());
+  if (spheres.empty()) return inside;
+  HashGrid grid(cellSize);
+  for (std::size_t s = 0; s < spheres.size(); ++s) {
+    const auto& [center, reach] = spheres[s];
+    const Eigen::Vector3i low = grid.cellOf(center - Eigen::Vector3d::Constant(reach));
+    const Eigen::Vector3i high = grid.cellOf(center + Eigen::Vector3d::Constant(reach));
+    for (int x = low.x(); x <= high.x(); ++x) {
+      for (int y = low.y(); y <= high.y(); ++y) {
+        for (int z = low.z(); z <= high.z(); ++z) grid.insert({x, y, z}, static_cast<std::uint32_t>(s));
+      }
+    }
+  }
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3d p = cloud.positions[i].cast<double>();
+    const auto* bucket = grid.find(grid.cellOf(p));
+    if (!bucket || !keep(i)) continue;
+    for (std::uint32_t s : *bucket) {
+      const auto& [center, reach] = spheres[s];
+      if ((p - center).squaredNorm() <= reach * reach) inside[s].push_back(static_cast<std::uint32_t>(i));
+    }
+  }
+  return inside;
+}
+
+}  // namespace piperun
