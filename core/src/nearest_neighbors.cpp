@@ -1,11 +1,11 @@
 #include "nearest_neighbors.h"
 
 #include "cell_table.h"
+#include "sort_by_key.h"
 
 #include "piperun/point_cloud.h"
 
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <atomic>
@@ -20,7 +20,7 @@ namespace {
 
 /// k neighbours on a surface fill a disc of radius ≈ spacing · √(k / π); the finest cells are this
 /// many such radii wide, so the 3 × 3 × 3 block around most points holds all their neighbours.
-constexpr double kEdgePerNeighborRadius = 1.3;
+constexpr double kEdgePerNeighborRadius = 1.6;
 /// Each coarser level's cells are this many times wider than the level below.
 constexpr double kLevelRatio = 6.0;
 /// Beyond this many cells across a search moves to the next coarser level: a block of that many
@@ -45,18 +45,16 @@ struct CellGroups {
   std::vector<std::uint32_t> begins;   // one per group, plus the end
 };
 
+std::uint64_t keyOfEntry(const KeyedPoint& entry) { return entry.first; }
+
 /// The groups of (key, point) pairs sorted by key.
 CellGroups groupByKey(const std::vector<KeyedPoint>& sorted) {
   CellGroups groups;
+  groups.begins = runStarts(sorted, keyOfEntry);
   groups.points.resize(sorted.size());
-  for (std::size_t i = 0; i < sorted.size(); ++i) {
-    groups.points[i] = sorted[i].second;
-    if (i == 0 || sorted[i].first != sorted[i - 1].first) {
-      groups.keys.push_back(sorted[i].first);
-      groups.begins.push_back(static_cast<std::uint32_t>(i));
-    }
-  }
-  groups.begins.push_back(static_cast<std::uint32_t>(sorted.size()));
+  groups.keys.resize(groups.begins.size() - 1);
+  tbb::parallel_for(std::size_t{0}, sorted.size(), [&](std::size_t i) { groups.points[i] = sorted[i].second; });
+  tbb::parallel_for(std::size_t{0}, groups.keys.size(), [&](std::size_t g) { groups.keys[g] = sorted[groups.begins[g]].first; });
   return groups;
 }
 
@@ -72,17 +70,17 @@ class CellGrid {
     tbb::parallel_for(std::size_t{0}, positions.size(), [&](std::size_t i) {
       keyed[i] = {keyOf(positions[i]), static_cast<std::uint32_t>(i)};
     });
-    tbb::parallel_sort(keyed.begin(), keyed.end());  // (key, point) pairs are distinct: a total order
+    stableSortByKey(keyed, keyOfEntry);  // made in point order, so sorted by (key, point)
     cells_ = groupByKey(keyed);
     x_.resize(keyed.size());
     y_.resize(keyed.size());
     z_.resize(keyed.size());
-    for (std::size_t i = 0; i < keyed.size(); ++i) {
+    tbb::parallel_for(std::size_t{0}, keyed.size(), [&](std::size_t i) {
       const Eigen::Vector3f& p = positions[keyed[i].second];
       x_[i] = p.x();
       y_[i] = p.y();
       z_[i] = p.z();
-    }
+    });
     indexRows();
   }
 
@@ -207,15 +205,39 @@ class CellGrid {
   std::vector<Row> rows_;              // the cells of each occupied row
 };
 
-/// Scratch space of one task: a cell's open points, a block's candidates, their squared distances
-/// to one point and the nearest of them.
+/// Scratch space of one task: a block's candidates side by side, their squared distances to one
+/// point and the nearest of them.
 struct Scratch {
   std::vector<std::uint32_t> open;
   CellGrid::Block block;
-  std::vector<float> squared;
-  std::vector<std::uint64_t> nearest;  // the candidates within the threshold, packed
-  std::vector<std::uint64_t> ranked;   // the k nearest of them, in order
+  std::vector<float> x, y, z;              // the block's candidates, copied out of its ranges...
+  std::vector<std::uint32_t> point;        // ...and their point indices
+  std::vector<float> squared;              // squared distances to the point searched for
+  std::vector<std::uint32_t> near;         // the candidates within the threshold, by position in the block
+  std::vector<float> nearSquared;          // their squared distances...
+  std::vector<std::uint32_t> nearPoint;    // ...and point indices
+  std::vector<float> rankedSquared;        // the k + 1 nearest of them (the point itself among them)...
+  std::vector<std::uint32_t> rankedPoint;  // ...in order
+  std::vector<std::uint64_t> order;        // (squared distance, point) packed, for a partial sort
   float guess = 0.0f;  ///< Squared k-th distance of the task's last point: its neighbours' is alike.
+
+  /// Copies the block's candidates side by side: every point of the cell reads them.
+  void loadBlock(const CellGrid& grid) {
+    const std::size_t count = block.count;
+    x.resize(count);
+    y.resize(count);
+    z.resize(count);
+    point.resize(count);
+    std::size_t b = 0;
+    for (const auto& [from, to] : block.ranges) {
+      const std::size_t length = to - from;
+      std::copy_n(grid.orderedX() + from, length, x.begin() + static_cast<std::ptrdiff_t>(b));
+      std::copy_n(grid.orderedY() + from, length, y.begin() + static_cast<std::ptrdiff_t>(b));
+      std::copy_n(grid.orderedZ() + from, length, z.begin() + static_cast<std::ptrdiff_t>(b));
+      std::copy_n(grid.orderedPoints() + from, length, point.begin() + static_cast<std::ptrdiff_t>(b));
+      b += length;
+    }
+  }
 };
 
 /// (squared distance, point) packed so that integer order is (distance, index) order: the bits of
@@ -243,69 +265,91 @@ struct Unsettled {
 std::optional<Unsettled> trySettle(std::uint32_t i, const Eigen::Vector3f& q, const CellGrid& grid, Scratch& s,
                                    double clearance, NeighborLists& lists) {
   const auto k = static_cast<std::size_t>(lists.k);
-  const CellGrid::Block& block = s.block;
-  const std::size_t count = block.count;
+  const std::size_t count = s.block.count;
   if (count < k + 1) return Unsettled{};  // the point itself is among the candidates
   s.squared.resize(count);
   {
-    const float* __restrict x = grid.orderedX();
-    const float* __restrict y = grid.orderedY();
-    const float* __restrict z = grid.orderedZ();
+    const float* __restrict x = s.x.data();
+    const float* __restrict y = s.y.data();
+    const float* __restrict z = s.z.data();
     float* __restrict squared = s.squared.data();
     const float qx = q.x(), qy = q.y(), qz = q.z();
-    for (const auto& [from, to] : block.ranges) {
-      for (std::uint32_t b = from; b < to; ++b) {
-        const float dx = x[b] - qx, dy = y[b] - qy, dz = z[b] - qz;
-        *squared++ = dx * dx + dy * dy + dz * dz;
-      }
+    for (std::size_t b = 0; b < count; ++b) {
+      const float dx = x[b] - qx, dy = y[b] - qy, dz = z[b] - qz;
+      squared[b] = dx * dx + dy * dy + dz * dz;
     }
   }
-  // A threshold that lets between k and 1.4 k candidates in (the ranking below costs their count
-  // squared): from the last point's k-th distance, corrected as on a surface (the count grows with
-  // the squared radius). Counting and collecting without branches is much cheaper than selecting
-  // among all candidates.
+  // A threshold that lets between k and 1.4 k candidates in besides the point itself (the ranking
+  // below costs their count squared): from the last point's k-th distance, corrected as on a
+  // surface (the count grows with the squared radius). Counting and collecting without branches is
+  // much cheaper than selecting among all candidates.
   float threshold = s.guess > 0.0f ? 1.05f * s.guess : static_cast<float>(grid.edge() * grid.edge());
   for (int attempt = 0;; ++attempt) {
-    std::size_t within = 0;  // the point itself (at distance 0, always within) is taken off below
+    std::size_t within = 0;
     for (std::size_t b = 0; b < count; ++b) within += s.squared[b] <= threshold;
-    --within;
+    --within;  // the point itself, at distance 0
     if (within >= k && (10 * within <= 14 * k || attempt >= 8)) break;
     const float scale = within == 0 ? 4.0f : std::clamp(1.2f * static_cast<float>(k) / static_cast<float>(within), 0.25f, 4.0f);
     threshold *= scale;
   }
-  s.nearest.resize(count);
+  s.near.resize(count);
   std::size_t kept = 0;
-  const std::uint32_t* points = grid.orderedPoints();
-  std::size_t b = 0;
-  for (const auto& [from, to] : block.ranges) {
-    for (std::uint32_t e = from; e < to; ++e, ++b) {
-      s.nearest[kept] = packed(s.squared[b], points[e]);
-      kept += static_cast<std::size_t>(s.squared[b] <= threshold) & static_cast<std::size_t>(points[e] != i);
-    }
+  for (std::size_t b = 0; b < count; ++b) {
+    s.near[kept] = static_cast<std::uint32_t>(b);
+    kept += static_cast<std::size_t>(s.squared[b] <= threshold);
   }
-  // The k smallest in order, placed by rank: the values are distinct (the index is part of them),
-  // and counting without branches beats a sort's unpredictable ones on a few dozen values.
-  s.ranked.resize(k);
+  s.nearSquared.resize(kept);
+  s.nearPoint.resize(kept);
+  for (std::size_t a = 0; a < kept; ++a) {
+    s.nearSquared[a] = s.squared[s.near[a]];
+    s.nearPoint[a] = s.point[s.near[a]];
+  }
+  // The k + 1 smallest in (distance, index) order, placed by rank: the pairs are distinct, and
+  // counting without branches (several lanes at a time) beats a sort's unpredictable branches on a
+  // few dozen values.
+  const std::size_t ranks = k + 1;
+  s.rankedSquared.resize(ranks);
+  s.rankedPoint.resize(ranks);
   if (kept <= kMaxRanked) {
-    const std::uint64_t* values = s.nearest.data();
+    const float* __restrict squared = s.nearSquared.data();
+    const std::uint32_t* __restrict point = s.nearPoint.data();
     for (std::size_t a = 0; a < kept; ++a) {
-      std::size_t rank = 0;
-      for (std::size_t b = 0; b < kept; ++b) rank += values[b] < values[a];
-      if (rank < k) s.ranked[rank] = values[a];
+      const float da = squared[a];
+      const std::uint32_t pa = point[a];
+      std::uint32_t rank = 0;
+      for (std::size_t c = 0; c < kept; ++c) {
+        rank += static_cast<std::uint32_t>(squared[c] < da) |
+                (static_cast<std::uint32_t>(squared[c] == da) & static_cast<std::uint32_t>(point[c] < pa));
+      }
+      if (rank < ranks) {
+        s.rankedSquared[rank] = da;
+        s.rankedPoint[rank] = pa;
+      }
     }
   } else {
-    std::partial_sort(s.nearest.begin(), s.nearest.begin() + static_cast<std::ptrdiff_t>(k),
-                      s.nearest.begin() + static_cast<std::ptrdiff_t>(kept));
-    std::copy(s.nearest.begin(), s.nearest.begin() + static_cast<std::ptrdiff_t>(k), s.ranked.begin());
+    std::vector<std::uint64_t>& order = s.order;
+    order.resize(kept);
+    for (std::size_t a = 0; a < kept; ++a) order[a] = packed(s.nearSquared[a], s.nearPoint[a]);
+    std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(ranks), order.end());
+    for (std::size_t j = 0; j < ranks; ++j) {
+      s.rankedSquared[j] = squaredOf(order[j]);
+      s.rankedPoint[j] = static_cast<std::uint32_t>(order[j]);
+    }
   }
-  const float kth = squaredOf(s.ranked[k - 1]);
+  // The point itself leaves the list (first, unless it has copies of lower index).
+  const auto self = static_cast<std::ptrdiff_t>(std::find(s.rankedPoint.begin(), s.rankedPoint.end(), i) - s.rankedPoint.begin());
+  if (self < static_cast<std::ptrdiff_t>(ranks)) {
+    s.rankedPoint.erase(s.rankedPoint.begin() + self);
+    s.rankedSquared.erase(s.rankedSquared.begin() + self);
+  }
+  const float kth = s.rankedSquared[k - 1];
   s.guess = kth;
   if (static_cast<double>(kth) > clearance * clearance) return Unsettled{true, std::sqrt(static_cast<double>(kth))};
   std::uint32_t* out = &lists.indices[i * k];
   float distanceSum = 0.0f;
   for (std::size_t j = 0; j < k; ++j) {
-    out[j] = static_cast<std::uint32_t>(s.ranked[j]);
-    if (j < static_cast<std::size_t>(lists.meanOf)) distanceSum += std::sqrt(squaredOf(s.ranked[j]));
+    out[j] = s.rankedPoint[j];
+    if (j < static_cast<std::size_t>(lists.meanOf)) distanceSum += std::sqrt(s.rankedSquared[j]);
   }
   if (lists.meanOf > 0) lists.meanDistance[i] = distanceSum / static_cast<float>(lists.meanOf);
   return std::nullopt;
@@ -327,6 +371,7 @@ void settleCell(const CellGrid& grid, const Cube& centre, const std::uint32_t* f
       return;
     }
     grid.gatherBlock(from, to, s.block);
+    s.loadBlock(grid);
     Cube nextFrom = from, nextTo = to;
     std::size_t open = 0;
     for (const std::uint32_t i : points) {

@@ -36,6 +36,7 @@
 #include "cell_table.h"
 #include "random.h"
 #include "sector_offsets.h"
+#include "sort_by_key.h"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
@@ -132,11 +133,8 @@ class CellIndex {
 
   /// (key, item) in (key, item) order. The cells of a stripe span a small box, so the keys, made
   /// compact over that box (each coordinate less its smallest, the same order), usually fit 33 bits:
-  /// then a stable radix sort of three passes does it, much faster than a comparison sort.
+  /// three passes of the radix sort.
   static std::vector<std::pair<std::uint64_t, std::uint32_t>> sortedByKey(const std::vector<std::uint64_t>& keys) {
-    constexpr int kDigitBits = 11;
-    constexpr std::size_t kBuckets = std::size_t{1} << kDigitBits;
-    constexpr int kMaxPasses = 3;
     constexpr std::uint64_t kField = (std::uint64_t{1} << 21) - 1;
     std::vector<std::pair<std::uint64_t, std::uint32_t>> sorted(keys.size());
     std::array<std::uint64_t, 3> low{kField, kField, kField}, high{0, 0, 0};
@@ -151,25 +149,13 @@ class CellIndex {
     for (int f = 0; f < 3; ++f) {
       while (bits[f] < 21 && ((high[f] - low[f]) >> bits[f]) != 0) ++bits[f];
     }
-    const int total = bits[0] + bits[1] + bits[2];
     for (std::size_t i = 0; i < keys.size(); ++i) {
       const std::uint64_t key = keys[i];
       const std::uint64_t compact = ((key >> 42 & kField) - low[0]) << (bits[1] + bits[2]) |
                                     ((key >> 21 & kField) - low[1]) << bits[2] | ((key & kField) - low[2]);
-      sorted[i] = {total <= kMaxPasses * kDigitBits ? compact : key, static_cast<std::uint32_t>(i)};
+      sorted[i] = {compact, static_cast<std::uint32_t>(i)};
     }
-    if (total > kMaxPasses * kDigitBits) {
-      std::sort(sorted.begin(), sorted.end());
-    } else {
-      std::vector<std::pair<std::uint64_t, std::uint32_t>> buffer(sorted.size());
-      for (int shift = 0; shift < total; shift += kDigitBits) {
-        std::array<std::size_t, kBuckets + 1> offsets{};
-        for (const auto& entry : sorted) ++offsets[((entry.first >> shift) & (kBuckets - 1)) + 1];
-        for (std::size_t b = 1; b <= kBuckets; ++b) offsets[b] += offsets[b - 1];
-        for (const auto& entry : sorted) buffer[offsets[(entry.first >> shift) & (kBuckets - 1)]++] = entry;
-        sorted.swap(buffer);
-      }
-    }
+    stableSortByKey(sorted, [](const std::pair<std::uint64_t, std::uint32_t>& entry) { return entry.first; });
     for (auto& entry : sorted) entry.first = keys[entry.second];
     return sorted;
   }

@@ -38,11 +38,11 @@
 #include "piperun/error.h"
 
 #include "nearest_neighbors.h"
+#include "sort_by_key.h"
 #include "union_find.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -156,35 +156,28 @@ class CubeGrid {
   Index3 counts_;
 };
 
-/// A point tagged with the key of its cube; sorting these groups points by cube in a fixed order.
+/// A point tagged with the key of its cube; sorting these by key groups points by cube in a fixed
+/// order.
 struct KeyedPoint {
   std::uint64_t key;
   std::uint32_t point;
-  bool operator<(const KeyedPoint& other) const {
-    return key != other.key ? key < other.key : point < other.point;
-  }
 };
 
 /// Marks points with no cube (non-finite positions); sorts after every real key.
 constexpr std::uint64_t kNoCube = std::numeric_limits<std::uint64_t>::max();
 
-/// Starts of the runs of equal keys in sorted entries, plus the end.
-std::vector<std::uint32_t> runStarts(const std::vector<KeyedPoint>& sorted) {
-  std::vector<std::uint32_t> starts;
-  for (std::size_t i = 0; i < sorted.size(); ++i) {
-    if (i == 0 || sorted[i].key != sorted[i - 1].key) starts.push_back(static_cast<std::uint32_t>(i));
-  }
-  starts.push_back(static_cast<std::uint32_t>(sorted.size()));
-  return starts;
-}
+std::uint64_t keyOfEntry(const KeyedPoint& entry) { return entry.key; }
 
 /// Step 1: one point per occupied voxel, the centroid of its points; non-finite points are dropped.
 PointCloud voxelCentroids(const PointCloud& input, double leaf, Progress& progress) {
   PointCloud output;
   output.origin = input.origin;
   BoundingBox bounds;
+  std::size_t finite = 0;
   for (const Eigen::Vector3f& p : input.positions) {
-    if (p.allFinite()) bounds.extend(p.cast<double>());
+    if (!p.allFinite()) continue;
+    bounds.extend(p.cast<double>());
+    ++finite;
   }
   if (bounds.empty()) return output;
   if (leaf == 0.0) {
@@ -204,12 +197,15 @@ PointCloud voxelCentroids(const PointCloud& input, double leaf, Progress& progre
     }
   });
   progress.report(kTask, 0.3 * kVoxelDone);
-  tbb::parallel_sort(entries.begin(), entries.end());  // (key, point) pairs are distinct: a total order
+  if (finite < input.size()) {  // non-finite points have no cube
+    entries.erase(std::remove_if(entries.begin(), entries.end(), [](const KeyedPoint& e) { return e.key == kNoCube; }),
+                  entries.end());
+  }
+  stableSortByKey(entries, keyOfEntry);  // made in point order, so sorted by (key, point)
   progress.checkCancelled();
-  entries.erase(std::lower_bound(entries.begin(), entries.end(), KeyedPoint{kNoCube, 0}), entries.end());
   progress.report(kTask, 0.8 * kVoxelDone);
 
-  const std::vector<std::uint32_t> starts = runStarts(entries);
+  const std::vector<std::uint32_t> starts = runStarts(entries, keyOfEntry);
   const std::size_t voxels = starts.size() - 1;
   output.positions.resize(voxels);
   parallelChunks(voxels, progress, [&](std::size_t first, std::size_t last) {
@@ -434,8 +430,8 @@ CellGrid groupIntoCells(const PointCloud& cloud, const std::vector<char>& valid,
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     if (valid[i]) cells.entries.push_back({cells.grid.key(cells.grid.cubeOf(cloud.positions[i])), static_cast<std::uint32_t>(i)});
   }
-  tbb::parallel_sort(cells.entries.begin(), cells.entries.end());
-  const std::vector<std::uint32_t> starts = runStarts(cells.entries);
+  stableSortByKey(cells.entries, keyOfEntry);  // made in point order, so sorted by (key, point)
+  const std::vector<std::uint32_t> starts = runStarts(cells.entries, keyOfEntry);
   cells.cells.resize(starts.size() - 1);
   cells.keys.resize(cells.cells.size());
   for (std::size_t c = 0; c < cells.cells.size(); ++c) {
@@ -622,10 +618,10 @@ std::vector<Tile> buildTiles(const PointCloud& cloud, double size, double overla
       }
     }
   }
-  tbb::parallel_sort(memberships.begin(), memberships.end());
+  stableSortByKey(memberships, keyOfEntry);  // made in point order, so sorted by (key, point)
 
   std::vector<Tile> tiles;
-  const std::vector<std::uint32_t> starts = runStarts(memberships);
+  const std::vector<std::uint32_t> starts = runStarts(memberships, keyOfEntry);
   for (std::size_t t = 0; t + 1 < starts.size(); ++t) {
     const std::uint64_t key = memberships[starts[t]].key;
     const auto perX = static_cast<std::uint64_t>(counts.y() * counts.z());
