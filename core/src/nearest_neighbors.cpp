@@ -1,5 +1,6 @@
 #include "nearest_neighbors.h"
 
+#include "bounds.h"
 #include "cell_table.h"
 #include "sort_by_key.h"
 
@@ -407,8 +408,7 @@ NeighborLists findNearestNeighbors(const std::vector<Eigen::Vector3f>& positions
   lists.indices.resize(n * static_cast<std::size_t>(lists.k));
   if (lists.meanOf > 0) lists.meanDistance.resize(n);
 
-  BoundingBox bounds;
-  for (const Eigen::Vector3f& p : positions) bounds.extend(p.cast<double>());
+  const BoundingBox bounds = finiteBounds(positions).box;
   const double neighborRadius = spacing * std::sqrt(static_cast<double>(lists.k) / 3.14159265358979323846);
   double edge = kEdgePerNeighborRadius * neighborRadius;
 

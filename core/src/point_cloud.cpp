@@ -1,5 +1,7 @@
 #include "piperun/point_cloud.h"
 
+#include "bounds.h"
+
 #include <stdexcept>
 #include <string>
 
@@ -66,16 +68,11 @@ unsigned PointCloud::attributes() const {
 }
 
 BoundingBox PointCloud::boundingBox() const {
-  if (positions.empty()) return {};
-  Eigen::Vector3f low = positions.front();
-  Eigen::Vector3f high = positions.front();
-  for (const auto& p : positions) {
-    low = low.cwiseMin(p);
-    high = high.cwiseMax(p);
-  }
+  const BoundingBox offsets = finiteBounds(positions).box;
+  if (offsets.empty()) return {};
   BoundingBox box;
-  box.extend(origin + low.cast<double>());
-  box.extend(origin + high.cast<double>());
+  box.extend(origin + offsets.min);
+  box.extend(origin + offsets.max);
   return box;
 }
 

@@ -1,6 +1,7 @@
 #include "piperun/spacing.h"
 
 #include "cell_table.h"
+#include "sort_by_key.h"
 
 #include <tbb/parallel_for.h>
 
@@ -53,21 +54,27 @@ double estimatePointSpacing(const PointCloud& cloud, std::size_t samples) {
       if (id >= 0) found[chunk].emplace_back(static_cast<std::uint32_t>(id), static_cast<std::uint32_t>(i));
     }
   });
-  std::vector<std::vector<std::uint32_t>> members(cellIds.size());
-  for (const auto& part : found) {
-    for (const auto& [id, i] : part) members[id].push_back(i);
-  }
+  // The finds grouped by cell, in point order within a cell.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> byCell;
+  for (const auto& part : found) byCell.insert(byCell.end(), part.begin(), part.end());
+  const auto cellOfFind = [](const std::pair<std::uint32_t, std::uint32_t>& entry) { return std::uint64_t{entry.first}; };
+  stableSortByKey(byCell, cellOfFind);
+  std::vector<std::uint32_t> cellStart(cellIds.size() + 1, 0);
+  for (const auto& [id, i] : byCell) ++cellStart[id + 1];
+  for (std::size_t c = 0; c < cellIds.size(); ++c) cellStart[c + 1] += cellStart[c];
 
-  std::vector<double> distances;
-  distances.reserve(samples);
-  for (std::size_t q : queries) {
+  std::vector<float> nearest(samples, std::numeric_limits<float>::infinity());
+  tbb::parallel_for(std::size_t{0}, samples, [&](std::size_t k) {
+    const std::size_t q = queries[k];
     const Eigen::Vector3f& p = cloud.positions[q];
     const Eigen::Vector3i center = cellOf(p, cell);
     float best = std::numeric_limits<float>::infinity();
     for (int dx = -1; dx <= 1; ++dx) {
       for (int dy = -1; dy <= 1; ++dy) {
         for (int dz = -1; dz <= 1; ++dz) {
-          for (std::uint32_t i : members[static_cast<std::size_t>(cellIds.find(cellKey(center + Eigen::Vector3i(dx, dy, dz))))]) {
+          const auto id = static_cast<std::size_t>(cellIds.find(cellKey(center + Eigen::Vector3i(dx, dy, dz))));
+          for (std::uint32_t e = cellStart[id]; e < cellStart[id + 1]; ++e) {
+            const std::uint32_t i = byCell[e].second;
             if (i == q) continue;
             const float d = (cloud.positions[i] - p).squaredNorm();
             // Exact duplicates (several returns of one spot) say nothing about spacing.
@@ -76,6 +83,11 @@ double estimatePointSpacing(const PointCloud& cloud, std::size_t samples) {
         }
       }
     }
+    nearest[k] = best;
+  });
+  std::vector<double> distances;
+  distances.reserve(samples);
+  for (const float best : nearest) {
     if (std::isfinite(best)) distances.push_back(std::sqrt(static_cast<double>(best)));
   }
   if (distances.empty()) return 0.0;

@@ -37,6 +37,7 @@
 
 #include "piperun/error.h"
 
+#include "bounds.h"
 #include "nearest_neighbors.h"
 #include "sort_by_key.h"
 #include "union_find.h"
@@ -172,13 +173,7 @@ std::uint64_t keyOfEntry(const KeyedPoint& entry) { return entry.key; }
 PointCloud voxelCentroids(const PointCloud& input, double leaf, Progress& progress) {
   PointCloud output;
   output.origin = input.origin;
-  BoundingBox bounds;
-  std::size_t finite = 0;
-  for (const Eigen::Vector3f& p : input.positions) {
-    if (!p.allFinite()) continue;
-    bounds.extend(p.cast<double>());
-    ++finite;
-  }
+  const auto [bounds, finite] = finiteBounds(input.positions);
   if (bounds.empty()) return output;
   if (leaf == 0.0) {
     output.positions.reserve(input.size());
@@ -427,9 +422,13 @@ struct CellGrid {
 
 CellGrid groupIntoCells(const PointCloud& cloud, const std::vector<char>& valid, double cellSize, const BoundingBox& bounds) {
   CellGrid cells{CubeGrid(cloud.origin, cellSize, bounds), {}, {}, {}};
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    if (valid[i]) cells.entries.push_back({cells.grid.key(cells.grid.cubeOf(cloud.positions[i])), static_cast<std::uint32_t>(i)});
-  }
+  cells.entries.resize(cloud.size());
+  tbb::parallel_for(std::size_t{0}, cloud.size(), [&](std::size_t i) {
+    cells.entries[i] = {valid[i] ? cells.grid.key(cells.grid.cubeOf(cloud.positions[i])) : kNoCube, static_cast<std::uint32_t>(i)};
+  });
+  cells.entries.erase(std::remove_if(cells.entries.begin(), cells.entries.end(),
+                                     [](const KeyedPoint& entry) { return entry.key == kNoCube; }),
+                      cells.entries.end());
   stableSortByKey(cells.entries, keyOfEntry);  // made in point order, so sorted by (key, point)
   const std::vector<std::uint32_t> starts = runStarts(cells.entries, keyOfEntry);
   cells.cells.resize(starts.size() - 1);
@@ -525,10 +524,7 @@ std::vector<std::int64_t> locateOnPlanes(const CellGrid& grid, const std::vector
 /// Step 5: flags the points of large planes among the points with normals. Returns the plane count.
 int findPlanePoints(const PointCloud& cloud, const SurfaceEstimates& surface, const PreprocessParams& params,
                     std::vector<char>& planePoint, Progress& progress) {
-  BoundingBox bounds;
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    if (surface.valid[i]) bounds.extend(cloud.positions[i].cast<double>());
-  }
+  const BoundingBox bounds = finiteBounds(cloud.positions, [&](std::size_t i) { return surface.valid[i] != 0; }).box;
   if (bounds.empty()) return 0;
   CellGrid grid = groupIntoCells(cloud, surface.valid, params.planeCellSize, bounds);
   progress.checkCancelled();
@@ -573,6 +569,48 @@ int findPlanePoints(const PointCloud& cloud, const SurfaceEstimates& surface, co
   located = locateOnPlanes(grid, regionOf, cloud, surface.normals, params.planeMaxThickness, progress);
   for (std::size_t i = 0; i < located.size(); ++i) planePoint[i] = located[i] != kOffPlanes;
   return planes;
+}
+
+/// The points with normals, kept or set aside as plane points, in point order: chunks are counted,
+/// then each writes its points from its offsets.
+void splitPoints(const PointCloud& sampled, const SurfaceEstimates& surface, const std::vector<char>& planePoint,
+                 PreprocessResult& result) {
+  constexpr std::size_t kSplitChunk = std::size_t{1} << 16;
+  const std::size_t n = sampled.size();
+  const std::size_t chunks = (n + kSplitChunk - 1) / kSplitChunk;
+  std::vector<std::size_t> keptBefore(chunks + 1, 0), planesBefore(chunks + 1, 0);
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    for (std::size_t i = c * kSplitChunk, last = std::min(n, (c + 1) * kSplitChunk); i < last; ++i) {
+      if (!surface.valid[i]) continue;
+      ++(planePoint[i] ? planesBefore : keptBefore)[c + 1];
+    }
+  });
+  for (std::size_t c = 0; c < chunks; ++c) {
+    keptBefore[c + 1] += keptBefore[c];
+    planesBefore[c + 1] += planesBefore[c];
+  }
+  PointCloud& kept = result.points;
+  PointCloud& planes = result.planePoints;
+  kept.origin = planes.origin = sampled.origin;
+  kept.positions.resize(keptBefore[chunks]);
+  kept.normals.resize(keptBefore[chunks]);
+  result.curvature.resize(keptBefore[chunks]);
+  planes.positions.resize(planesBefore[chunks]);
+  planes.normals.resize(planesBefore[chunks]);
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    std::size_t nextKept = keptBefore[c], nextPlane = planesBefore[c];
+    for (std::size_t i = c * kSplitChunk, last = std::min(n, (c + 1) * kSplitChunk); i < last; ++i) {
+      if (!surface.valid[i]) continue;
+      if (planePoint[i]) {
+        planes.positions[nextPlane] = sampled.positions[i];
+        planes.normals[nextPlane++] = surface.normals[i];
+      } else {
+        kept.positions[nextKept] = sampled.positions[i];
+        kept.normals[nextKept] = surface.normals[i];
+        result.curvature[nextKept++] = surface.curvature[i];
+      }
+    }
+  });
 }
 
 /// Step 6: cubic tiles from the low corner of the cloud's bounding box, grown by the overlap.
@@ -694,15 +732,7 @@ PreprocessResult preprocess(const PointCloud& input, const PreprocessParams& par
   progress.checkCancelled();
   progress.report(kTask, kPlanesDone);
 
-  result.points.origin = input.origin;
-  result.planePoints.origin = input.origin;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!surface.valid[i]) continue;
-    PointCloud& target = planePoint[i] ? result.planePoints : result.points;
-    target.positions.push_back(sampled.positions[i]);
-    target.normals.push_back(surface.normals[i]);
-    if (!planePoint[i]) result.curvature.push_back(surface.curvature[i]);
-  }
+  splitPoints(sampled, surface, planePoint, result);
   diagnostics.planePoints = result.planePoints.size();
   diagnostics.keptPoints = result.points.size();
 
