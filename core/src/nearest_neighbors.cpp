@@ -286,7 +286,7 @@ std::optional<Unsettled> trySettle(std::uint32_t i, const Eigen::Vector3f& q, co
   // much cheaper than selecting among all candidates.
   float threshold = s.guess > 0.0f ? 1.05f * s.guess : static_cast<float>(grid.edge() * grid.edge());
   for (int attempt = 0;; ++attempt) {
-    std::size_t within = 0;
+    std::uint32_t within = 0;  // 32 bits: four lanes at a time
     for (std::size_t b = 0; b < count; ++b) within += s.squared[b] <= threshold;
     --within;  // the point itself, at distance 0
     if (within >= k && (10 * within <= 14 * k || attempt >= 8)) break;
