@@ -14,6 +14,7 @@
 #include <cstring>
 #include <limits>
 #include <optional>
+#include <stdexcept>
 #include <utility>
 
 namespace piperun {
@@ -403,12 +404,14 @@ NeighborLists findNearestNeighbors(const std::vector<Eigen::Vector3f>& positions
   const std::size_t n = positions.size();
   NeighborLists lists;
   if (n < 2 || k <= 0) return lists;
+  const auto [bounds, finite] = finiteBounds(positions);
+  // A non-finite point is at no distance from anything: its search would never settle.
+  if (finite != n) throw std::invalid_argument("findNearestNeighbors: every position must be finite");
   lists.k = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(k), n - 1));
   lists.meanOf = std::clamp(meanOf, 0, lists.k);
   lists.indices.resize(n * static_cast<std::size_t>(lists.k));
   if (lists.meanOf > 0) lists.meanDistance.resize(n);
 
-  const BoundingBox bounds = finiteBounds(positions).box;
   const double neighborRadius = spacing * std::sqrt(static_cast<double>(lists.k) / 3.14159265358979323846);
   double edge = kEdgePerNeighborRadius * neighborRadius;
 

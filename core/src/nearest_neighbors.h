@@ -24,7 +24,8 @@ struct NeighborLists {
   std::vector<float> meanDistance;     ///< Mean distance to the first meanOf neighbours.
 };
 
-/// The k nearest neighbours of every point. `spacing` (> 0) is the typical distance between
+/// The k nearest neighbours of every point; the positions must be finite (std::invalid_argument
+/// otherwise). `spacing` (> 0) is the typical distance between
 /// neighbouring points; it sets the cell size, so it affects speed only, never the result.
 /// Reports progress under `task` from `progressFrom` to `progressTo`; checks for cancellation.
 NeighborLists findNearestNeighbors(const std::vector<Eigen::Vector3f>& positions, int k, int meanOf, double spacing,

@@ -8,6 +8,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <stdexcept>
 #include <random>
 #include <utility>
 #include <vector>
@@ -103,6 +105,14 @@ TEST(NearestNeighbors, SmallCloudsAskForAtMostTheOtherPoints) {
   EXPECT_TRUE(coincident.meanDistance.empty());
 
   EXPECT_TRUE(findNearestNeighbors({{0, 0, 0}}, 16, 8, 0.01, Progress::none(), "test", 0.0, 1.0).indices.empty());
+}
+
+TEST(NearestNeighbors, RefusesNonFinitePositions) {
+  std::vector<Eigen::Vector3f> points = mixedCloud(3);
+  points[17] = Eigen::Vector3f(std::nanf(""), 0.0f, 0.0f);
+  EXPECT_THROW(findNearestNeighbors(points, 16, 8, 0.01, Progress::none(), "test", 0.0, 1.0), std::invalid_argument);
+  points[17] = Eigen::Vector3f(std::numeric_limits<float>::infinity(), 0.0f, 0.0f);
+  EXPECT_THROW(findNearestNeighbors(points, 16, 8, 0.01, Progress::none(), "test", 0.0, 1.0), std::invalid_argument);
 }
 
 TEST(NearestNeighbors, ReportsProgressAndCanBeCancelled) {
