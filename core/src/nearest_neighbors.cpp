@@ -38,27 +38,7 @@ constexpr double kMaxCellsPerAxis = 1 << 20;
 constexpr std::size_t kMaxRanked = 48;
 
 using Cube = Eigen::Array<std::int64_t, 3, 1>;
-using KeyedPoint = std::pair<std::uint64_t, std::uint32_t>;  // (cell key, point)
-
-/// Points grouped by cell: group g holds points[begins[g], begins[g + 1]) and has keys[g].
-struct CellGroups {
-  std::vector<std::uint32_t> points;
-  std::vector<std::uint64_t> keys;     // ascending
-  std::vector<std::uint32_t> begins;   // one per group, plus the end
-};
-
-std::uint64_t keyOfEntry(const KeyedPoint& entry) { return entry.first; }
-
-/// The groups of (key, point) pairs sorted by key.
-CellGroups groupByKey(const std::vector<KeyedPoint>& sorted) {
-  CellGroups groups;
-  groups.begins = runStarts(sorted, keyOfEntry);
-  groups.points.resize(sorted.size());
-  groups.keys.resize(groups.begins.size() - 1);
-  tbb::parallel_for(std::size_t{0}, sorted.size(), [&](std::size_t i) { groups.points[i] = sorted[i].second; });
-  tbb::parallel_for(std::size_t{0}, groups.keys.size(), [&](std::size_t g) { groups.keys[g] = sorted[groups.begins[g]].first; });
-  return groups;
-}
+using KeyedPoint = KeyedItem;  // (cell key, point)
 
 /// Cubic cells of one edge, counted from the low corner of the points' bounds, and the points in
 /// each occupied cell.
@@ -72,7 +52,7 @@ class CellGrid {
     tbb::parallel_for(std::size_t{0}, positions.size(), [&](std::size_t i) {
       keyed[i] = {keyOf(positions[i]), static_cast<std::uint32_t>(i)};
     });
-    stableSortByKey(keyed, keyOfEntry);  // made in point order, so sorted by (key, point)
+    stableSortByKey(keyed, keyOfItem);  // made in point order, so sorted by (key, point)
     cells_ = groupByKey(keyed);
     x_.resize(keyed.size());
     y_.resize(keyed.size());
@@ -89,7 +69,7 @@ class CellGrid {
   double edge() const { return edge_; }
 
   /// Every point, grouped by cell in key order.
-  const CellGroups& cells() const { return cells_; }
+  const KeyGroups& cells() const { return cells_; }
 
   std::uint64_t keyOf(const Eigen::Vector3f& p) const { return key(cubeOf(p)); }
   /// The cube holding p + offset on every axis (not clipped to the grid).
@@ -152,7 +132,7 @@ class CellGrid {
   }
 
   /// Point indices and coordinates in cell order, the arrays a Block's ranges refer to.
-  const std::uint32_t* orderedPoints() const { return cells_.points.data(); }
+  const std::uint32_t* orderedPoints() const { return cells_.items.data(); }
   const float* orderedX() const { return x_.data(); }
   const float* orderedY() const { return y_.data(); }
   const float* orderedZ() const { return z_.data(); }
@@ -201,7 +181,7 @@ class CellGrid {
   Eigen::Vector3d low_;
   double edge_;
   Cube counts_;
-  CellGroups cells_;                   // the points by cell
+  KeyGroups cells_;                   // the points by cell
   std::vector<float> x_, y_, z_;       // their coordinates, in the same order
   CellTable rowIds_;                   // row number → index into rows_
   std::vector<Row> rows_;              // the cells of each occupied row
@@ -339,10 +319,10 @@ std::optional<Unsettled> trySettle(std::uint32_t i, const Eigen::Vector3f& q, co
     }
   }
   // The point itself leaves the list (first, unless it has copies of lower index).
-  const auto self = static_cast<std::ptrdiff_t>(std::find(s.rankedPoint.begin(), s.rankedPoint.end(), i) - s.rankedPoint.begin());
-  if (self < static_cast<std::ptrdiff_t>(ranks)) {
-    s.rankedPoint.erase(s.rankedPoint.begin() + self);
-    s.rankedSquared.erase(s.rankedSquared.begin() + self);
+  const auto self = std::find(s.rankedPoint.begin(), s.rankedPoint.end(), i);
+  if (self != s.rankedPoint.end()) {
+    s.rankedSquared.erase(s.rankedSquared.begin() + (self - s.rankedPoint.begin()));
+    s.rankedPoint.erase(self);
   }
   const float kth = s.rankedSquared[k - 1];
   s.guess = kth;
@@ -423,15 +403,15 @@ NeighborLists findNearestNeighbors(const std::vector<Eigen::Vector3f>& positions
     const CellGrid grid(positions, bounds, edge);
     // The open points grouped by this level's cells: at the finest level all of them, as the grid
     // groups them.
-    CellGroups openGroups;
+    KeyGroups openGroups;
     if (!finest) {
       std::vector<KeyedPoint> keyed(open.size());
       for (std::size_t e = 0; e < open.size(); ++e) keyed[e] = {grid.keyOf(positions[open[e]]), open[e]};
       std::sort(keyed.begin(), keyed.end());
       openGroups = groupByKey(keyed);
     }
-    const CellGroups& groups = finest ? grid.cells() : openGroups;
-    const std::vector<std::uint32_t>& points = groups.points;
+    const KeyGroups& groups = finest ? grid.cells() : openGroups;
+    const std::vector<std::uint32_t>& points = groups.items;
     const std::vector<std::uint64_t>& keys = groups.keys;
     const std::vector<std::uint32_t>& begins = groups.begins;
 

@@ -9,6 +9,8 @@
 #include "piperun/error.h"
 #include "piperun/params.h"
 
+#include "random.h"
+
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -24,12 +26,9 @@ double secondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-// SplitMix64 finaliser: independent, reproducible seeds per (seed, tile, round).
+// Independent, reproducible seeds per (seed, tile, round).
 std::uint64_t mixSeed(std::uint64_t seed, std::uint64_t tile, std::uint64_t round) {
-  std::uint64_t z = seed + 0x9E3779B97F4A7C15ull * (1 + tile * 1000003ull + round);
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
+  return mixBits(seed + 0x9E3779B97F4A7C15ull * (1 + tile * 1000003ull + round));
 }
 
 std::vector<std::uint32_t> unexplainedPoints(const std::vector<std::uint32_t>& points, const ExtentsResult& extents) {

@@ -48,7 +48,6 @@ class HashGrid {
   }
 
  private:
-
   double cell_;
   std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells_;
 };

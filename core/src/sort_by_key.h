@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace piperun {
@@ -95,6 +96,29 @@ std::vector<std::uint32_t> runStarts(const std::vector<Entry>& sorted, KeyOf key
   });
   starts.back() = static_cast<std::uint32_t>(n);
   return starts;
+}
+
+/// An item (a point, a sample) tagged with the 64-bit key of its cell.
+using KeyedItem = std::pair<std::uint64_t, std::uint32_t>;
+inline std::uint64_t keyOfItem(const KeyedItem& entry) { return entry.first; }
+
+/// Items grouped by key: group g holds items[begins[g], begins[g + 1]) and has keys[g].
+struct KeyGroups {
+  std::vector<std::uint32_t> items;
+  std::vector<std::uint64_t> keys;    // ascending
+  std::vector<std::uint32_t> begins;  // one per group, plus the end
+};
+
+/// The groups of (key, item) pairs sorted by key.
+inline KeyGroups groupByKey(const std::vector<KeyedItem>& sorted) {
+  KeyGroups groups;
+  groups.begins = runStarts(sorted, keyOfItem);
+  groups.items.resize(sorted.size());
+  groups.keys.resize(groups.begins.size() - 1);
+  tbb::parallel_for(std::size_t{0}, sorted.size(), [&](std::size_t i) { groups.items[i] = sorted[i].second; });
+  tbb::parallel_for(std::size_t{0}, groups.keys.size(),
+                    [&](std::size_t g) { groups.keys[g] = sorted[groups.begins[g]].first; });
+  return groups;
 }
 
 }  // namespace piperun

@@ -1,7 +1,6 @@
 #include "piperun/spacing.h"
 
 #include "cell_table.h"
-#include "sort_by_key.h"
 
 #include <tbb/parallel_for.h>
 
@@ -54,14 +53,17 @@ double estimatePointSpacing(const PointCloud& cloud, std::size_t samples) {
       if (id >= 0) found[chunk].emplace_back(static_cast<std::uint32_t>(id), static_cast<std::uint32_t>(i));
     }
   });
-  // The finds grouped by cell, in point order within a cell.
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> byCell;
-  for (const auto& part : found) byCell.insert(byCell.end(), part.begin(), part.end());
-  const auto cellOfFind = [](const std::pair<std::uint32_t, std::uint32_t>& entry) { return std::uint64_t{entry.first}; };
-  stableSortByKey(byCell, cellOfFind);
+  // The finds grouped by cell (a counting sort), in point order within a cell.
   std::vector<std::uint32_t> cellStart(cellIds.size() + 1, 0);
-  for (const auto& [id, i] : byCell) ++cellStart[id + 1];
+  for (const auto& part : found) {
+    for (const auto& [id, i] : part) ++cellStart[id + 1];
+  }
   for (std::size_t c = 0; c < cellIds.size(); ++c) cellStart[c + 1] += cellStart[c];
+  std::vector<std::uint32_t> members(cellStart.back());
+  std::vector<std::uint32_t> next(cellStart.begin(), cellStart.end() - 1);
+  for (const auto& part : found) {
+    for (const auto& [id, i] : part) members[next[id]++] = i;
+  }
 
   std::vector<float> nearest(samples, std::numeric_limits<float>::infinity());
   tbb::parallel_for(std::size_t{0}, samples, [&](std::size_t k) {
@@ -74,7 +76,7 @@ double estimatePointSpacing(const PointCloud& cloud, std::size_t samples) {
         for (int dz = -1; dz <= 1; ++dz) {
           const auto id = static_cast<std::size_t>(cellIds.find(cellKey(center + Eigen::Vector3i(dx, dy, dz))));
           for (std::uint32_t e = cellStart[id]; e < cellStart[id + 1]; ++e) {
-            const std::uint32_t i = byCell[e].second;
+            const std::uint32_t i = members[e];
             if (i == q) continue;
             const float d = (cloud.positions[i] - p).squaredNorm();
             // Exact duplicates (several returns of one spot) say nothing about spacing.

@@ -92,7 +92,6 @@ Vector foldedUp(const Vector& d) {
 
 bool usableNormal(const Eigen::Vector3f& n) { return n.allFinite() && n.squaredNorm() > 0.25f; }
 
-
 /// Points bucketed by cubic cell (of edge pairRadius): where each point lies, and the drawable ones
 /// by cell, to draw a random partner near a point.
 class PointGrid {

@@ -473,7 +473,6 @@ std::vector<double> elbowRadiusVotes(const Eigen::Vector3d& point, const Eigen::
 
 namespace {
 
-
 /// The joints chosen among the hypotheses between a set of pipes.
 struct Resolution {
   std::vector<Hypothesis> hypotheses;

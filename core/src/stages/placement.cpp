@@ -113,30 +113,20 @@ class CellIndex {
   };
 
   /// keys[i] is the cell of item i.
-  explicit CellIndex(const std::vector<std::uint64_t>& keys) {
-    const std::vector<std::pair<std::uint64_t, std::uint32_t>> sorted = sortedByKey(keys);
-    items_.resize(sorted.size());
-    for (std::size_t i = 0; i < sorted.size(); ++i) {
-      items_[i] = sorted[i].second;
-      if (i == 0 || sorted[i].first != sorted[i - 1].first) {
-        keys_.push_back(sorted[i].first);
-        begins_.push_back(static_cast<std::uint32_t>(i));
-      }
-    }
-    begins_.push_back(static_cast<std::uint32_t>(sorted.size()));
-    cellOfKey_ = CellTable(keys_.size());
-    for (const std::uint64_t key : keys_) cellOfKey_.insert(key);  // ids follow the (ascending) cells
+  explicit CellIndex(const std::vector<std::uint64_t>& keys) : cells_(groupByKey(sortedByKey(keys))) {
+    cellOfKey_ = CellTable(cells_.keys.size());
+    for (const std::uint64_t key : cells_.keys) cellOfKey_.insert(key);  // ids follow the (ascending) cells
   }
 
-  std::size_t cellCount() const { return keys_.size(); }
-  std::uint64_t key(std::size_t cell) const { return keys_[cell]; }
+  std::size_t cellCount() const { return cells_.keys.size(); }
+  std::uint64_t key(std::size_t cell) const { return cells_.keys[cell]; }
 
   /// (key, item) in (key, item) order. The cells of a stripe span a small box, so the keys, made
   /// compact over that box (each coordinate less its smallest, the same order), usually fit 33 bits:
   /// three passes of the radix sort.
-  static std::vector<std::pair<std::uint64_t, std::uint32_t>> sortedByKey(const std::vector<std::uint64_t>& keys) {
+  static std::vector<KeyedItem> sortedByKey(const std::vector<std::uint64_t>& keys) {
     constexpr std::uint64_t kField = (std::uint64_t{1} << 21) - 1;
-    std::vector<std::pair<std::uint64_t, std::uint32_t>> sorted(keys.size());
+    std::vector<KeyedItem> sorted(keys.size());
     std::array<std::uint64_t, 3> low{kField, kField, kField}, high{0, 0, 0};
     for (const std::uint64_t key : keys) {
       for (int f = 0; f < 3; ++f) {
@@ -155,11 +145,13 @@ class CellIndex {
                                     ((key >> 21 & kField) - low[1]) << bits[2] | ((key & kField) - low[2]);
       sorted[i] = {compact, static_cast<std::uint32_t>(i)};
     }
-    stableSortByKey(sorted, [](const std::pair<std::uint64_t, std::uint32_t>& entry) { return entry.first; });
+    stableSortByKey(sorted, keyOfItem);
     for (auto& entry : sorted) entry.first = keys[entry.second];
     return sorted;
   }
-  Range items(std::size_t cell) const { return {items_.data() + begins_[cell], items_.data() + begins_[cell + 1]}; }
+  Range items(std::size_t cell) const {
+    return {cells_.items.data() + cells_.begins[cell], cells_.items.data() + cells_.begins[cell + 1]};
+  }
 
   /// The items of the cell with `key` (empty when there is none).
   Range find(std::uint64_t key) const {
@@ -168,10 +160,8 @@ class CellIndex {
   }
 
  private:
-  std::vector<std::uint32_t> items_;   // item indices, grouped by cell
-  std::vector<std::uint64_t> keys_;    // ascending
-  std::vector<std::uint32_t> begins_;  // cell c holds items_[begins_[c], begins_[c + 1])
-  CellTable cellOfKey_;                // key → cell
+  KeyGroups cells_;       // item indices grouped by cell, cells in ascending key order
+  CellTable cellOfKey_;   // key → cell
 };
 
 /// Splits [0, count) into fixed chunks (independent of the thread count) and runs them in parallel.
@@ -728,8 +718,9 @@ double robustNoise(const CylinderFit& fit, const PointCloud& cloud, const Stripe
 
 /// How far the inliers' surface offsets vary systematically around the axis (m): the RMS of the
 /// mean offsets in 10° sectors (the worst sector left out), less what the noise alone would give.
-/// A circle fitted to a square post or beam leaves its corners outside and its faces inside (2–4 mm for a 5 cm post with 2 mm
-/// noise in generated scenes); a pipe leaves only noise (below 0.4 mm for 95 % of them).
+/// A circle fitted to a square post or beam leaves its corners outside and its faces inside
+/// (2–4 mm for a 5 cm post with 2 mm noise in generated scenes); a pipe leaves only noise (below
+/// 0.4 mm for 95 % of them).
 double outOfRoundness(const CylinderFit& fit, const PointCloud& cloud, const StripeProjection& stripe,
                       const std::vector<std::uint32_t>& inliers) {
   constexpr int kMinSectorPoints = 10;

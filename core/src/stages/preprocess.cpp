@@ -164,16 +164,24 @@ struct KeyedPoint {
   std::uint32_t point;
 };
 
-/// Marks points with no cube (non-finite positions); sorts after every real key.
+/// Marks points with no cube (non-finite positions, points without a normal).
 constexpr std::uint64_t kNoCube = std::numeric_limits<std::uint64_t>::max();
 
-std::uint64_t keyOfEntry(const KeyedPoint& entry) { return entry.key; }
+/// Groups entries made in point order by cube: those with no cube leave, the rest are sorted by
+/// (key, point). Returns the starts of the cubes' runs, plus the end.
+std::vector<std::uint32_t> groupByCube(std::vector<KeyedPoint>& entries) {
+  const auto keyOf = [](const KeyedPoint& entry) { return entry.key; };
+  entries.erase(std::remove_if(entries.begin(), entries.end(), [](const KeyedPoint& e) { return e.key == kNoCube; }),
+                entries.end());
+  stableSortByKey(entries, keyOf);
+  return runStarts(entries, keyOf);
+}
 
 /// Step 1: one point per occupied voxel, the centroid of its points; non-finite points are dropped.
 PointCloud voxelCentroids(const PointCloud& input, double leaf, Progress& progress) {
   PointCloud output;
   output.origin = input.origin;
-  const auto [bounds, finite] = finiteBounds(input.positions);
+  const BoundingBox bounds = finiteBounds(input.positions).box;
   if (bounds.empty()) return output;
   if (leaf == 0.0) {
     output.positions.reserve(input.size());
@@ -192,15 +200,10 @@ PointCloud voxelCentroids(const PointCloud& input, double leaf, Progress& progre
     }
   });
   progress.report(kTask, 0.3 * kVoxelDone);
-  if (finite < input.size()) {  // non-finite points have no cube
-    entries.erase(std::remove_if(entries.begin(), entries.end(), [](const KeyedPoint& e) { return e.key == kNoCube; }),
-                  entries.end());
-  }
-  stableSortByKey(entries, keyOfEntry);  // made in point order, so sorted by (key, point)
+  const std::vector<std::uint32_t> starts = groupByCube(entries);
   progress.checkCancelled();
   progress.report(kTask, 0.8 * kVoxelDone);
 
-  const std::vector<std::uint32_t> starts = runStarts(entries, keyOfEntry);
   const std::size_t voxels = starts.size() - 1;
   output.positions.resize(voxels);
   parallelChunks(voxels, progress, [&](std::size_t first, std::size_t last) {
@@ -424,13 +427,10 @@ CellGrid groupIntoCells(const PointCloud& cloud, const std::vector<char>& valid,
   CellGrid cells{CubeGrid(cloud.origin, cellSize, bounds), {}, {}, {}};
   cells.entries.resize(cloud.size());
   tbb::parallel_for(std::size_t{0}, cloud.size(), [&](std::size_t i) {
-    cells.entries[i] = {valid[i] ? cells.grid.key(cells.grid.cubeOf(cloud.positions[i])) : kNoCube, static_cast<std::uint32_t>(i)};
+    const std::uint64_t key = valid[i] ? cells.grid.key(cells.grid.cubeOf(cloud.positions[i])) : kNoCube;
+    cells.entries[i] = {key, static_cast<std::uint32_t>(i)};
   });
-  cells.entries.erase(std::remove_if(cells.entries.begin(), cells.entries.end(),
-                                     [](const KeyedPoint& entry) { return entry.key == kNoCube; }),
-                      cells.entries.end());
-  stableSortByKey(cells.entries, keyOfEntry);  // made in point order, so sorted by (key, point)
-  const std::vector<std::uint32_t> starts = runStarts(cells.entries, keyOfEntry);
+  const std::vector<std::uint32_t> starts = groupByCube(cells.entries);
   cells.cells.resize(starts.size() - 1);
   cells.keys.resize(cells.cells.size());
   for (std::size_t c = 0; c < cells.cells.size(); ++c) {
@@ -656,10 +656,9 @@ std::vector<Tile> buildTiles(const PointCloud& cloud, double size, double overla
       }
     }
   }
-  stableSortByKey(memberships, keyOfEntry);  // made in point order, so sorted by (key, point)
+  const std::vector<std::uint32_t> starts = groupByCube(memberships);  // tiles are cubes too
 
   std::vector<Tile> tiles;
-  const std::vector<std::uint32_t> starts = runStarts(memberships, keyOfEntry);
   for (std::size_t t = 0; t + 1 < starts.size(); ++t) {
     const std::uint64_t key = memberships[starts[t]].key;
     const auto perX = static_cast<std::uint64_t>(counts.y() * counts.z());
