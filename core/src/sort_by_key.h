@@ -100,7 +100,10 @@ std::vector<std::uint32_t> runStarts(const std::vector<Entry>& sorted, KeyOf key
 
 /// An item (a point, a sample) tagged with the 64-bit key of its cell.
 using KeyedItem = std::pair<std::uint64_t, std::uint32_t>;
-inline std::uint64_t keyOfItem(const KeyedItem& entry) { return entry.first; }
+/// Its key, as a function object (a function pointer would not be inlined into the sort's passes).
+inline constexpr struct KeyOfItem {
+  std::uint64_t operator()(const KeyedItem& entry) const { return entry.first; }
+} keyOfItem;
 
 /// Items grouped by key: group g holds items[begins[g], begins[g + 1]) and has keys[g].
 struct KeyGroups {

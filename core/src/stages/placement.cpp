@@ -368,13 +368,15 @@ std::vector<Eigen::Vector2f> planeNormals(const StripeProjection& stripe, const 
       const Eigen::Vector2d center = stripe.positions[i].cast<double>();
       Eigen::Vector2d mean = Eigen::Vector2d::Zero();
       int count = 0;
-      for (std::size_t k = i % stride; k < block.size() && count < static_cast<int>(kNeighbours); k += stride) {
+      // At most kNeighbours are visited; each is written and kept only when within the radius
+      // (branch-free: whether a neighbour is near is unpredictable).
+      for (std::size_t k = i % stride; k < block.size(); k += stride) {
         const Eigen::Vector2d d = block[k].cast<double>() - center;
-        if (d.squaredNorm() > radius * radius) continue;
-        near[count++] = d;
-        mean += d;
+        near[count] = d;
+        count += d.squaredNorm() <= radius * radius;
       }
       if (count < kMinNeighbours) continue;
+      for (int k = 0; k < count; ++k) mean += near[k];
       mean /= count;
       Eigen::Matrix2d covariance = Eigen::Matrix2d::Zero();
       for (int k = 0; k < count; ++k) covariance += (near[k] - mean) * (near[k] - mean).transpose();
