@@ -244,6 +244,33 @@ TEST(Joints, TeeExtendsTheBranchToTheMainAxis) {
   EXPECT_TRUE(result.pipes[1].end.isApprox(Eigen::Vector3d(0.2, 0.12, 0)));
 }
 
+TEST(Joints, ASquareCornerWithNoBendIsATeeWhoseMainWasSeenOnOneSide) {
+  // The main pipe's far side was not scanned: it ends at the branch's near wall, and the branch
+  // reaches the main's wall. No torus fits there (it would bend tighter than any elbow), so it is a
+  // tee, proposed for review.
+  const double r = 0.05;
+  ConstructedScene scene;
+  scene.addPipe({-1.2, 0, 0}, {-r, 0, 0}, r);
+  scene.addPipe({0, 1.2, 0}, {0, r + 0.005, 0}, r);
+  const JointsResult result = scene.connect();
+  ASSERT_EQ(result.joints.size(), 1u);
+  const Joint& tee = result.joints[0];
+  EXPECT_EQ(tee.type, JointType::Tee);
+  EXPECT_EQ(tee.pipeIds, (std::vector<int>{1, 2}));  // The main reaches nearer the corner.
+  EXPECT_LT(tee.position().norm(), 0.01);
+  EXPECT_EQ(tee.status, JointStatus::Proposed);
+
+  // The same ends with a short-radius elbow's surface between them stay an elbow.
+  ConstructedScene bent;
+  bent.addPipe({-1.2, 0, 0}, {-r, 0, 0}, r);
+  bent.addPipe({0, 1.2, 0}, {0, r + 0.005, 0}, r);
+  bent.addBend(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), 2.0 * r, r);
+  const JointsResult elbow = bent.connect();
+  ASSERT_EQ(elbow.joints.size(), 1u);
+  EXPECT_EQ(elbow.joints[0].type, JointType::Elbow);
+  EXPECT_NEAR(elbow.joints[0].bendRadius, 2.0 * r, 0.1 * r);
+}
+
 TEST(Joints, BoundaryJointBridgesACollinearGap) {
   ConstructedScene scene;
   scene.addPipe({0, 0, 1}, {1, 0, 1}, 0.05);

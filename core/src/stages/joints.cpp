@@ -48,6 +48,11 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kSectionLength = 0.04;  // Sections of a gap tested for point support (m).
 constexpr double kSupportNormalAngleDeg = 30.0;
+// An elbow voted tighter than this many pipe radii with almost no surface on its torus is no
+// fitting (short-radius elbows bend at one diameter, two radii): the two pipes meet square at a
+// tee whose main pipe was seen on one side only.
+constexpr double kMinFittingBendRadii = 1.5;
+constexpr double kMaxBendlessSupport = 0.2;
 
 double radians(double degrees) { return degrees * kPi / 180.0; }
 
@@ -99,9 +104,9 @@ class VoteHistogram {
 
 struct PipeEnd {
   int pipe = 0;
-  int side = 0;                      // 0: start, 1: end
-  Eigen::Vector3d point;
-  Eigen::Vector3d outward;           // Unit, pointing away from the pipe's body.
+  int side = 0;  // 0: start, 1: end
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  Eigen::Vector3d outward = Eigen::Vector3d::Zero();  // Unit, pointing away from the pipe's body.
   double radius = 0.0;
   int key() const { return 2 * pipe + side; }
 };
@@ -139,19 +144,20 @@ struct Hypothesis {
   int mainPipe = -1;        // Tee: the pipe whose body the branch meets.
   double skew = 0.0;        // How far the centre lines miss each other (m).
   double skewLimit = 0.0;
-  Eigen::Vector3d corner;   // Elbow: P_I; tee: the point on the main axis.
+  Eigen::Vector3d corner = Eigen::Vector3d::Zero();  // Elbow: P_I; tee: the point on the main axis.
   double bendAngle = 0.0;   // Elbow: angle between the two pipes' directions (rad).
   double gap = 0.0;         // Boundary: gap length; tee: from the main pipe's surface to the branch end.
   double gapLimit = 0.0;
   double reach = 0.0;       // Points within this of `center` are gathered for the hypothesis.
-  Eigen::Vector3d center;
+  Eigen::Vector3d center = Eigen::Vector3d::Zero();
 
   // Completed by reconstruct():
   double geometric = 0.0;   // How well the criteria hold, in [0, 1].
   double support = 0.0;     // Point support on the joint's surface, in [0, 1].
   double confidence = 0.0;
   double bendRadius = 0.0;
-  Eigen::Vector3d newA, newB;  // Elbow: the tangent points the two pipes are trimmed or extended to.
+  // Elbow: the tangent points the two pipes are trimmed or extended to.
+  Eigen::Vector3d newA = Eigen::Vector3d::Zero(), newB = Eigen::Vector3d::Zero();
   std::vector<Eigen::Vector3d> axis;
   std::vector<std::uint32_t> supportPoints;
   bool valid = false;
@@ -235,18 +241,49 @@ class JointBuilder {
 
   /// A T-junction hypothesis: `branch`'s extension meets the body of pipe `main`.
   void tryTee(const PipeEnd& branch, int main, std::vector<Hypothesis>& out) const {
+    if (auto h = teeAt(branch, main, /*mainSeenBeyond=*/true)) out.push_back(std::move(*h));
+  }
+
+  /// The tee that replaces an elbow hypothesis with no bend: voted tighter than any fitting, with
+  /// almost no points on its torus, at a near-square corner. Its main pipe is the one whose end
+  /// reaches nearer the corner (in radii of the other); the main's far side was not seen, so the
+  /// tee counts half its confidence and is proposed for review.
+  std::optional<Hypothesis> teeForBendlessCorner(const Hypothesis& elbow,
+                                                 const std::vector<std::uint32_t>& nearby) const {
+    if (elbow.type != JointType::Elbow || !elbow.valid) return std::nullopt;
+    const double r = 0.5 * (elbow.a.radius + elbow.b.radius);
+    if (elbow.bendRadius >= kMinFittingBendRadii * r || elbow.support > kMaxBendlessSupport) return std::nullopt;
+    const auto reachToCorner = [&](const PipeEnd& end, const PipeEnd& other) {
+      return (elbow.corner - end.point).dot(end.outward) / other.radius;
+    };
+    const bool aIsMain = reachToCorner(elbow.a, elbow.b) <= reachToCorner(elbow.b, elbow.a);
+    for (const bool mainIsA : {aIsMain, !aIsMain}) {
+      const PipeEnd& main = mainIsA ? elbow.a : elbow.b;
+      const PipeEnd& branch = mainIsA ? elbow.b : elbow.a;
+      auto tee = teeAt(branch, main.pipe, /*mainSeenBeyond=*/false);
+      if (!tee) continue;
+      reconstructTee(*tee, nearby);
+      tee->confidence *= 0.5;
+      return tee;
+    }
+    return std::nullopt;
+  }
+
+  /// The tee where `branch`'s extension meets the axis of pipe `main`: inside its body when the
+  /// main pipe is seen beyond the branch, anywhere along its line otherwise.
+  std::optional<Hypothesis> teeAt(const PipeEnd& branch, int main, bool mainSeenBeyond) const {
     const PipeSegment& mainPipe = input_.pipes[static_cast<std::size_t>(main)];
-    if (branch.radius > params_.maxBranchRatio * mainPipe.radius) return;
+    if (branch.radius > params_.maxBranchRatio * mainPipe.radius) return std::nullopt;
     const Eigen::Vector3d mainAxis = unitAxis(mainPipe);
-    if (std::fabs(branch.outward.dot(mainAxis)) > std::cos(radians(params_.minTeeAngleDeg))) return;
+    if (std::fabs(branch.outward.dot(mainAxis)) > std::cos(radians(params_.minTeeAngleDeg))) return std::nullopt;
     const auto parameters = closestLineParameters(branch.point, branch.outward, mainPipe.start, mainAxis);
-    if (!parameters) return;
+    if (!parameters) return std::nullopt;
     const auto [alongBranch, alongMain] = *parameters;
     const double mainLength = (mainPipe.end - mainPipe.start).norm();
     // Well inside the main pipe's body: a branch meeting the main near its end is an elbow whose
     // pipe overshot the tangent point, or a corner of which nothing says it is a tee.
     const double margin = 2.0 * branch.radius;
-    if (alongMain < margin || alongMain > mainLength - margin) return;
+    if (mainSeenBeyond && (alongMain < margin || alongMain > mainLength - margin)) return std::nullopt;
     Hypothesis h;
     h.type = JointType::Tee;
     h.a = branch;
@@ -255,14 +292,14 @@ class JointBuilder {
     h.gapLimit = searchDistance(branch.radius);
     // The branch end does not pass the main's axis (it may reach into the main pipe: a branch of
     // the main's size shares points with it around the junction).
-    if (alongBranch < 0.0 || h.gap > h.gapLimit) return;
+    if (alongBranch < 0.0 || h.gap > h.gapLimit) return std::nullopt;
     h.skew = (branch.point + alongBranch * branch.outward - (mainPipe.start + alongMain * mainAxis)).norm();
     h.skewLimit = skewLimit(branch.radius);
-    if (h.skew > h.skewLimit) return;
+    if (h.skew > h.skewLimit) return std::nullopt;
     h.corner = mainPipe.start + alongMain * mainAxis;
     h.center = 0.5 * (h.corner + branch.point);
     h.reach = 0.5 * alongBranch + mainPipe.radius + params_.supportDistance;
-    out.push_back(std::move(h));
+    return h;
   }
 
   /// Completes a hypothesis with its points (indices into the cloud within its reach).
@@ -482,9 +519,10 @@ struct Resolution {
 };
 
 /// Hypotheses between `input.pipes`, reconstructed with their points, and the conflicts resolved.
-/// `explained` flags the points that are inliers of some pipe.
+/// `explained` flags the points that are inliers of some pipe; pipes from `completionsFrom` on are
+/// completions of free ends.
 Resolution resolveJoints(const JointsInput& input, const JointsParams& params, const std::vector<char>& explained,
-                         double cellSize, Progress& progress) {
+                         std::size_t completionsFrom, double cellSize, Progress& progress) {
   const auto& pipes = input.pipes;
   const int pipeCount = static_cast<int>(pipes.size());
   const JointBuilder builder(input, params, explained);
@@ -540,6 +578,16 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
   tbb::parallel_for(std::size_t{0}, hypotheses.size(),
                     [&](std::size_t h) { builder.reconstruct(hypotheses[h], nearby[h]); });
   progress.checkCancelled();
+  // A completion starts at the shortest elbow's tangent point, so the bend voted with it says
+  // nothing of the corner's shape: only the pipes found by the earlier stages are looked at.
+  const auto measured = [&](const PipeEnd& end) { return static_cast<std::size_t>(end.pipe) < completionsFrom; };
+  for (std::size_t h = 0, count = hypotheses.size(); h < count; ++h) {
+    if (!measured(hypotheses[h].a) || !measured(hypotheses[h].b)) continue;
+    if (auto tee = builder.teeForBendlessCorner(hypotheses[h], nearby[h])) {
+      hypotheses[h].valid = false;
+      hypotheses.push_back(std::move(*tee));
+    }
+  }
 
   // Conflicts: the best-supported hypothesis takes its ends first.
   std::vector<std::size_t> order;
@@ -1023,7 +1071,7 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
     for (std::uint32_t i : pipe.inliers) explained[i] = 1;
   }
   std::vector<PipeSegment> pipes = input.pipes;
-  Resolution resolution = resolveJoints(input, params, explained, cellSize, progress);
+  Resolution resolution = resolveJoints(input, params, explained, input.pipes.size(), cellSize, progress);
   progress.report("joints", 0.4);
 
   // Free ends completed by the pipes the earlier stages missed; a completion is kept when it takes
@@ -1038,7 +1086,8 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
         augmented.push_back(completion.pipe);
         for (std::uint32_t i : completion.pipe.inliers) augmentedExplained[i] = 1;
       }
-      Resolution again = resolveJoints({input.cloud, augmented}, params, augmentedExplained, cellSize, progress);
+      Resolution again =
+          resolveJoints({input.cloud, augmented}, params, augmentedExplained, input.pipes.size(), cellSize, progress);
       std::vector<char> joined(completions.size(), 0);
       for (std::size_t h : again.chosen) {
         const Hypothesis& hypothesis = again.hypotheses[h];
