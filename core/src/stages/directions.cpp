@@ -201,7 +201,7 @@ RoundSamples drawSamples(const PointCloud& cloud, const PointGrid& grid, const s
   });
 
   // A pair drawn twice would put two identical samples on the sphere: a peak made by chance.
-  CellTable seen;
+  CellTable seen(pairCount);
   for (std::size_t k = 0; k < pairCount; ++k) {
     const std::uint64_t pair = pairs[k];
     if (pair == kNoPair) continue;

@@ -966,13 +966,17 @@ class EndCompletion {
       return std::nullopt;
     }
     std::sort(completion.pipe.inliers.begin(), completion.pipe.inliers.end());
+    // The points' offsets from the continued radius, overall and in sectors around the axis.
     double sum = 0.0;
     double squares = 0.0;
+    SectorOffsets offsets;
     for (std::uint32_t i : completion.pipe.inliers) {
       const Eigen::Vector3d d = input_.cloud.positions[i].cast<double>() - corner;
-      const double offset = (d - d.dot(along) * along).norm() - r;
+      const Eigen::Vector3d radial = d - d.dot(along) * along;
+      const double offset = radial.norm() - r;
       sum += offset;
       squares += offset * offset;
+      offsets.add(std::atan2(radial.dot(aside), radial.dot(across)), offset);
     }
     // The points must sit on the radius of the pipe being continued, not merely within the band: a
     // square post or a flange face next to a pipe end fits the band but not the radius.
@@ -985,12 +989,6 @@ class EndCompletion {
       return std::nullopt;
     }
     // ...and around it: a square post's faces sit inside the circle and its corners outside.
-    SectorOffsets offsets;
-    for (std::uint32_t i : completion.pipe.inliers) {
-      const Eigen::Vector3d d = input_.cloud.positions[i].cast<double>() - corner;
-      const Eigen::Vector3d radial = d - d.dot(along) * along;
-      offsets.add(std::atan2(radial.dot(aside), radial.dot(across)), radial.norm() - r);
-    }
     if (offsets.outOfRoundness(kMinSectorPoints) > std::max(kMinOutOfRound, kMaxOutOfRoundRadii * r)) {
       return std::nullopt;
     }
