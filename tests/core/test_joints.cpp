@@ -41,6 +41,26 @@ class ConstructedScene {
     return static_cast<int>(pipes_.size()) - 1;
   }
 
+  /// A straight pipe the earlier stages missed, seen from afar along -`facing`: the scanner's rays
+  /// hit it at the same three places across at every step along (on the front and 60° either
+  /// side), each point off by Gaussian range noise along the ray, and every normal points at the
+  /// scanner (as normals estimated on a thin, sparse pipe do).
+  void addPipeSeenFromAfar(const Eigen::Vector3d& start, const Eigen::Vector3d& end, double radius,
+                           const Eigen::Vector3d& facing, double rangeNoise) {
+    const Eigen::Vector3d axis = (end - start).normalized();
+    const Eigen::Vector3d side = axis.cross(facing).normalized();
+    std::normal_distribution<double> gauss(0.0, rangeNoise);
+    const int steps = static_cast<int>((end - start).norm() / 0.005);
+    for (int k = 0; k <= steps; ++k) {
+      const Eigen::Vector3d center = start + (end - start) * (static_cast<double>(k) / steps);
+      for (const double degrees : {-60.0, 0.0, 60.0}) {
+        const double angle = degrees * kPi / 180.0;
+        const Eigen::Vector3d radial = std::cos(angle) * facing + std::sin(angle) * side;
+        addPoint(center + radius * radial + gauss(rng_) * facing, facing);
+      }
+    }
+  }
+
   /// The four side faces of an upright box of square section `width` centred on (x, y), sampled
   /// every 5 mm, with the faces' normals.
   void addPost(double x, double y, double width, double bottom, double top) {
@@ -48,18 +68,26 @@ class ConstructedScene {
                  {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(0, -1, 0)});
   }
 
+  /// How the normals of a post's points are estimated.
+  enum class PostNormals {
+    OfFaces,         ///< Each face's own.
+    Rounded,         ///< Away from the post's axis, as over neighbourhoods wider than a thin post's faces.
+    TowardsScanner,  ///< All towards a far scanner, as on a thin post seen from afar.
+  };
+
   /// The faces of a vertical square post with the given outward normals (the ones a scanner sees).
-  /// With `roundedNormals` each point's normal points away from the post's axis, as normals
-  /// estimated over neighbourhoods wider than a thin post's faces do.
   void addPostFaces(double x, double y, double width, double bottom, double top,
-                    const std::vector<Eigen::Vector3d>& normals, bool roundedNormals = false) {
+                    const std::vector<Eigen::Vector3d>& normals, PostNormals estimated = PostNormals::OfFaces,
+                    const Eigen::Vector3d& towardsScanner = Eigen::Vector3d::Zero()) {
     const double half = 0.5 * width;
     for (const Eigen::Vector3d& normal : normals) {
       const Eigen::Vector3d side = Eigen::Vector3d::UnitZ().cross(normal);
       for (double z = bottom; z <= top; z += 0.005) {
         for (double across = -half; across <= half; across += 0.005) {
           const Eigen::Vector3d fromAxis = half * normal + across * side;
-          addPoint(Eigen::Vector3d(x, y, z) + fromAxis, roundedNormals ? fromAxis.normalized() : normal);
+          addPoint(Eigen::Vector3d(x, y, z) + fromAxis, estimated == PostNormals::Rounded          ? fromAxis.normalized()
+                                                        : estimated == PostNormals::TowardsScanner ? towardsScanner
+                                                                                                   : normal);
         }
       }
     }
@@ -412,6 +440,26 @@ TEST(Joints, ASlopedLegOffTheNetworkDirectionsIsCompleted) {
   EXPECT_EQ(result.runs[0].pipeIds, (std::vector<int>{1, 2, 4}));
 }
 
+TEST(Joints, AThinPipeWhoseNormalsFaceTheScannerIsCompleted) {
+  // A 1.25" pipe comes along +x to a corner at the origin and rises along +z, seen from far off
+  // along +y: the riser's normals all point at the scanner, so only the points down its front
+  // agree with the surface's, and across the pipe those lie on a line (along the rays). All the
+  // points in the support band lie on its arc. Pipe 3, far off, runs along z.
+  const double r = 0.0211, R = 3.0 * r;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  scene.addPipeSeenFromAfar({0, 0, R}, {0, 0, 0.8}, r, -Eigen::Vector3d::UnitY(), 0.002);
+  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.completedPipes, 1u);
+  ASSERT_EQ(result.pipes.size(), 3u);
+  const PipeSegment& riser = result.pipes[2];
+  EXPECT_GT(std::fabs((riser.end - riser.start).normalized().z()), 0.999);
+  EXPECT_NEAR(riser.start.x(), 0.0, 0.01);
+  ASSERT_EQ(result.joints.size(), 1u);
+  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
+}
+
 TEST(Joints, APostWithRoundedNormalsIsNotCompletedAsAPipe) {
   // A 4 cm square post seen across an edge, whose normals turn smoothly around it (as normals
   // estimated over neighbourhoods as wide as the post do): neither a flat face nor two faces by its
@@ -421,7 +469,7 @@ TEST(Joints, APostWithRoundedNormalsIsNotCompletedAsAPipe) {
   ConstructedScene scene;
   scene.addPipe({-1.5, 0, 1.1}, {-0.02, 0, 1.1}, r);
   scene.addPostFaces(0.0, 0.0, 0.04, 0.0, 1.1 - r, {Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, -1, 0)},
-                     true);
+                     ConstructedScene::PostNormals::Rounded);
   scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
   const JointsResult result = scene.connect();
   EXPECT_EQ(result.diagnostics.completedPipes, 0u);
@@ -451,6 +499,21 @@ TEST(Joints, APostSeenAcrossItsEdgeIsNotCompletedAsAPipe) {
   ConstructedScene scene;
   scene.addPipe({-1.5, 0, 1.1}, {-0.02, 0, 1.1}, r);
   scene.addPostFaces(0.0, 0.0, 2.0 * r / 1.148, 0.0, 1.1 - r, {Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, -1, 0)});
+  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.completedPipes, 0u);
+  EXPECT_TRUE(result.joints.empty());
+}
+
+TEST(Joints, APostSeenFromAfarIsNotCompletedAsAPipe) {
+  // A 1.5" rail ends at a 5 cm square post seen across an edge from afar, every normal towards the
+  // scanner: the points whose normals agree with a rail-sized cylinder's are a strip by the edge,
+  // but all the points in its support band lie outside its radius.
+  const double r = 0.0211;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 1.1}, {-0.025, 0, 1.1}, r);
+  scene.addPostFaces(0.0, 0.0, 0.05, 0.0, 1.1 - r, {Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, -1, 0)},
+                     ConstructedScene::PostNormals::TowardsScanner, Eigen::Vector3d(-1, -1, 0).normalized());
   scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
   const JointsResult result = scene.connect();
   EXPECT_EQ(result.diagnostics.completedPipes, 0u);

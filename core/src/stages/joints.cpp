@@ -881,6 +881,47 @@ class EndCompletion {
     return std::sqrt(std::max(0.0, solver.eigenvalues()(0)));
   }
 
+  /// How points lie off the circle of radius r around the axis through `origin` along `along`
+  /// (`across` × `aside` = `along`): overall and in sectors around the axis.
+  struct RadialOffsets {
+    std::size_t count = 0;
+    double mean = 0.0;
+    double spread = 0.0;
+    double rms = 0.0;
+    SectorOffsets sectors;
+  };
+
+  RadialOffsets radialOffsets(const std::vector<std::uint32_t>& points, const Eigen::Vector3d& origin,
+                              const Eigen::Vector3d& along, const Eigen::Vector3d& across,
+                              const Eigen::Vector3d& aside, double r) const {
+    RadialOffsets offsets;
+    double sum = 0.0;
+    double squares = 0.0;
+    for (std::uint32_t i : points) {
+      const Eigen::Vector3d d = input_.cloud.positions[i].cast<double>() - origin;
+      const Eigen::Vector3d radial = d - d.dot(along) * along;
+      const double offset = radial.norm() - r;
+      sum += offset;
+      squares += offset * offset;
+      offsets.sectors.add(std::atan2(radial.dot(aside), radial.dot(across)), offset);
+    }
+    offsets.count = points.size();
+    const auto count = static_cast<double>(std::max<std::size_t>(1, points.size()));
+    offsets.mean = sum / count;
+    offsets.spread = std::sqrt(std::max(0.0, squares / count - offsets.mean * offsets.mean));
+    offsets.rms = std::sqrt(squares / count);
+    return offsets;
+  }
+
+  /// Whether points sit on the radius: their mean offset within what their spread and number leave
+  /// unsure, and at least a small share of the radius.
+  static bool onRadius(const RadialOffsets& offsets, double r) {
+    const double tolerance =
+        std::max({kMinRadiusTolerance, kRadiusToleranceRadii * r,
+                  2.5 * offsets.spread / std::sqrt(static_cast<double>(std::max<std::size_t>(1, offsets.count)))});
+    return std::fabs(offsets.mean) <= tolerance;
+  }
+
   std::optional<Completion> completeAlong(const PipeEnd& end, const Eigen::Vector3d& along,
                                           const std::vector<std::uint32_t>& nearby) const {
     const double cosine = end.outward.dot(along);
@@ -927,6 +968,8 @@ class EndCompletion {
     // Points well inside the tube or in a shell around it, per section: a wall, a box face or a
     // steel flange that grazes the surface carries on past it, a pipe leaves empty space.
     std::vector<std::size_t> clutterBySection(sections, 0);
+    // Every point within the band, whatever its normal: the whole arc the scanner saw.
+    std::vector<std::vector<std::uint32_t>> bandBySection(sections);
     for (std::uint32_t i : nearby) {
       const Eigen::Vector3d d = input_.cloud.positions[i].cast<double>() - corner;
       const double distanceAlong = d.dot(along);
@@ -938,10 +981,9 @@ class EndCompletion {
       if (distance < r - 2.0 * band || (distance > r + 2.0 * band && distance <= 2.0 * (r + band))) {
         ++clutterBySection[section];
       }
-      if (std::fabs(distance - r) > band || !normalAgrees(input_.cloud, i, radial / std::max(distance, 1e-12))) {
-        continue;
-      }
-      bySection[section].push_back(i);
+      if (std::fabs(distance - r) > band) continue;
+      bandBySection[section].push_back(i);
+      if (normalAgrees(input_.cloud, i, radial / std::max(distance, 1e-12))) bySection[section].push_back(i);
     }
     std::size_t first = 0;
     while (first < sections && bySection[first].empty()) ++first;
@@ -953,10 +995,12 @@ class EndCompletion {
     std::size_t covered = 0;
     std::size_t clutter = 0;
     Completion completion;
+    std::vector<std::uint32_t> inBand;
     for (std::size_t k = 0; k <= last; ++k) {
       covered += bySection[k].empty() ? 0 : 1;
       clutter += clutterBySection[k];
       completion.pipe.inliers.insert(completion.pipe.inliers.end(), bySection[k].begin(), bySection[k].end());
+      inBand.insert(inBand.end(), bandBySection[k].begin(), bandBySection[k].end());
     }
     const double coverage = static_cast<double>(covered) / static_cast<double>(last + 1);
     const double length = firstAlong + static_cast<double>(last + 1) * kSectionLength;
@@ -966,40 +1010,26 @@ class EndCompletion {
       return std::nullopt;
     }
     std::sort(completion.pipe.inliers.begin(), completion.pipe.inliers.end());
-    // The points' offsets from the continued radius, overall and in sectors around the axis.
-    double sum = 0.0;
-    double squares = 0.0;
-    SectorOffsets offsets;
-    for (std::uint32_t i : completion.pipe.inliers) {
-      const Eigen::Vector3d d = input_.cloud.positions[i].cast<double>() - corner;
-      const Eigen::Vector3d radial = d - d.dot(along) * along;
-      const double offset = radial.norm() - r;
-      sum += offset;
-      squares += offset * offset;
-      offsets.add(std::atan2(radial.dot(aside), radial.dot(across)), offset);
-    }
+    const RadialOffsets onSurface = radialOffsets(completion.pipe.inliers, corner, along, across, aside, r);
+    const RadialOffsets overBand = radialOffsets(inBand, corner, along, across, aside, r);
     // The points must sit on the radius of the pipe being continued, not merely within the band: a
-    // square post or a flange face next to a pipe end fits the band but not the radius.
-    const auto count = static_cast<double>(completion.pipe.inliers.size());
-    const double meanOffset = sum / count;
-    const double spread = std::sqrt(std::max(0.0, squares / count - meanOffset * meanOffset));
-    const double radiusTolerance =
-        std::max({kMinRadiusTolerance, kRadiusToleranceRadii * r, 2.5 * spread / std::sqrt(count)});
-    if (std::fabs(meanOffset) > radiusTolerance) {
-      return std::nullopt;
-    }
+    // square post or a flange face next to a pipe end fits the band but not the radius. So must all
+    // the points in the band: on thin pipes the normals face the scanner, so those that agree with
+    // the surface are a strip across the front, which the face of a post matches as well.
+    if (!onRadius(onSurface, r) || !onRadius(overBand, r)) return std::nullopt;
     // ...and around it: a square post's faces sit inside the circle and its corners outside.
-    if (offsets.outOfRoundness(kMinSectorPoints) > std::max(kMinOutOfRound, kMaxOutOfRoundRadii * r)) {
+    if (onSurface.sectors.outOfRoundness(kMinSectorPoints) > std::max(kMinOutOfRound, kMaxOutOfRoundRadii * r)) {
       return std::nullopt;
     }
-    // A flat face: normals that keep one direction and points that lie on a line across the pipe
-    // at least as well as on its circle. (Normals alone are not enough: on thin, sparse pipes they
-    // point at the scanner.)
+    // A flat face: normals that keep one direction and points in the band that lie on a line across
+    // the pipe at least as well as on its circle. (Normals alone are not enough: on thin, sparse
+    // pipes they point at the scanner. The points whose normals agree are not enough either: they
+    // are the front of the arc, flat on any thin pipe.)
     const bool hasNormals = !input_.cloud.normals.empty();
     const std::array<double, 180> windows =
         hasNormals ? normalWindows(completion.pipe.inliers, across, aside) : std::array<double, 180>{};
     if (hasNormals && flatShare(windows) > kMaxFlatShare &&
-        lineRms(completion.pipe.inliers, corner, across, aside) < kLineToCircle * std::sqrt(squares / count)) {
+        lineRms(inBand, corner, across, aside) < kLineToCircle * overBand.rms) {
       return std::nullopt;
     }
     if (hasNormals && squareEdge(windows)) return std::nullopt;
@@ -1007,7 +1037,7 @@ class EndCompletion {
     completion.pipe.start = corner;
     completion.pipe.end = corner + length * along;
     completion.pipe.radius = r;
-    completion.pipe.rms = std::sqrt(squares / count);
+    completion.pipe.rms = onSurface.rms;
     completion.pipe.confidence = coverage;
     return completion;
   }
