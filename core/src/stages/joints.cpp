@@ -1015,7 +1015,7 @@ class EndCompletion {
     // The points must sit on the radius of the pipe being continued, not merely within the band: a
     // square post or a flange face next to a pipe end fits the band but not the radius. So must all
     // the points in the band: on thin pipes the normals face the scanner, so those that agree with
-    // the surface are a strip across the front, which the face of a post matches as well.
+    // the surface are the rays down its front, which the face of a post matches as well.
     if (!onRadius(onSurface, r) || !onRadius(overBand, r)) return std::nullopt;
     // ...and around it: a square post's faces sit inside the circle and its corners outside.
     if (onSurface.sectors.outOfRoundness(kMinSectorPoints) > std::max(kMinOutOfRound, kMaxOutOfRoundRadii * r)) {
