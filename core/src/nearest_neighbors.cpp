@@ -38,7 +38,6 @@ constexpr double kMaxCellsPerAxis = 1 << 20;
 constexpr std::size_t kMaxRanked = 48;
 
 using Cube = Eigen::Array<std::int64_t, 3, 1>;
-using KeyedPoint = KeyedItem;  // (cell key, point)
 
 /// Cubic cells of one edge, counted from the low corner of the points' bounds, and the points in
 /// each occupied cell.
@@ -48,7 +47,7 @@ class CellGrid {
       : low_(bounds.min), edge_(std::max(edge, bounds.size().maxCoeff() / kMaxCellsPerAxis)) {
     if (!(edge_ > 0.0)) edge_ = 1.0;  // all points coincide: one cell
     counts_ = ((bounds.max - low_) / edge_).array().floor().cast<std::int64_t>() + 1;
-    std::vector<KeyedPoint> keyed(positions.size());
+    std::vector<KeyedItem> keyed(positions.size());
     tbb::parallel_for(std::size_t{0}, positions.size(), [&](std::size_t i) {
       keyed[i] = {keyOf(positions[i]), static_cast<std::uint32_t>(i)};
     });
@@ -405,7 +404,7 @@ NeighborLists findNearestNeighbors(const std::vector<Eigen::Vector3f>& positions
     // groups them.
     KeyGroups openGroups;
     if (!finest) {
-      std::vector<KeyedPoint> keyed(open.size());
+      std::vector<KeyedItem> keyed(open.size());
       for (std::size_t e = 0; e < open.size(); ++e) keyed[e] = {grid.keyOf(positions[open[e]]), open[e]};
       std::sort(keyed.begin(), keyed.end());
       openGroups = groupByKey(keyed);

@@ -25,8 +25,8 @@ struct NeighborLists {
 };
 
 /// The k nearest neighbours of every point; the positions must be finite (std::invalid_argument
-/// otherwise). `spacing` (> 0) is the typical distance between
-/// neighbouring points; it sets the cell size, so it affects speed only, never the result.
+/// otherwise). `spacing` (> 0) is the typical distance between neighbouring points; it sets the
+/// cell size, so it affects speed only, never the result.
 /// Reports progress under `task` from `progressFrom` to `progressTo`; checks for cancellation.
 NeighborLists findNearestNeighbors(const std::vector<Eigen::Vector3f>& positions, int k, int meanOf, double spacing,
                                    Progress& progress, const char* task, double progressFrom, double progressTo);

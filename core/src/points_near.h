@@ -10,7 +10,6 @@
 #include <Eigen/Core>
 
 #include <cstdint>
-#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -23,12 +22,14 @@ class HashGrid {
 
   Eigen::Vector3i cellOf(const Eigen::Vector3d& p) const { return (p / cell_).array().floor().cast<int>(); }
   void insert(const Eigen::Vector3i& cell, std::uint32_t value) {
-    auto& bucket = cells_[cellKey(cell)];
+    const std::uint32_t id = cellIds_.insert(cellKey(cell));
+    if (id == buckets_.size()) buckets_.emplace_back();
+    auto& bucket = buckets_[id];
     if (bucket.empty() || bucket.back() != value) bucket.push_back(value);
   }
   const std::vector<std::uint32_t>* find(const Eigen::Vector3i& cell) const {
-    const auto found = cells_.find(cellKey(cell));
-    return found == cells_.end() ? nullptr : &found->second;
+    const std::int64_t id = cellIds_.find(cellKey(cell));
+    return id < 0 ? nullptr : &buckets_[static_cast<std::size_t>(id)];
   }
   /// Calls visit(value) for the payloads of every cell overlapping the cube of half-size `reach`
   /// around `p` (a value may come several times).
@@ -49,7 +50,8 @@ class HashGrid {
 
  private:
   double cell_;
-  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells_;
+  CellTable cellIds_;                                // cell key → index into buckets_
+  std::vector<std::vector<std::uint32_t>> buckets_;  // the payloads of each cell, in insertion order
 };
 
 /// For each sphere (centre, radius), the points of the cloud inside it that `keep` accepts, in

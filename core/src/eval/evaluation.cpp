@@ -1,6 +1,6 @@
 #include "piperun/eval/evaluation.h"
 
-#include "cell_table.h"
+#include "points_near.h"
 
 #include <algorithm>
 #include <cmath>
@@ -98,36 +98,26 @@ ScanCoverage scanCoverage(const NetworkSamples& truth, const PointCloud& scan, c
   return coverage;
 }
 
-// Uniform hash grid over samples, for fixed-radius neighbour queries.
+// Samples in a hash grid, for fixed-radius neighbour queries.
 class SampleGrid {
  public:
-  SampleGrid(const std::vector<AxisSample>& samples, double cellSize) : samples_(samples), cell_(cellSize) {
-    for (std::size_t i = 0; i < samples.size(); ++i) cells_[cellKey(cellOf(samples[i].position))].push_back(i);
-  }
-
-  /// Calls visit(index) for every sample within `radius` (≤ the cell size) of `p`.
-  template <class Visit>
-  void forEachNear(const Eigen::Vector3d& p, double radius, Visit&& visit) const {
-    const Eigen::Vector3i center = cellOf(p);
-    for (int dx = -1; dx <= 1; ++dx) {
-      for (int dy = -1; dy <= 1; ++dy) {
-        for (int dz = -1; dz <= 1; ++dz) {
-          const auto found = cells_.find(cellKey(center + Eigen::Vector3i(dx, dy, dz)));
-          if (found == cells_.end()) continue;
-          for (std::size_t index : found->second) {
-            if ((samples_[index].position - p).squaredNorm() <= radius * radius) visit(index);
-          }
-        }
-      }
+  SampleGrid(const std::vector<AxisSample>& samples, double cellSize) : samples_(samples), grid_(cellSize) {
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      grid_.insert(grid_.cellOf(samples[i].position), static_cast<std::uint32_t>(i));
     }
   }
 
- private:
-  Eigen::Vector3i cellOf(const Eigen::Vector3d& p) const { return (p / cell_).array().floor().cast<int>(); }
+  /// Calls visit(index) for every sample within `radius` of `p`.
+  template <class Visit>
+  void forEachNear(const Eigen::Vector3d& p, double radius, Visit&& visit) const {
+    grid_.forEachInCube(p, radius, [&](std::uint32_t index) {
+      if ((samples_[index].position - p).squaredNorm() <= radius * radius) visit(index);
+    });
+  }
 
+ private:
   const std::vector<AxisSample>& samples_;
-  double cell_;
-  std::unordered_map<std::uint64_t, std::vector<std::size_t>> cells_;
+  HashGrid grid_;
 };
 
 double median(std::vector<double> values) {

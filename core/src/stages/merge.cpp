@@ -214,9 +214,10 @@ double reachBeforeOtherPipes(const std::vector<PipeSegment>& pipes, std::size_t 
     const Eigen::Vector3d offset = w - w.dot(axis) * axis;
     const double a = across.squaredNorm(), b = offset.dot(across), c = offset.squaredNorm() - other.radius * other.radius;
     if (a < 1e-12 || b * b - a * c < 0.0) continue;
-    const double entry = (-b - std::sqrt(b * b - a * c)) / a;
+    const double root = std::sqrt(b * b - a * c);
+    const double entry = (-b - root) / a, exit = (-b + root) / a;
     const double along = (w + std::max(entry, 0.0) * outward).dot(axis);
-    if (entry < reach && (-b + std::sqrt(b * b - a * c)) / a > 0.0 && along >= 0.0 && along <= (other.end - other.start).norm()) {
+    if (entry < reach && exit > 0.0 && along >= 0.0 && along <= (other.end - other.start).norm()) {
       reach = std::max(0.0, entry);
     }
   }
