@@ -117,6 +117,7 @@ const std::vector<Field>& fields() {
       PIPERUN_FIELD("joints", "max_completion_length", "m", Stage::Joints, joints.maxCompletionLength, "Free ends look for a missed pipe beyond an elbow up to this long (0: off)"),
       PIPERUN_FIELD("joints", "min_completion_points", "", Stage::Joints, joints.minCompletionPoints, "A completed pipe needs this many points on its surface..."),
       PIPERUN_FIELD("joints", "min_completion_coverage", "", Stage::Joints, joints.minCompletionCoverage, "...in at least this share of its sections"),
+      PIPERUN_FIELD("joints", "min_completion_bend_deg", "deg", Stage::Joints, joints.minCompletionBendDeg, "...and turns at least this far from the end's axis"),
   };
   return table;
 }

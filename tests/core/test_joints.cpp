@@ -254,6 +254,25 @@ TEST(Joints, AnElbowIsFoundWhenOneEndStopsShortAndTheOtherReachesIt) {
   EXPECT_TRUE(far.connect().joints.empty());
 }
 
+TEST(Joints, AGentleBendBetweenALevelAndASlopedPipeIsAnElbow) {
+  // A pipe sloping off a level one by 6.5°: the elbow's surface stays within each cylinder's band
+  // well past the corner, so both fitted pipes overshoot it, and their ends overlap.
+  const double angle = 6.5 * kPi / 180.0, r = 0.05, R = 0.15;
+  auto scene = elbowScene(angle, r, R);
+  const Eigen::Vector3d out(std::cos(angle), std::sin(angle), 0.0);
+  scene.pipes()[0].end = 0.2 * Eigen::Vector3d::UnitX();
+  scene.pipes()[1].start = -0.2 * out;
+  const JointsResult result = scene.connect();
+  ASSERT_EQ(result.joints.size(), 1u);
+  const Joint& elbow = result.joints[0];
+  EXPECT_EQ(elbow.type, JointType::Elbow);
+  EXPECT_LT(elbow.position().norm(), 0.02);
+  // Both pipes are trimmed back to the elbow, which is only a centimetre long.
+  EXPECT_LT(result.pipes[0].end.norm(), 0.02);
+  EXPECT_LT(result.pipes[1].start.norm(), 0.02);
+  EXPECT_EQ(result.runs.size(), 1u);
+}
+
 TEST(Joints, TeeExtendsTheBranchToTheMainAxis) {
   ConstructedScene scene;
   scene.addPipe({-1, 0, 0}, {1, 0, 0}, 0.1);

@@ -746,7 +746,7 @@ class EndCompletion {
     const Eigen::Vector3d x = u.unitOrthogonal();
     const Eigen::Vector3d y = u.cross(x);
     const double r = end.radius;
-    const double minCorner = -cornerBehindEnd(r, radians(params_.minElbowAngleDeg));
+    const double minCorner = -cornerBehindEnd(r, radians(params_.minCompletionBendDeg));
     const double maxCorner = builder_.searchDistance(r);
     const auto corners = static_cast<int>(std::ceil((maxCorner - minCorner) / kCornerStep)) + 1;
     const double maxTilt = std::sin(radians(kMaxNormalTilt));
@@ -772,7 +772,7 @@ class EndCompletion {
           const Eigen::Vector3d direction = leg / length;
           if (std::fabs(direction.dot(normal)) > maxTilt) continue;
           const double polar = std::acos(std::clamp(direction.dot(u), -1.0, 1.0)) * 180.0 / kPi;
-          if (polar < params_.minElbowAngleDeg || polar > params_.maxElbowAngleDeg) continue;
+          if (polar < params_.minCompletionBendDeg || polar > params_.maxElbowAngleDeg) continue;
           const double turn = std::atan2(direction.dot(y), direction.dot(x)) * 180.0 / kPi + 180.0;
           const auto polarBin = std::min(polarBins - 1, static_cast<int>(polar / kAngleStep));
           // Fewer turn bins near the pole keep the bins' areas alike.
@@ -926,7 +926,7 @@ class EndCompletion {
                                           const std::vector<std::uint32_t>& nearby) const {
     const double cosine = end.outward.dot(along);
     const double bend = std::acos(std::clamp(cosine, -1.0, 1.0));
-    if (bend < radians(params_.minElbowAngleDeg) || bend > radians(params_.maxElbowAngleDeg)) return std::nullopt;
+    if (bend < radians(params_.minCompletionBendDeg) || bend > radians(params_.maxElbowAngleDeg)) return std::nullopt;
     const double sine = std::sin(bend);
     // In the plane across `along`: `across` points from the end's line towards the corners, `aside`
     // is the bend plane's normal. The new pipe's axis passes at (t sin θ, 0) for a corner t past the end.

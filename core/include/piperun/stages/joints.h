@@ -34,7 +34,8 @@ struct JointsParams {
   double maxBoundaryAngleDeg = 5.0;    ///< Ends whose axes continue each other within this angle are a boundary joint.
   double maxBoundaryGapDiameters = 8.0;  ///< A boundary joint bridges at most this many diameters (at least
                                        ///< minSearchDistance): gaps behind beams, valves, flanges.
-  double minElbowAngleDeg = 8.0;       ///< Bend angles (between one pipe's direction and the next) from this...
+  double minElbowAngleDeg = 5.0;       ///< Bend angles (between one pipe's direction and the next) from this (where
+                                       ///< boundary joints stop: a sloped pipe leaves a level one by 3–20°)...
   double maxElbowAngleDeg = 135.0;     ///< ...to this make an elbow.
   double minTeeAngleDeg = 60.0;        ///< A branch meets its main pipe at least this far from parallel.
   double minBendRadii = 1.0;           ///< An elbow's major radius R is voted between this...
@@ -50,6 +51,8 @@ struct JointsParams {
                                        ///< to stand out on the Gaussian sphere.
   std::size_t minCompletionPoints = 12;  ///< Such a pipe needs this many points on its surface...
   double minCompletionCoverage = 0.5;  ///< ...in this share of its sections at least, and must take the elbow.
+  double minCompletionBendDeg = 8.0;   ///< Such a pipe turns at least this far from the end's axis: normals scatter a
+                                       ///< few degrees, so gentler directions are the end's own pipe carrying on.
 };
 
 struct JointsInput {
