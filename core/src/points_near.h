@@ -31,21 +31,26 @@ class HashGrid {
     const std::int64_t id = cellIds_.find(cellKey(cell));
     return id < 0 ? nullptr : &buckets_[static_cast<std::size_t>(id)];
   }
-  /// Calls visit(value) for the payloads of every cell overlapping the cube of half-size `reach`
-  /// around `p` (a value may come several times).
-  template <class Visit>
-  void forEachInCube(const Eigen::Vector3d& p, double reach, Visit&& visit) const {
+  /// Calls visitCell(cell) for every cell overlapping the cube of half-size `reach` around `p`.
+  template <class VisitCell>
+  void forEachCellInCube(const Eigen::Vector3d& p, double reach, VisitCell&& visitCell) const {
     const Eigen::Vector3i low = cellOf(p - Eigen::Vector3d::Constant(reach));
     const Eigen::Vector3i high = cellOf(p + Eigen::Vector3d::Constant(reach));
     for (int x = low.x(); x <= high.x(); ++x) {
       for (int y = low.y(); y <= high.y(); ++y) {
-        for (int z = low.z(); z <= high.z(); ++z) {
-          if (const auto* bucket = find({x, y, z})) {
-            for (std::uint32_t value : *bucket) visit(value);
-          }
-        }
+        for (int z = low.z(); z <= high.z(); ++z) visitCell(Eigen::Vector3i(x, y, z));
       }
     }
+  }
+  /// Calls visit(value) for the payloads of every cell overlapping the cube of half-size `reach`
+  /// around `p` (a value may come several times).
+  template <class Visit>
+  void forEachInCube(const Eigen::Vector3d& p, double reach, Visit&& visit) const {
+    forEachCellInCube(p, reach, [&](const Eigen::Vector3i& cell) {
+      if (const auto* bucket = find(cell)) {
+        for (std::uint32_t value : *bucket) visit(value);
+      }
+    });
   }
 
  private:
@@ -65,13 +70,8 @@ std::vector<std::vector<std::uint32_t>> pointsInSpheres(const PointCloud& cloud,
   HashGrid grid(cellSize);
   for (std::size_t s = 0; s < spheres.size(); ++s) {
     const auto& [center, reach] = spheres[s];
-    const Eigen::Vector3i low = grid.cellOf(center - Eigen::Vector3d::Constant(reach));
-    const Eigen::Vector3i high = grid.cellOf(center + Eigen::Vector3d::Constant(reach));
-    for (int x = low.x(); x <= high.x(); ++x) {
-      for (int y = low.y(); y <= high.y(); ++y) {
-        for (int z = low.z(); z <= high.z(); ++z) grid.insert({x, y, z}, static_cast<std::uint32_t>(s));
-      }
-    }
+    grid.forEachCellInCube(center, reach,
+                           [&](const Eigen::Vector3i& cell) { grid.insert(cell, static_cast<std::uint32_t>(s)); });
   }
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     const Eigen::Vector3d p = cloud.positions[i].cast<double>();
