@@ -1,5 +1,6 @@
 #include "nearest_neighbors.h"
 
+#include "angles.h"
 #include "bounds.h"
 #include "cell_table.h"
 #include "sort_by_key.h"
@@ -391,7 +392,7 @@ NeighborLists findNearestNeighbors(const std::vector<Eigen::Vector3f>& positions
   lists.indices.resize(n * static_cast<std::size_t>(lists.k));
   if (lists.meanOf > 0) lists.meanDistance.resize(n);
 
-  const double neighborRadius = spacing * std::sqrt(static_cast<double>(lists.k) / 3.14159265358979323846);
+  const double neighborRadius = spacing * std::sqrt(static_cast<double>(lists.k) / kPi);
   double edge = kEdgePerNeighborRadius * neighborRadius;
 
   // Level by level: the points a level leaves open (sparse regions, outliers) go to wider cells.

@@ -11,13 +11,14 @@
 #include <utility>
 #include <vector>
 
+#include "angles.h"
+
 namespace piperun {
 
 class SectorOffsets {
  public:
   /// A point at `angle` around the axis (radians, in [-π, π]) lying `offset` outside the circle.
   void add(double angle, double offset) {
-    constexpr double kPi = 3.14159265358979323846;
     const int sector = std::min(kSectors - 1, static_cast<int>((angle + kPi) / (2.0 * kPi) * kSectors));
     sum_[static_cast<std::size_t>(sector)] += offset;
     ++count_[static_cast<std::size_t>(sector)];

@@ -6,6 +6,8 @@
 
 #include "piperun/edit/pipe_fit.h"
 
+#include "angles.h"
+
 #include <algorithm>
 #include <cmath>
 #include <set>
@@ -21,7 +23,6 @@ constexpr double kMatchAngleDeg = 10.0;
 constexpr double kMatchMinOffset = 0.02;  // m
 constexpr double kMatchMinOverlapShare = 0.5;
 constexpr double kMatchCell = 1.0;  // smallest cell of the candidate grid (m)
-constexpr double kDegree = 3.14159265358979323846 / 180.0;
 
 std::set<int> pipeSet(const Joint& joint) { return {joint.pipeIds.begin(), joint.pipeIds.end()}; }
 

@@ -8,6 +8,8 @@
 #include "piperun/edit/pipe_fit.h"
 #include "piperun/edit/runs.h"
 
+#include "angles.h"
+
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
@@ -18,7 +20,6 @@ namespace piperun {
 
 namespace {
 
-constexpr double kDegree = 3.14159265358979323846 / 180.0;
 constexpr double kMinPipeLength = 0.01;  // shortest pipe a split or a moved end may leave (m)
 
 std::string name(const char* kind, int id) { return std::string(kind) + " " + std::to_string(id); }

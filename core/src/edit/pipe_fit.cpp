@@ -1,6 +1,7 @@
 #include "piperun/edit/pipe_fit.h"
 
 #include "piperun/edit/edit.h"
+#include "angles.h"
 #include "random.h"
 
 #include <Eigen/Geometry>
@@ -17,7 +18,6 @@ namespace piperun {
 
 namespace {
 
-constexpr double kDegree = 3.14159265358979323846 / 180.0;
 constexpr double kMinGap = 0.05;  // shortest gap that ends the growth of a fit around a point (m)
 constexpr double kMinRadiusGap = 0.002;  // radius agreement floor of a point pair, as in placement (m)
 constexpr double kRadiusSlack = 0.8;     // a fit may leave [minRadius, maxRadius] by this factor, as in placement

@@ -1,5 +1,7 @@
 #include "io/export_mesh.h"
 
+#include "angles.h"
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -68,7 +70,7 @@ void appendTube(const std::vector<Eigen::Vector3d>& points, double radius, int s
     }
     const Eigen::Vector3d v = tangent[i].cross(u);
     for (int k = 0; k < segments; ++k) {
-      const double angle = 2.0 * M_PI * k / segments;
+      const double angle = 2.0 * kPi * k / segments;
       mesh.vertices.push_back(points[i] + radius * (std::cos(angle) * u + std::sin(angle) * v));
     }
   }

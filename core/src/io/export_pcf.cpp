@@ -12,6 +12,7 @@
 // Tools connect components by matching END-POINT co-ordinates. BORE is the fitted outside
 // diameter in mm, not a nominal size.
 
+#include "angles.h"
 #include "io/export_elements.h"
 
 #include <Eigen/Geometry>
@@ -146,8 +147,8 @@ void writeElbow(const ExportElement& elbow, PcfText& pcf) {
   const Eigen::Vector3d fromCentre = a - centre;
   const Eigen::Vector3d axis = fromCentre.cross(m - centre).normalized();
   double angle = std::atan2(fromCentre.cross(b - centre).dot(axis), fromCentre.dot(b - centre));
-  if (angle <= 0.0) angle += 2.0 * M_PI;
-  const int pieces = std::max(1, static_cast<int>(std::ceil(angle / (0.5 * M_PI) - 1e-6)));
+  if (angle <= 0.0) angle += 2.0 * kPi;
+  const int pieces = std::max(1, static_cast<int>(std::ceil(angle / (0.5 * kPi) - 1e-6)));
   const double step = angle / pieces;
   const double bendRadius = fromCentre.norm();
   for (int j = 0; j < pieces; ++j) {

@@ -1,5 +1,6 @@
 #include "piperun/io/network_export.h"
 
+#include "angles.h"
 #include "io/atomic_file.h"
 #include "io/export_elements.h"
 #include "io/file_extension.h"
@@ -55,7 +56,7 @@ std::optional<ExportFormat> exportFormatFromPath(const std::filesystem::path& pa
 int meshSegments(double radius, const ExportOptions& options) {
   // A chord of a regular n-gon of radius r stands r (1 - cos(π / n)) off the circle.
   const double ratio = 1.0 - options.chordTolerance / radius;
-  const double ideal = ratio <= -1.0 ? 3.0 : M_PI / std::acos(ratio);
+  const double ideal = ratio <= -1.0 ? 3.0 : kPi / std::acos(ratio);
   const int multipleOfFour = 4 * static_cast<int>(std::ceil(std::min(ideal, 1e6) / 4.0));
   return std::clamp(multipleOfFour, options.minSegments, options.maxSegments);
 }

@@ -41,6 +41,7 @@
 
 #include "piperun/stages/directions.h"
 
+#include "angles.h"
 #include "cell_table.h"
 #include "random.h"
 
@@ -63,7 +64,6 @@ namespace piperun {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr std::uint64_t kStreamTag = 0xd12ec7;  // Keeps this stage's random streams apart from other stages'.
 constexpr int kPairsPerChunk = 1024;
 constexpr int kPartnerTries = 8;
@@ -81,7 +81,6 @@ constexpr int kNoiseIterations = 20;           // Expectation-maximisation steps
 constexpr double kMaxStripeAngleDeg = 30.0;    // The stripe test's band beside the stripe must fit on the sphere.
 constexpr std::size_t kBlockSize = 8192;       // Points per block of the fixed-order parallel loops.
 
-double radians(double degrees) { return degrees * kPi / 180.0; }
 
 /// d and −d are one axis: the representative with z > 0 (ties at z = 0 broken by y, then x).
 template <typename Vector>

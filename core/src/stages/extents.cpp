@@ -23,6 +23,8 @@
 
 #include "piperun/stages/extents.h"
 
+#include "angles.h"
+
 #include <Eigen/Geometry>
 #include <tbb/parallel_for.h>
 
@@ -36,7 +38,6 @@
 namespace piperun {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 
 /// Spans [first, last) of sections in a mask.
 struct Run {

@@ -28,8 +28,10 @@
 
 #include "piperun/edit/runs.h"
 
+#include "angles.h"
 #include "points_near.h"
 #include "sector_offsets.h"
+#include "stages/segment_axis.h"
 
 #include <Eigen/Eigenvalues>
 #include <tbb/parallel_for.h>
@@ -45,7 +47,6 @@ namespace piperun {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kSectionLength = 0.04;  // Sections of a gap tested for point support (m).
 constexpr double kSupportNormalAngleDeg = 30.0;
 // An elbow voted tighter than this many pipe radii with almost no surface on its torus is no
@@ -54,7 +55,6 @@ constexpr double kSupportNormalAngleDeg = 30.0;
 constexpr double kMinFittingBendRadii = 1.5;
 constexpr double kMaxBendlessSupport = 0.2;
 
-double radians(double degrees) { return degrees * kPi / 180.0; }
 
 /// Whether point i's normal is within the support angle of the unit `radial` (normals are unoriented).
 bool normalAgrees(const PointCloud& cloud, std::uint32_t i, const Eigen::Vector3d& radial) {
@@ -110,12 +110,6 @@ struct PipeEnd {
   double radius = 0.0;
   int key() const { return 2 * pipe + side; }
 };
-
-Eigen::Vector3d unitAxis(const PipeSegment& pipe) {
-  const Eigen::Vector3d d = pipe.end - pipe.start;
-  const double length = d.norm();
-  return length > 0.0 ? Eigen::Vector3d(d / length) : Eigen::Vector3d::UnitZ();
-}
 
 PipeEnd endOf(const std::vector<PipeSegment>& pipes, int pipe, int side) {
   const PipeSegment& segment = pipes[static_cast<std::size_t>(pipe)];
@@ -881,29 +875,23 @@ class EndCompletion {
     return std::sqrt(std::max(0.0, solver.eigenvalues()(0)));
   }
 
-  /// How points lie off the circle of radius r around the axis through `origin` along `along`
-  /// (`across` × `aside` = `along`): overall and in sectors around the axis.
+  /// How points lie off the circle of radius r around the axis through `origin` along `along`.
   struct RadialOffsets {
     std::size_t count = 0;
     double mean = 0.0;
     double spread = 0.0;
     double rms = 0.0;
-    SectorOffsets sectors;
   };
 
   RadialOffsets radialOffsets(const std::vector<std::uint32_t>& points, const Eigen::Vector3d& origin,
-                              const Eigen::Vector3d& along, const Eigen::Vector3d& across,
-                              const Eigen::Vector3d& aside, double r) const {
+                              const Eigen::Vector3d& along, double r) const {
     RadialOffsets offsets;
     double sum = 0.0;
     double squares = 0.0;
     for (std::uint32_t i : points) {
-      const Eigen::Vector3d d = input_.cloud.positions[i].cast<double>() - origin;
-      const Eigen::Vector3d radial = d - d.dot(along) * along;
-      const double offset = radial.norm() - r;
+      const double offset = radialOffset(i, origin, along).norm() - r;
       sum += offset;
       squares += offset * offset;
-      offsets.sectors.add(std::atan2(radial.dot(aside), radial.dot(across)), offset);
     }
     offsets.count = points.size();
     const auto count = static_cast<double>(std::max<std::size_t>(1, points.size()));
@@ -911,6 +899,25 @@ class EndCompletion {
     offsets.spread = std::sqrt(std::max(0.0, squares / count - offsets.mean * offsets.mean));
     offsets.rms = std::sqrt(squares / count);
     return offsets;
+  }
+
+  /// Out-of-roundness (see SectorOffsets) of `points` around the circle of radius r about the axis
+  /// through `origin` along `along` (`across` × `aside` = `along`).
+  double outOfRoundness(const std::vector<std::uint32_t>& points, const Eigen::Vector3d& origin,
+                        const Eigen::Vector3d& along, const Eigen::Vector3d& across, const Eigen::Vector3d& aside,
+                        double r) const {
+    SectorOffsets sectors;
+    for (std::uint32_t i : points) {
+      const Eigen::Vector3d radial = radialOffset(i, origin, along);
+      sectors.add(std::atan2(radial.dot(aside), radial.dot(across)), radial.norm() - r);
+    }
+    return sectors.outOfRoundness(kMinSectorPoints);
+  }
+
+  /// The offset of point i from the axis through `origin` along `along`, square to the axis.
+  Eigen::Vector3d radialOffset(std::uint32_t i, const Eigen::Vector3d& origin, const Eigen::Vector3d& along) const {
+    const Eigen::Vector3d d = input_.cloud.positions[i].cast<double>() - origin;
+    return d - d.dot(along) * along;
   }
 
   /// Whether points sit on the radius: their mean offset within what their spread and number leave
@@ -1010,15 +1017,16 @@ class EndCompletion {
       return std::nullopt;
     }
     std::sort(completion.pipe.inliers.begin(), completion.pipe.inliers.end());
-    const RadialOffsets onSurface = radialOffsets(completion.pipe.inliers, corner, along, across, aside, r);
-    const RadialOffsets overBand = radialOffsets(inBand, corner, along, across, aside, r);
+    const RadialOffsets onSurface = radialOffsets(completion.pipe.inliers, corner, along, r);
+    const RadialOffsets overBand = radialOffsets(inBand, corner, along, r);
     // The points must sit on the radius of the pipe being continued, not merely within the band: a
     // square post or a flange face next to a pipe end fits the band but not the radius. So must all
     // the points in the band: on thin pipes the normals face the scanner, so those that agree with
     // the surface are the rays down its front, which the face of a post matches as well.
     if (!onRadius(onSurface, r) || !onRadius(overBand, r)) return std::nullopt;
     // ...and around it: a square post's faces sit inside the circle and its corners outside.
-    if (onSurface.sectors.outOfRoundness(kMinSectorPoints) > std::max(kMinOutOfRound, kMaxOutOfRoundRadii * r)) {
+    if (outOfRoundness(completion.pipe.inliers, corner, along, across, aside, r) >
+        std::max(kMinOutOfRound, kMaxOutOfRoundRadii * r)) {
       return std::nullopt;
     }
     // A flat face: normals that keep one direction and points in the band that lie on a line across

@@ -18,7 +18,9 @@
 
 #include "piperun/stages/merge.h"
 
+#include "angles.h"
 #include "points_near.h"
+#include "stages/segment_axis.h"
 #include "union_find.h"
 
 #include <Eigen/Geometry>
@@ -32,14 +34,7 @@ namespace piperun {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kMinExtendedConfidence = 0.9;  // See extendEnds.
-
-Eigen::Vector3d unitAxis(const PipeSegment& segment) {
-  const Eigen::Vector3d d = segment.end - segment.start;
-  const double length = d.norm();
-  return length > 0.0 ? Eigen::Vector3d(d / length) : Eigen::Vector3d::UnitZ();
-}
 
 double distanceToSegment(const Eigen::Vector3d& p, const PipeSegment& segment) {
   const Eigen::Vector3d axis = unitAxis(segment);

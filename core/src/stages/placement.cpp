@@ -33,6 +33,7 @@
 
 #include "piperun/stages/placement.h"
 
+#include "angles.h"
 #include "cell_table.h"
 #include "random.h"
 #include "sector_offsets.h"
@@ -57,8 +58,6 @@
 namespace piperun {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegree = kPi / 180.0;
 
 constexpr double kScaleStep = 3.0;        // ratio between neighbouring pair-selection scales
 constexpr double kMinSlabLength = 0.3;    // axial extent of a pair-selection cell (m): short enough that

@@ -37,6 +37,7 @@
 
 #include "piperun/error.h"
 
+#include "angles.h"
 #include "bounds.h"
 #include "nearest_neighbors.h"
 #include "sort_by_key.h"
@@ -85,8 +86,6 @@ constexpr double kFringeBandFactor = 2.0;     ///< Plane band in cells next to a
 using Clock = std::chrono::steady_clock;
 double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
-constexpr double kPi = 3.14159265358979323846;
-double degToRad(double degrees) { return degrees * kPi / 180.0; }
 
 constexpr double kMinAutoVoxel = 0.005;
 
@@ -375,7 +374,7 @@ void classifyCell(PlaneCell& cell, const std::vector<KeyedPoint>& entries, const
   if (std::sqrt(frame.eigenvalues[0]) > params.planeMaxThickness) return;
   if (std::sqrt(frame.eigenvalues[1]) < kMinSpreadShare * params.planeCellSize) return;
 
-  const double cosParallel = std::cos(degToRad(kParallelAngleDeg));
+  const double cosParallel = std::cos(radians(kParallelAngleDeg));
   std::uint32_t agreeing = 0;
   for (std::uint32_t e = cell.first; e < cell.last; ++e) {
     if (std::abs(normals[entries[e].point].cast<double>().dot(cell.normal)) >= cosParallel) ++agreeing;
@@ -388,7 +387,7 @@ void classifyCell(PlaneCell& cell, const std::vector<KeyedPoint>& entries, const
 /// Adjacent planar cells belong to one plane when their normals and offsets agree.
 bool samePlane(const PlaneCell& a, const PlaneCell& b, double thickness) {
   const double maxOffset = kJoinOffsetFactor * thickness;
-  return std::abs(a.normal.dot(b.normal)) >= std::cos(degToRad(kJoinAngleDeg)) &&
+  return std::abs(a.normal.dot(b.normal)) >= std::cos(radians(kJoinAngleDeg)) &&
          std::abs((b.centroid - a.centroid).dot(a.normal)) <= maxOffset &&
          std::abs((a.centroid - b.centroid).dot(b.normal)) <= maxOffset;
 }
@@ -482,7 +481,7 @@ std::vector<std::int64_t> locateOnPlanes(const CellGrid& grid, const std::vector
   };
   const std::vector<PlaneCell>& cells = grid.cells;
   const std::array<Index3, 26> offsets = neighborOffsets();
-  const double cosParallel = std::cos(degToRad(kParallelAngleDeg));
+  const double cosParallel = std::cos(radians(kParallelAngleDeg));
   std::vector<std::int64_t> located(cloud.size(), kOffPlanes);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 16), [&](const tbb::blocked_range<std::size_t>& range) {
     progress.checkCancelled();

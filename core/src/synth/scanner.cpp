@@ -13,13 +13,12 @@
 #include <numeric>
 #include <utility>
 
+#include "angles.h"
 #include "random.h"
 
 namespace piperun::synth {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegree = kPi / 180.0;
 
 // Pieces are kept small so that their bounding spheres are tight seen from a station.
 constexpr double kMaxCylinderPiece = 1.0;  // m

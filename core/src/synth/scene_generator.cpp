@@ -5,13 +5,13 @@
 #include <stdexcept>
 #include <string>
 
+#include "angles.h"
 #include "synth/scanner.h"
 #include "synth/scene_layout.h"
 
 namespace piperun {
 namespace {
 
-constexpr double kDegree = 3.14159265358979323846 / 180.0;
 /// Points handed to the sink at a time (about 8 MB of chunk).
 constexpr std::size_t kChunkPoints = std::size_t{1} << 18;
 /// Angular step of the sparse scan that measures how many rays hit something.

@@ -13,14 +13,13 @@
 #include <string>
 #include <utility>
 
+#include "angles.h"
 #include "random.h"
 #include "synth/scanner.h"
 
 namespace piperun::synth {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegree = kPi / 180.0;
 
 // Outside radii of NPS pipe sizes 1" to 22" (ASME B36.10 outside diameters / 2), metres.
 constexpr std::array<double, 17> kNominalRadii = {0.0167,  0.0211,  0.02415, 0.03015, 0.0365, 0.04445,
