@@ -291,6 +291,19 @@ TEST(Joints, TeeExtendsTheBranchToTheMainAxis) {
   EXPECT_TRUE(result.pipes[1].end.isApprox(Eigen::Vector3d(0.2, 0.12, 0)));
 }
 
+TEST(Joints, AThinBranchStoppingShortLooksForItsMainAsFarAsTheMainIsThick) {
+  // A 2 cm branch whose last 20 cm were not found: ten of its diameters, but only four of the
+  // 5 cm main pipe's, within which an end looks for partners.
+  ConstructedScene scene;
+  scene.addPipe({-1, 0, 0}, {1, 0, 0}, 0.05);
+  scene.addPipe({0.2, 1.0, 0}, {0.2, 0.25, 0}, 0.02);
+  const JointsResult result = scene.connect();
+  ASSERT_EQ(result.joints.size(), 1u);
+  EXPECT_EQ(result.joints[0].type, JointType::Tee);
+  EXPECT_EQ(result.joints[0].pipeIds, (std::vector<int>{1, 2}));
+  EXPECT_LT((result.joints[0].axis.front() - Eigen::Vector3d(0.2, 0, 0)).norm(), 1e-9);
+}
+
 TEST(Joints, ASquareCornerWithNoBendIsATeeWhoseMainWasSeenOnOneSide) {
   // The main pipe's far side was not scanned: it ends at the branch's near wall, and the branch
   // reaches the main's wall. No torus fits there (it would bend tighter than any elbow), so it is a
@@ -425,6 +438,34 @@ TEST(Joints, ALegBetweenTwoElbowsThatNoPipeCoversIsCompleted) {
   EXPECT_EQ(without.pipes.size(), 3u);
   EXPECT_EQ(without.diagnostics.completedPipes, 0u);
   EXPECT_TRUE(without.joints.empty());
+}
+
+TEST(Joints, AnEndThatOnlyAProposedJointTookIsStillCompleted) {
+  // Pipe 1 comes along +x to a corner at the origin, where an elbow (R = 3r) turns up into a leg
+  // that no pipe covers. Pipe 2 crosses the line of pipe 1 40 cm ahead: a tee with no points on
+  // its branch, proposed at best. The completed leg's elbow is the better joint for that end.
+  const double r = 0.05, R = 0.15;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  scene.addElbow({-R, 0, R}, {-R, 0, 0}, -Eigen::Vector3d::UnitY(), kPi / 2, r);
+  scene.addPipe({0, 0, R}, {0, 0, 0.8}, r, false);
+  scene.addPipe({0.25, -1.0, 0}, {0.25, 1.0, 0}, r);
+
+  JointsParams off;
+  off.maxCompletionLength = 0.0;
+  const JointsResult without = scene.connect(off);
+  ASSERT_EQ(without.joints.size(), 1u);
+  EXPECT_EQ(without.joints[0].type, JointType::Tee);
+  EXPECT_EQ(without.joints[0].status, JointStatus::Proposed);
+
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.completedPipes, 1u);
+  ASSERT_EQ(result.joints.size(), 1u);
+  const Joint& elbow = result.joints[0];
+  EXPECT_EQ(elbow.type, JointType::Elbow);
+  EXPECT_EQ(elbow.status, JointStatus::Accepted);
+  EXPECT_NEAR(elbow.bendRadius, R, 0.1 * R);
+  EXPECT_EQ(elbow.pipeIds, (std::vector<int>{1, 3}));
 }
 
 TEST(Joints, ASlopedLegOffTheNetworkDirectionsIsCompleted) {

@@ -283,7 +283,9 @@ class JointBuilder {
     h.a = branch;
     h.mainPipe = main;
     h.gap = alongBranch - mainPipe.radius;  // From the main pipe's surface to the branch end.
-    h.gapLimit = searchDistance(branch.radius);
+    // Like an elbow's ends, a branch looks for its main as far as the larger pipe is thick: a thin
+    // branch's last diameters are the first lost to occlusion and sparse scan lines.
+    h.gapLimit = searchDistance(std::max(branch.radius, mainPipe.radius));
     // The branch end does not pass the main's axis (it may reach into the main pipe: a branch of
     // the main's size shares points with it around the junction).
     if (alongBranch < 0.0 || h.gap > h.gapLimit) return std::nullopt;
@@ -545,7 +547,9 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
     for (int side = 0; side < 2; ++side) {
       const PipeEnd end = endOf(pipes, p, side);
       const double partnerRadius = end.radius / params.minRadiusRatio;
-      const double reach = std::max(builder.searchDistance(partnerRadius), builder.boundaryGapLimit(partnerRadius)) +
+      // (A tee's main may be the thickest pipe of all: see teeAt.)
+      const double reach = std::max({builder.searchDistance(partnerRadius), builder.boundaryGapLimit(partnerRadius),
+                                     builder.searchDistance(largestRadius)}) +
                            largestRadius;
       near.clear();
       pipeGrid.forEachInCube(end.point, reach, [&](std::uint32_t other) {
@@ -1055,18 +1059,27 @@ class EndCompletion {
   const JointBuilder& builder_;
 };
 
-/// Completions of the ends no joint took, best-supported first; a point supports one completion.
+/// Completions of the ends no accepted joint took, best-supported first; a point supports one completion.
 std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsParams& params,
                                          const std::vector<char>& explained, const Resolution& resolution,
                                          double cellSize) {
   const JointBuilder builder(input, params, explained);
   const EndCompletion completer(input, params, builder);
+  // An end that only a proposed joint took is completed too: resolved again with the completion,
+  // the better-supported joint takes it.
+  std::vector<char> takenByAccepted(resolution.endTaken.size(), 0);
+  for (std::size_t h : resolution.chosen) {
+    const Hypothesis& hypothesis = resolution.hypotheses[h];
+    if (hypothesis.confidence < params.acceptConfidence) continue;
+    takenByAccepted[static_cast<std::size_t>(hypothesis.a.key())] = 1;
+    if (hypothesis.type != JointType::Tee) takenByAccepted[static_cast<std::size_t>(hypothesis.b.key())] = 1;
+  }
   std::vector<PipeEnd> ends;
   std::vector<std::pair<Eigen::Vector3d, double>> spheres;
   for (int p = 0; p < static_cast<int>(input.pipes.size()); ++p) {
     if (isFragment(input.pipes[static_cast<std::size_t>(p)], params)) continue;
     for (int side = 0; side < 2; ++side) {
-      if (resolution.endTaken[static_cast<std::size_t>(2 * p + side)]) continue;
+      if (takenByAccepted[static_cast<std::size_t>(2 * p + side)]) continue;
       ends.push_back(endOf(input.pipes, p, side));
       spheres.emplace_back(ends.back().point, completer.reach(ends.back()));
     }

@@ -45,10 +45,10 @@ struct JointsParams {
                                        ///< found elbow's arc are absorbed by it.
   double supportDistance = 0.01;       ///< Points within this of a joint's surface support it (m).
   double acceptConfidence = 0.5;       ///< Joints with at least this confidence are accepted, others proposed.
-  double maxCompletionLength = 1.0;    ///< An end no joint took looks for a pipe the earlier stages missed beyond an
-                                       ///< elbow, along one of the network's directions, up to this long (m; 0: off):
-                                       ///< short legs between elbows and tails into equipment have too few points
-                                       ///< to stand out on the Gaussian sphere.
+  double maxCompletionLength = 1.0;    ///< An end no accepted joint took looks for a pipe the earlier stages missed
+                                       ///< beyond an elbow, along one of the network's directions, up to this long
+                                       ///< (m; 0: off): short legs between elbows and tails into equipment have too
+                                       ///< few points to stand out on the Gaussian sphere.
   std::size_t minCompletionPoints = 12;  ///< Such a pipe needs this many points on its surface...
   double minCompletionCoverage = 0.5;  ///< ...in this share of its sections at least, and must take the elbow.
   double minCompletionBendDeg = 8.0;   ///< Such a pipe turns at least this far from the end's axis: normals scatter a
