@@ -8,5 +8,7 @@ inline constexpr double kDegree = kPi / 180.0;
 
 /// Degrees to radians.
 inline double radians(double degrees) { return degrees * kPi / 180.0; }
+/// Radians to degrees.
+inline double degrees(double radians) { return radians * 180.0 / kPi; }
 
 }  // namespace piperun

@@ -81,7 +81,6 @@ constexpr int kNoiseIterations = 20;           // Expectation-maximisation steps
 constexpr double kMaxStripeAngleDeg = 30.0;    // The stripe test's band beside the stripe must fit on the sphere.
 constexpr std::size_t kBlockSize = 8192;       // Points per block of the fixed-order parallel loops.
 
-
 /// d and −d are one axis: the representative with z > 0 (ties at z = 0 broken by y, then x).
 template <typename Vector>
 Vector foldedUp(const Vector& d) {
@@ -750,8 +749,8 @@ DirectionsResult detectDirections(const DirectionsInput& input, const Directions
       direction.axis = axis;
       direction.support = support;
       direction.round = round;
-      direction.noiseDeg = fit.noise * 180.0 / kPi;
-      direction.stripeAngleDeg = halfWidth * 180.0 / kPi;
+      direction.noiseDeg = degrees(fit.noise);
+      direction.stripeAngleDeg = degrees(halfWidth);
       direction.stripe.reserve(stripe.positions.size());
       for (const std::uint32_t k : stripe.positions) {
         direction.stripe.push_back(usable[k]);

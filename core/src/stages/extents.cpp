@@ -38,7 +38,6 @@
 namespace piperun {
 namespace {
 
-
 /// Spans [first, last) of sections in a mask.
 struct Run {
   std::size_t first, last;
@@ -98,7 +97,7 @@ double spannedDeg(const std::vector<double>& sortedAngles) {
   if (sortedAngles.size() < 2) return 0.0;
   double largestGap = sortedAngles.front() + 2.0 * kPi - sortedAngles.back();
   for (std::size_t k = 1; k < sortedAngles.size(); ++k) largestGap = std::max(largestGap, sortedAngles[k] - sortedAngles[k - 1]);
-  return 360.0 - largestGap * 180.0 / kPi;
+  return 360.0 - degrees(largestGap);
 }
 
 std::vector<PipeSegment> segmentsOf(const PointCloud& cloud, const Cylinder& cylinder, int cylinderIndex,

@@ -55,7 +55,6 @@ constexpr double kSupportNormalAngleDeg = 30.0;
 constexpr double kMinFittingBendRadii = 1.5;
 constexpr double kMaxBendlessSupport = 0.2;
 
-
 /// Whether point i's normal is within the support angle of the unit `radial` (normals are unoriented).
 bool normalAgrees(const PointCloud& cloud, std::uint32_t i, const Eigen::Vector3d& radial) {
   if (cloud.normals.empty()) return true;
@@ -310,7 +309,6 @@ class JointBuilder {
  private:
   Eigen::Vector3d position(std::uint32_t i) const { return input_.cloud.positions[i].cast<double>(); }
 
-
   /// Inliers per metre of axis of a pipe: the density a joint of the same size should show.
   double linearDensity(int pipe) const {
     const PipeSegment& segment = input_.pipes[static_cast<std::size_t>(pipe)];
@@ -510,7 +508,7 @@ namespace {
 struct Resolution {
   std::vector<Hypothesis> hypotheses;
   std::vector<std::size_t> chosen;  // Into hypotheses, in the order they took their ends.
-  std::vector<char> endTaken;       // By PipeEnd::key().
+  std::vector<int> takenBy;         // By PipeEnd::key(): the chosen hypothesis that took the end, -1 for none.
   JointsResult::Diagnostics diagnostics;
 };
 
@@ -597,8 +595,9 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
   std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
     return hypotheses[x].confidence > hypotheses[y].confidence;
   });
-  auto& endTaken = resolution.endTaken;
-  endTaken.assign(2 * static_cast<std::size_t>(pipeCount), 0);
+  auto& takenBy = resolution.takenBy;
+  takenBy.assign(2 * static_cast<std::size_t>(pipeCount), -1);
+  const auto taken = [&](const PipeEnd& end) { return takenBy[static_cast<std::size_t>(end.key())] >= 0; };
   // Where each end lies once the chosen elbows have moved it: two elbows on one short pipe must
   // leave it a length.
   std::vector<Eigen::Vector3d> endPoint(2 * static_cast<std::size_t>(pipeCount));
@@ -614,14 +613,13 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
     const Hypothesis& hypothesis = hypotheses[h];
     const bool twoEnds = hypothesis.type != JointType::Tee;
     const bool elbow = hypothesis.type == JointType::Elbow;
-    if (endTaken[static_cast<std::size_t>(hypothesis.a.key())] ||
-        (twoEnds && endTaken[static_cast<std::size_t>(hypothesis.b.key())]) ||
+    if (taken(hypothesis.a) || (twoEnds && taken(hypothesis.b)) ||
         (elbow && (!keepsLength(hypothesis.a, hypothesis.newA) || !keepsLength(hypothesis.b, hypothesis.newB)))) {
       ++resolution.diagnostics.conflicts;
       continue;
     }
-    endTaken[static_cast<std::size_t>(hypothesis.a.key())] = 1;
-    if (twoEnds) endTaken[static_cast<std::size_t>(hypothesis.b.key())] = 1;
+    takenBy[static_cast<std::size_t>(hypothesis.a.key())] = static_cast<int>(h);
+    if (twoEnds) takenBy[static_cast<std::size_t>(hypothesis.b.key())] = static_cast<int>(h);
     if (elbow) {
       endPoint[static_cast<std::size_t>(hypothesis.a.key())] = hypothesis.newA;
       endPoint[static_cast<std::size_t>(hypothesis.b.key())] = hypothesis.newB;
@@ -769,9 +767,9 @@ class EndCompletion {
           if (length < 2.0 * r || length > kVoteLength) continue;
           const Eigen::Vector3d direction = leg / length;
           if (std::fabs(direction.dot(normal)) > maxTilt) continue;
-          const double polar = std::acos(std::clamp(direction.dot(u), -1.0, 1.0)) * 180.0 / kPi;
+          const double polar = degrees(std::acos(std::clamp(direction.dot(u), -1.0, 1.0)));
           if (polar < params_.minCompletionBendDeg || polar > params_.maxElbowAngleDeg) continue;
-          const double turn = std::atan2(direction.dot(y), direction.dot(x)) * 180.0 / kPi + 180.0;
+          const double turn = degrees(std::atan2(direction.dot(y), direction.dot(x))) + 180.0;
           const auto polarBin = std::min(polarBins - 1, static_cast<int>(polar / kAngleStep));
           // Fewer turn bins near the pole keep the bins' areas alike.
           const int rowBins = std::max(1, static_cast<int>(std::ceil(turnBins * std::sin(radians((polarBin + 0.5) * kAngleStep)))));
@@ -1067,19 +1065,16 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
   const EndCompletion completer(input, params, builder);
   // An end that only a proposed joint took is completed too: resolved again with the completion,
   // the better-supported joint takes it.
-  std::vector<char> takenByAccepted(resolution.endTaken.size(), 0);
-  for (std::size_t h : resolution.chosen) {
-    const Hypothesis& hypothesis = resolution.hypotheses[h];
-    if (hypothesis.confidence < params.acceptConfidence) continue;
-    takenByAccepted[static_cast<std::size_t>(hypothesis.a.key())] = 1;
-    if (hypothesis.type != JointType::Tee) takenByAccepted[static_cast<std::size_t>(hypothesis.b.key())] = 1;
-  }
+  const auto takenByAccepted = [&](int key) {
+    const int h = resolution.takenBy[static_cast<std::size_t>(key)];
+    return h >= 0 && resolution.hypotheses[static_cast<std::size_t>(h)].confidence >= params.acceptConfidence;
+  };
   std::vector<PipeEnd> ends;
   std::vector<std::pair<Eigen::Vector3d, double>> spheres;
   for (int p = 0; p < static_cast<int>(input.pipes.size()); ++p) {
     if (isFragment(input.pipes[static_cast<std::size_t>(p)], params)) continue;
     for (int side = 0; side < 2; ++side) {
-      if (takenByAccepted[static_cast<std::size_t>(2 * p + side)]) continue;
+      if (takenByAccepted(2 * p + side)) continue;
       ends.push_back(endOf(input.pipes, p, side));
       spheres.emplace_back(ends.back().point, completer.reach(ends.back()));
     }

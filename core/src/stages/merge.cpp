@@ -50,7 +50,7 @@ double distanceToLine(const Eigen::Vector3d& p, const Eigen::Vector3d& origin, c
 bool samePipe(const PipeSegment& a, const PipeSegment& b, const MergeParams& params) {
   const Eigen::Vector3d da = unitAxis(a);
   const Eigen::Vector3d db = unitAxis(b);
-  if (std::fabs(da.dot(db)) < std::cos(params.maxAngleDeg * kPi / 180.0)) return false;
+  if (std::fabs(da.dot(db)) < std::cos(radians(params.maxAngleDeg))) return false;
 
   const double larger = std::max(a.radius, b.radius);
   if (std::fabs(a.radius - b.radius) > std::max(0.003, params.maxRadiusDifference * larger)) return false;
@@ -151,7 +151,7 @@ double extension(const PointCloud& cloud, const PipeSegment& pipe, const Eigen::
   constexpr std::size_t kMaxGap = 3;     // ...with gaps of at most this many.
   const double r = pipe.radius;
   const double band = surfaceBand(pipe);
-  const double minCos = std::cos(params.extensionNormalAngleDeg * kPi / 180.0);
+  const double minCos = std::cos(radians(params.extensionNormalAngleDeg));
   const auto sections = static_cast<std::size_t>(std::ceil(params.maxExtension / kSection));
   std::vector<std::vector<std::uint32_t>> bySection(sections);
   std::vector<std::size_t> clutter(sections, 0);

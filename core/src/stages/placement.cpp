@@ -58,7 +58,6 @@
 namespace piperun {
 namespace {
 
-
 constexpr double kScaleStep = 3.0;        // ratio between neighbouring pair-selection scales
 constexpr double kMinSlabLength = 0.3;    // axial extent of a pair-selection cell (m): short enough that
                                           // a direction 1° off smears a circle by only 5 mm

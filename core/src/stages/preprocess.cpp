@@ -86,7 +86,6 @@ constexpr double kFringeBandFactor = 2.0;     ///< Plane band in cells next to a
 using Clock = std::chrono::steady_clock;
 double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
-
 constexpr double kMinAutoVoxel = 0.005;
 
 void require(bool condition, const std::string& message) {

@@ -19,7 +19,6 @@
 namespace piperun::synth {
 namespace {
 
-
 // Pieces are kept small so that their bounding spheres are tight seen from a station.
 constexpr double kMaxCylinderPiece = 1.0;  // m
 constexpr double kMaxBoxPiece = 2.0;       // m

@@ -20,7 +20,6 @@
 namespace piperun::synth {
 namespace {
 
-
 // Outside radii of NPS pipe sizes 1" to 22" (ASME B36.10 outside diameters / 2), metres.
 constexpr std::array<double, 17> kNominalRadii = {0.0167,  0.0211,  0.02415, 0.03015, 0.0365, 0.04445,
                                                   0.05715, 0.07065, 0.08415, 0.10955, 0.1365, 0.1619,
