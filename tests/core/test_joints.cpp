@@ -273,6 +273,42 @@ TEST(Joints, AGentleBendBetweenALevelAndASlopedPipeIsAnElbow) {
   EXPECT_EQ(result.runs.size(), 1u);
 }
 
+TEST(Joints, APieceLeftShorterThanADiameterBetweenTwoElbowsGoesAndOneElbowJoinsThePipesBeyond) {
+  // A bend of 20° (R = 2r) and 60° (R = 3r) around 6 cm of straight pipe, whose piece was fitted
+  // 3 cm into each arc, as cylinders fitted on elbows reach: the two elbows would leave it 1.2
+  // radii long, so the 80° elbow between the pipes beyond takes its place.
+  const double r = 0.05, straight = 0.06, overshoot = 0.03;
+  const double firstAngle = 20.0 * kPi / 180.0, secondAngle = 60.0 * kPi / 180.0;
+  const double firstTangent = 2.0 * r * std::tan(0.5 * firstAngle), secondTangent = 3.0 * r * std::tan(0.5 * secondAngle);
+  const Eigen::Vector3d along(std::cos(firstAngle), std::sin(firstAngle), 0);
+  const Eigen::Vector3d out(std::cos(firstAngle + secondAngle), std::sin(firstAngle + secondAngle), 0);
+  const Eigen::Vector3d secondCorner = (firstTangent + straight + secondTangent) * along;
+  ConstructedScene scene;
+  scene.addPipe({-1.2, 0, 0}, -firstTangent * Eigen::Vector3d::UnitX(), r);
+  scene.addPipe(secondCorner + secondTangent * out, secondCorner + (secondTangent + 1.2) * out, r);
+  scene.addBend(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), along, 2.0 * r, r);
+  scene.addBend(secondCorner, along, out, 3.0 * r, r);
+  const int piece = scene.addPipe(firstTangent * along, (firstTangent + straight) * along, r);
+  scene.pipes()[static_cast<std::size_t>(piece)].start -= overshoot * along;
+  scene.pipes()[static_cast<std::size_t>(piece)].end += overshoot * along;
+  JointsParams params;
+  params.maxCompletionLength = 0.0;  // The resolution alone.
+  const JointsResult result = scene.connect(params);
+  ASSERT_EQ(result.pipes.size(), 2u);
+  EXPECT_EQ(result.diagnostics.absorbedFragments, 1u);
+  ASSERT_EQ(result.joints.size(), 1u);
+  const Joint& elbow = result.joints[0];
+  EXPECT_EQ(elbow.type, JointType::Elbow);
+  EXPECT_EQ(elbow.pipeIds, (std::vector<int>{1, 2}));
+  EXPECT_EQ(elbow.status, JointStatus::Accepted);
+  // The pipes end on their own lines where the elbow's arc starts and ends.
+  EXPECT_NEAR(result.pipes[0].end.y(), 0.0, 1e-9);
+  EXPECT_LT((result.pipes[0].end - elbow.axis.front()).norm(), 1e-9);
+  EXPECT_LT((result.pipes[1].start - elbow.axis.back()).norm(), 1e-9);
+  const Eigen::Vector3d fromLine = result.pipes[1].start - secondCorner;
+  EXPECT_LT((fromLine - fromLine.dot(out) * out).norm(), 1e-6);
+}
+
 TEST(Joints, TeeExtendsTheBranchToTheMainAxis) {
   ConstructedScene scene;
   scene.addPipe({-1, 0, 0}, {1, 0, 0}, 0.1);

@@ -12,6 +12,8 @@
 //    the main pipe's axis. Boundary joints bridge the gap between collinear ends.
 // 3. Confidence = how well the criteria hold, blended with the point support on the joint's
 //    surface; the best-supported hypothesis takes an end first, an end takes at most one joint.
+//    A piece of an elbow's arc fitted as a cylinder makes two elbows of one; when they would
+//    leave it shorter than a fragment, the elbow between the pipes beyond replaces them.
 // 4. Completion: an end no joint took looks beyond an elbow, along each of the network's
 //    directions and along the direction its nearby points vote for (a sloped leg), for a pipe the
 //    earlier stages missed (short legs between elbows, tails into equipment: too few points to
@@ -509,6 +511,7 @@ struct Resolution {
   std::vector<Hypothesis> hypotheses;
   std::vector<std::size_t> chosen;  // Into hypotheses, in the order they took their ends.
   std::vector<int> takenBy;         // By PipeEnd::key(): the chosen hypothesis that took the end, -1 for none.
+  std::vector<char> arcPieces;      // By pipe: a piece of an elbow's arc, replaced by the elbow (it goes).
   JointsResult::Diagnostics diagnostics;
 };
 
@@ -625,6 +628,45 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
       endPoint[static_cast<std::size_t>(hypothesis.b.key())] = hypothesis.newB;
     }
     resolution.chosen.push_back(h);
+  }
+
+  // An elbow's arc fitted as a short cylinder turns one elbow into two, one with each pipe. When
+  // those two leave the piece shorter than a fragment and the pipes beyond it make an elbow of
+  // their own, that elbow replaces the two and the piece goes like a fragment on an arc.
+  resolution.arcPieces.assign(static_cast<std::size_t>(pipeCount), 0);
+  auto& chosen = resolution.chosen;
+  for (int p = 0; p < pipeCount; ++p) {
+    const int first = takenBy[2 * static_cast<std::size_t>(p)];
+    const int second = takenBy[2 * static_cast<std::size_t>(p) + 1];
+    if (first < 0 || second < 0 || first == second) continue;
+    const Hypothesis& atStart = hypotheses[static_cast<std::size_t>(first)];
+    const Hypothesis& atEnd = hypotheses[static_cast<std::size_t>(second)];
+    if (atStart.type != JointType::Elbow || atEnd.type != JointType::Elbow) continue;
+    const PipeSegment& piece = pipes[static_cast<std::size_t>(p)];
+    const double left = (endPoint[2 * static_cast<std::size_t>(p) + 1] - endPoint[2 * static_cast<std::size_t>(p)])
+                            .dot(unitAxis(piece));
+    if (left >= params.minPipeDiameters * 2.0 * piece.radius) continue;
+    const PipeEnd& before = atStart.a.pipe == p ? atStart.b : atStart.a;
+    const PipeEnd& after = atEnd.a.pipe == p ? atEnd.b : atEnd.a;
+    const auto joinsOuterEnds = [&](const Hypothesis& h) {
+      return h.valid && h.type == JointType::Elbow &&
+             ((h.a.key() == before.key() && h.b.key() == after.key()) ||
+              (h.a.key() == after.key() && h.b.key() == before.key()));
+    };
+    const auto whole = std::find_if(hypotheses.begin(), hypotheses.end(), joinsOuterEnds);
+    if (whole == hypotheses.end() || !keepsLength(whole->a, whole->newA) || !keepsLength(whole->b, whole->newB)) {
+      continue;
+    }
+    const auto h = static_cast<std::size_t>(whole - hypotheses.begin());
+    chosen.erase(std::remove_if(chosen.begin(), chosen.end(),
+                                [&](std::size_t c) { return c == static_cast<std::size_t>(first) || c == static_cast<std::size_t>(second); }),
+                 chosen.end());
+    chosen.push_back(h);
+    takenBy[2 * static_cast<std::size_t>(p)] = takenBy[2 * static_cast<std::size_t>(p) + 1] = -1;
+    takenBy[static_cast<std::size_t>(before.key())] = takenBy[static_cast<std::size_t>(after.key())] = static_cast<int>(h);
+    endPoint[static_cast<std::size_t>(whole->a.key())] = whole->newA;
+    endPoint[static_cast<std::size_t>(whole->b.key())] = whole->newB;
+    resolution.arcPieces[static_cast<std::size_t>(p)] = 1;
   }
   return resolution;
 }
@@ -1072,7 +1114,9 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
   std::vector<PipeEnd> ends;
   std::vector<std::pair<Eigen::Vector3d, double>> spheres;
   for (int p = 0; p < static_cast<int>(input.pipes.size()); ++p) {
-    if (isFragment(input.pipes[static_cast<std::size_t>(p)], params)) continue;
+    if (isFragment(input.pipes[static_cast<std::size_t>(p)], params) || resolution.arcPieces[static_cast<std::size_t>(p)]) {
+      continue;
+    }
     for (int side = 0; side < 2; ++side) {
       if (takenByAccepted(2 * p + side)) continue;
       ends.push_back(endOf(input.pipes, p, side));
@@ -1167,8 +1211,9 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   const auto& chosen = resolution.chosen;
   const int pipeCount = static_cast<int>(pipes.size());
 
-  // Fragments lying on a chosen elbow's arc are bits of the elbow fitted as cylinders: they go.
-  std::vector<char> absorbed(static_cast<std::size_t>(pipeCount), 0);
+  // Fragments lying on a chosen elbow's arc are bits of the elbow fitted as cylinders: they go,
+  // and so do the arc pieces whose elbows the resolution replaced.
+  std::vector<char> absorbed = resolution.arcPieces;
   for (int p = 0; p < pipeCount; ++p) {
     if (!isFragment(pipes[static_cast<std::size_t>(p)], params)) continue;
     const PipeSegment& fragment = pipes[static_cast<std::size_t>(p)];

@@ -42,7 +42,8 @@ struct JointsParams {
   double maxBendRadii = 5.0;           ///< ...and this many pipe radii (short elbows R = 2r, long R = 3r).
   double minPipeDiameters = 1.0;       ///< Pipes shorter than this many diameters are fragments (a bit of an elbow
                                        ///< or flange fitted as a cylinder): they take no joint, and those lying on a
-                                       ///< found elbow's arc are absorbed by it.
+                                       ///< found elbow's arc are absorbed by it. A pipe that the elbows at both its
+                                       ///< ends would leave shorter goes too, when the pipes beyond make an elbow.
   double supportDistance = 0.01;       ///< Points within this of a joint's surface support it (m).
   double acceptConfidence = 0.5;       ///< Joints with at least this confidence are accepted, others proposed.
   double maxCompletionLength = 1.0;    ///< An end no accepted joint took looks for a pipe the earlier stages missed
@@ -75,7 +76,7 @@ struct JointsResult {
     std::size_t candidatePairs = 0;        ///< End–pipe pairs the spatial index proposed.
     std::array<std::size_t, 3> hypotheses{};  ///< Valid hypotheses by JointType (elbow, tee, boundary).
     std::size_t conflicts = 0;             ///< Hypotheses dropped: an end already taken, or a pipe left too short.
-    std::size_t absorbedFragments = 0;     ///< Fragment pipes removed because they lie on an elbow.
+    std::size_t absorbedFragments = 0;     ///< Fragments removed because they lie on an elbow, and pieces of arcs.
     std::size_t completedPipes = 0;        ///< Pipes found beyond free ends (appended after the input pipes).
     double seconds = 0.0;
   } diagnostics;
