@@ -658,9 +658,8 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
       continue;
     }
     const auto h = static_cast<std::size_t>(whole - hypotheses.begin());
-    chosen.erase(std::remove_if(chosen.begin(), chosen.end(),
-                                [&](std::size_t c) { return c == static_cast<std::size_t>(first) || c == static_cast<std::size_t>(second); }),
-                 chosen.end());
+    const auto replaced = [&](std::size_t c) { return static_cast<int>(c) == first || static_cast<int>(c) == second; };
+    chosen.erase(std::remove_if(chosen.begin(), chosen.end(), replaced), chosen.end());
     chosen.push_back(h);
     takenBy[2 * static_cast<std::size_t>(p)] = takenBy[2 * static_cast<std::size_t>(p) + 1] = -1;
     takenBy[static_cast<std::size_t>(before.key())] = takenBy[static_cast<std::size_t>(after.key())] = static_cast<int>(h);
@@ -1114,9 +1113,8 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
   std::vector<PipeEnd> ends;
   std::vector<std::pair<Eigen::Vector3d, double>> spheres;
   for (int p = 0; p < static_cast<int>(input.pipes.size()); ++p) {
-    if (isFragment(input.pipes[static_cast<std::size_t>(p)], params) || resolution.arcPieces[static_cast<std::size_t>(p)]) {
-      continue;
-    }
+    const auto pipe = static_cast<std::size_t>(p);
+    if (isFragment(input.pipes[pipe], params) || resolution.arcPieces[pipe]) continue;
     for (int side = 0; side < 2; ++side) {
       if (takenByAccepted(2 * p + side)) continue;
       ends.push_back(endOf(input.pipes, p, side));
