@@ -608,9 +608,11 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
     endPoint[2 * static_cast<std::size_t>(p)] = pipes[static_cast<std::size_t>(p)].start;
     endPoint[2 * static_cast<std::size_t>(p) + 1] = pipes[static_cast<std::size_t>(p)].end;
   }
+  const auto lengthLeft = [&](const PipeEnd& end, const Eigen::Vector3d& moved) {
+    return (moved - endPoint[static_cast<std::size_t>(end.key() ^ 1)]).dot(end.outward);
+  };
   const auto keepsLength = [&](const PipeEnd& end, const Eigen::Vector3d& moved) {
-    const Eigen::Vector3d& other = endPoint[static_cast<std::size_t>(end.key() ^ 1)];
-    return (moved - other).dot(end.outward) >= kSectionLength;
+    return lengthLeft(end, moved) >= kSectionLength;
   };
   for (std::size_t h : order) {
     const Hypothesis& hypothesis = hypotheses[h];
@@ -636,16 +638,15 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
   resolution.arcPieces.assign(static_cast<std::size_t>(pipeCount), 0);
   auto& chosen = resolution.chosen;
   for (int p = 0; p < pipeCount; ++p) {
-    const int first = takenBy[2 * static_cast<std::size_t>(p)];
-    const int second = takenBy[2 * static_cast<std::size_t>(p) + 1];
+    const PipeEnd pieceEnd = endOf(pipes, p, 1);
+    const auto startKey = static_cast<std::size_t>(pieceEnd.key() ^ 1), endKey = static_cast<std::size_t>(pieceEnd.key());
+    const int first = takenBy[startKey];
+    const int second = takenBy[endKey];
     if (first < 0 || second < 0 || first == second) continue;
     const Hypothesis& atStart = hypotheses[static_cast<std::size_t>(first)];
     const Hypothesis& atEnd = hypotheses[static_cast<std::size_t>(second)];
     if (atStart.type != JointType::Elbow || atEnd.type != JointType::Elbow) continue;
-    const PipeSegment& piece = pipes[static_cast<std::size_t>(p)];
-    const double left = (endPoint[2 * static_cast<std::size_t>(p) + 1] - endPoint[2 * static_cast<std::size_t>(p)])
-                            .dot(unitAxis(piece));
-    if (left >= params.minPipeDiameters * 2.0 * piece.radius) continue;
+    if (lengthLeft(pieceEnd, endPoint[endKey]) >= params.minPipeDiameters * 2.0 * pieceEnd.radius) continue;
     const PipeEnd& before = atStart.a.pipe == p ? atStart.b : atStart.a;
     const PipeEnd& after = atEnd.a.pipe == p ? atEnd.b : atEnd.a;
     const auto joinsOuterEnds = [&](const Hypothesis& h) {
@@ -661,7 +662,7 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
     const auto replaced = [&](std::size_t c) { return static_cast<int>(c) == first || static_cast<int>(c) == second; };
     chosen.erase(std::remove_if(chosen.begin(), chosen.end(), replaced), chosen.end());
     chosen.push_back(h);
-    takenBy[2 * static_cast<std::size_t>(p)] = takenBy[2 * static_cast<std::size_t>(p) + 1] = -1;
+    takenBy[startKey] = takenBy[endKey] = -1;
     takenBy[static_cast<std::size_t>(before.key())] = takenBy[static_cast<std::size_t>(after.key())] = static_cast<int>(h);
     endPoint[static_cast<std::size_t>(whole->a.key())] = whole->newA;
     endPoint[static_cast<std::size_t>(whole->b.key())] = whole->newB;
