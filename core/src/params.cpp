@@ -77,7 +77,7 @@ const std::vector<Field>& fields() {
       PIPERUN_FIELD("placement", "min_inliers", "", Stage::Placement, placement.minInliers, "Cylinders with fewer inliers are dropped"),
       PIPERUN_FIELD("placement", "min_candidate_share", "", Stage::Placement, placement.minCandidateShare, "A circle's mode must hold at least this many candidates per inlier"),
       PIPERUN_FIELD("placement", "max_shell_share", "", Stage::Placement, placement.maxShellShare, "Points just outside the inlier band, as a share of inliers (box edges fail)"),
-      PIPERUN_FIELD("placement", "max_out_of_round", "", Stage::Placement, placement.maxOutOfRound, "Systematic offset around the axis, times the radius, at least 1 mm (square posts fail)"),
+      PIPERUN_FIELD("placement", "max_out_of_round", "", Stage::Placement, placement.maxOutOfRound, "Systematic offset around the axis, times the radius, at least 1 mm (square posts fail); twice that over every point in the band"),
       PIPERUN_FIELD("placement", "refine_iterations", "", Stage::Placement, placement.refineIterations, "Gauss-Newton iterations of the least-squares refinement"),
 
       PIPERUN_FIELD("extents", "section_length", "m", Stage::Extents, extents.sectionLength, "Axial section length"),

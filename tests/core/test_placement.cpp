@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <tuple>
 #include <vector>
 
@@ -324,6 +325,69 @@ TEST(Placement, PoorThreeDimensionalNormalsAreReestimatedInThePlane) {
   EXPECT_NEAR(result.cylinders[0].radius, truth.radius, 0.003);
   EXPECT_LT(axisOffset(result.cylinders[0], truth), 0.004);
   EXPECT_GT(result.cylinders[0].inliers.size(), cloud.size() * 8 / 10);
+}
+
+TEST(Placement, AThinPipeSeenInFourScanColumnsKeepsItsOuterColumns) {
+  Rng rng(41);
+  PointCloud cloud;
+  // A 2.4 cm riser far from the scanner (along +x): the scan lines run down it in four columns
+  // 1.2 cm apart across its silhouette, and the 3-D normals all face the scanner.
+  const TrueCylinder truth{{0.0, 0.0, 0.0}, Eigen::Vector3d::UnitZ(), 2.4, 0.024};
+  for (const double y : {-0.018, -0.006, 0.006, 0.018}) {
+    const double phi = std::asin(y / truth.radius);
+    const Eigen::Vector3d normal(std::cos(phi), std::sin(phi), 0.0);
+    for (double z = rng.uniform(0.0, 0.02); z < truth.length; z += 0.02) {
+      addPoint(cloud, (truth.radius + 0.002 * rng.normal()) * normal + Eigen::Vector3d(0.0, 0.0, z),
+               perturbed(Eigen::Vector3d::UnitX(), 10.0, rng));
+    }
+  }
+  const DirectionsResult directions = oneDirection(cloud, truth.axis);
+  const PlacementResult result = placeCylinders({cloud, directions, 1}, PlacementParams{});
+  ASSERT_EQ(result.cylinders.size(), 1u);
+  EXPECT_NEAR(result.cylinders[0].radius, truth.radius, 0.004);
+  // Two neighbouring columns are two clusters in the plane: a parabola through them turned the
+  // outer columns' normals tangent, and the pipe was lost.
+  EXPECT_GT(result.cylinders[0].inliers.size(), cloud.size() * 9 / 10);
+}
+
+/// The faces of a square post along z (centre `center`, half its width `half` < 6 cm, 1.1 m tall)
+/// that a scanner far along `view` sees in columns `step` apart across it, offset by `offset`, with the
+/// 3-D normals facing the scanner as on thin things seen from afar.
+void addPostInScanColumns(PointCloud& cloud, const Eigen::Vector2d& center, double half, Eigen::Vector2d view,
+                          double step, double offset, Rng& rng) {
+  view.normalize();
+  const Eigen::Vector2d across(-view.y(), view.x());
+  for (double lateral = offset - 0.06; lateral < 0.06; lateral += step) {
+    // The nearest face the ray at this lateral offset meets, coming from far along `view`.
+    const Eigen::Vector2d start = lateral * across + view;
+    std::optional<double> hit;
+    for (int axis = 0; axis < 2; ++axis) {
+      const double t = (start[axis] - std::copysign(half, view[axis])) / view[axis];
+      const Eigen::Vector2d p = start - t * view;
+      if (std::abs(p[1 - axis]) <= half && (!hit || t < *hit)) hit = t;
+    }
+    if (!hit) continue;
+    const Eigen::Vector2d p = center + start - *hit * view;
+    for (double z = rng.uniform(0.0, 0.025); z < 1.1; z += 0.025) {
+      const Eigen::Vector2d noisy = p + 0.002 * rng.normal() * view;
+      addPoint(cloud, Eigen::Vector3d(noisy.x(), noisy.y(), z), perturbed(Eigen::Vector3d(view.x(), view.y(), 0.0), 10.0, rng));
+    }
+  }
+}
+
+TEST(Placement, ASquarePostSeenInAFewScanColumnsIsNoPipe) {
+  Rng rng(43);
+  PointCloud cloud;
+  // Over two scan columns the chord's normal stands in for the arc's, so at a corner it is the
+  // normal of a circle inscribed there: the columns round the corner pass as a small pipe's
+  // inliers, and a circle through them is round. The other columns in its band are not.
+  addPostInScanColumns(cloud, {0.0, 0.0}, 0.034, {1.0, 1.0}, 0.015, 0.0, rng);
+  const DirectionsResult directions = oneDirection(cloud, Eigen::Vector3d::UnitZ());
+  const PlacementResult result = placeCylinders({cloud, directions, 1}, PlacementParams{});
+  for (const Cylinder& c : result.cylinders) {
+    ADD_FAILURE() << "cylinder r=" << c.radius << " at (" << c.point.x() << ", " << c.point.y() << ") with "
+                  << c.inliers.size() << " of " << cloud.size() << " points as inliers";
+  }
 }
 
 TEST(Placement, DirectionsAreIndependentAndPointsExclusive) {

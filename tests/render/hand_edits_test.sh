@@ -28,10 +28,20 @@ joint_between() {  # the status of the joint of pipes A and B
   awk '/^ "network":/ { net = 1 } /^ "base":/ { net = 0 } net' "$1" | tr -d ' \n' |
     grep -o "\"pipes\":\[$2,$3\][^}]*\"status\":\"[a-z]*\"" | grep -o '"status":"[a-z]*"' | cut -d'"' -f4
 }
+joint_id_between() {  # the id of the joint of pipes A and B
+  awk '/^ "network":/ { net = 1 } /^ "base":/ { net = 0 } net' "$1" | tr -d ' \n' |
+    grep -o "\"id\":[0-9]*,\"pipes\":\[$2,$3\]" | grep -o '[0-9]*' | head -1
+}
 close_to() { awk -v a="$1" -v b="$2" -v tolerance="$3" 'BEGIN { d = a - b; exit !(d <= tolerance && -d <= tolerance) }'; }
 fail() { echo "$*" >&2; exit 1; }
 
-cat >edits.txt <<'SCRIPT'
+# The elbow between pipes 1 and 4 (ids as the pipeline numbers them: pipes, then joints).
+echo "save reconstructed.piperun" >reconstruct.txt
+env -u DISPLAY "$render" "$scene" --script reconstruct.txt --view scene --size 480x360 -o reconstructed.png
+elbow=$(joint_id_between reconstructed.piperun 1 4)
+[[ -n "$elbow" ]] || fail "no joint between pipes 1 and 4 to reject"
+
+cat >edits.txt <<SCRIPT
 # 480x360 scene view, pixels from the bottom left: pipe 3 (21 mm, 3.2 m) runs across the middle.
 layer input/points off
 select pipe 3
@@ -45,8 +55,7 @@ merge
 save merged.piperun
 radius snap
 save snapped.piperun
-# Joint 22 is the elbow between pipes 1 and 4 (ids as the pipeline numbers them: pipes, then joints).
-joint 22 reject
+joint $elbow reject
 select pipe 1 4
 join
 save joined.piperun

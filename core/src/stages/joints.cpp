@@ -56,6 +56,9 @@ constexpr double kSupportNormalAngleDeg = 30.0;
 // tee whose main pipe was seen on one side only.
 constexpr double kMinFittingBendRadii = 1.5;
 constexpr double kMaxBendlessSupport = 0.2;
+// Missing points say the torus is not there only where it would hold this many: a thin pipe seen
+// from afar leaves a few on an elbow, which the overshooting pipes take as their inliers.
+constexpr double kMinBendlessEvidence = 10.0;
 
 /// Whether point i's normal is within the support angle of the unit `radial` (normals are unoriented).
 bool normalAgrees(const PointCloud& cloud, std::uint32_t i, const Eigen::Vector3d& radial) {
@@ -151,6 +154,7 @@ struct Hypothesis {
   double support = 0.0;     // Point support on the joint's surface, in [0, 1].
   double confidence = 0.0;
   double bendRadius = 0.0;
+  double expectedSupport = 0.0;  // Elbow: the points its torus would hold at its pipes' linear density.
   // Elbow: the tangent points the two pipes are trimmed or extended to.
   Eigen::Vector3d newA = Eigen::Vector3d::Zero(), newB = Eigen::Vector3d::Zero();
   std::vector<Eigen::Vector3d> axis;
@@ -240,14 +244,17 @@ class JointBuilder {
   }
 
   /// The tee that replaces an elbow hypothesis with no bend: voted tighter than any fitting, with
-  /// almost no points on its torus, at a near-square corner. Its main pipe is the one whose end
+  /// almost no points on its torus where it should hold enough to tell, at a near-square corner. Its main pipe is the one whose end
   /// reaches nearer the corner (in radii of the other); the main's far side was not seen, so the
   /// tee counts half its confidence and is proposed for review.
   std::optional<Hypothesis> teeForBendlessCorner(const Hypothesis& elbow,
                                                  const std::vector<std::uint32_t>& nearby) const {
     if (elbow.type != JointType::Elbow || !elbow.valid) return std::nullopt;
     const double r = 0.5 * (elbow.a.radius + elbow.b.radius);
-    if (elbow.bendRadius >= kMinFittingBendRadii * r || elbow.support > kMaxBendlessSupport) return std::nullopt;
+    if (elbow.bendRadius >= kMinFittingBendRadii * r || elbow.support > kMaxBendlessSupport ||
+        elbow.expectedSupport < kMinBendlessEvidence) {
+      return std::nullopt;
+    }
     const auto reachToCorner = [&](const PipeEnd& end, const PipeEnd& other) {
       return (elbow.corner - end.point).dot(end.outward) / other.radius;
     };
@@ -421,8 +428,10 @@ class JointBuilder {
       }
     }
     const double arcLength = bendRadius * h.bendAngle;
-    const double expected = 0.5 * (linearDensity(h.a.pipe) + linearDensity(h.b.pipe)) * arcLength;
-    h.support = expected > 0.0 ? std::min(1.0, static_cast<double>(h.supportPoints.size()) / expected) : 0.0;
+    h.expectedSupport = 0.5 * (linearDensity(h.a.pipe) + linearDensity(h.b.pipe)) * arcLength;
+    h.support = h.expectedSupport > 0.0
+                    ? std::min(1.0, static_cast<double>(h.supportPoints.size()) / h.expectedSupport)
+                    : 0.0;
 
     const double tangent = bendRadius * tangentPerRadius;
     h.newA = h.corner + tangent * armA;

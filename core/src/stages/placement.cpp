@@ -71,6 +71,7 @@ constexpr double kMaxAxisTilt = 10.0 * kDegree;  // a refined axis farther than 
 constexpr double kDuplicateShare = 0.5;   // a cylinder sharing this share of its inliers is a copy
 constexpr double kRadiusSlack = 0.8;     // a refined radius may leave [minRadius, maxRadius] by this factor
 constexpr double kMinOutOfRound = 0.001;  // out-of-roundness always tolerated (m): noise on few points
+constexpr double kBandOutOfRoundFactor = 2.0;  // all points in the band (other surfaces' too) may be this many times as out of round
 constexpr double kShellReach = 2.5;       // outer edge of the shell tested beyond the inlier band, in bands
 constexpr double kNoiseBands = 2.5;       // a noisy scan's inlier band, in standard deviations of its surface noise...
 constexpr double kMaxBandFactor = 3.0;    // ...at most this many times inlierDistance...
@@ -348,13 +349,17 @@ class SlabGrid {
 /// point anywhere around them (median errors of 30–60° on 1–5 cm pipes in generated scenes).
 /// Where the neighbourhood is no arc (too few points, a blob, or a tight cluster of points that
 /// share their angle and differ only by noise) the projected 3-D normal stays, and so does a
-/// projected normal within 15° of the arc's (it averages over more points).
+/// projected normal within 15° of the arc's (it averages over more points). Over two scan columns
+/// the chord's normal is taken, half their angle off each.
 std::vector<Eigen::Vector2f> planeNormals(const StripeProjection& stripe, const SlabGrid& grid, double radius) {
   constexpr std::size_t kNeighbours = 24;  // at most this many of the block are tried, evenly strided
   constexpr int kMinNeighbours = 5;
   constexpr double kMaxFlatness = 0.25;    // smaller / larger eigenvalue: an arc, not a blob
   constexpr double kMinExtent = 0.2;       // standard deviation along the arc, in radii: not a cluster
-  constexpr double kMinSpread = 1e-3;      // determinant of the scaled moments below which no parabola is fitted
+  // Determinant of the scaled moments below which no parabola is fitted: about 0.5 over three scan
+  // columns and 0.8 over a dense arc, but 0.02–0.06 over two columns, two clusters through which
+  // any parabola passes (its slope there turns the outer columns of a thin far pipe tangent).
+  constexpr double kMinSpread = 0.1;
   constexpr double kMinCurvatureRadius = 1.5;  // an arc curving tighter than this many radii takes the parabola's slope
   const double keepCos = std::cos(15.0 * kDegree);
   std::vector<Eigen::Vector2f> normals = stripe.normals;
@@ -632,23 +637,46 @@ class InlierSearch {
   /// Stripe points just outside the inlier band (up to kShellReach bands off the surface) between
   /// the inliers' axial extremes: the faces that continue past a box edge.
   std::size_t countShell(const CylinderFit& fit, const std::vector<std::uint32_t>& inliers, double band) const {
-    double low = std::numeric_limits<double>::infinity(), high = -low;
-    for (const std::uint32_t i : inliers) {
-      const double along = (cloud_.positions[stripe_.points[i]].cast<double>() - fit.point).dot(fit.direction);
-      low = std::min(low, along);
-      high = std::max(high, along);
-    }
+    const auto [low, high] = axialRange(fit, inliers);
     const double reach = kShellReach * band;
     std::size_t shell = 0;
     visitNear(fit, reach, [&](std::uint32_t i, double offset, const Eigen::Vector3d&) {
       if (offset < band || offset > reach) return;
-      const double along = (cloud_.positions[stripe_.points[i]].cast<double>() - fit.point).dot(fit.direction);
+      const double along = alongAxis(fit, i);
       if (along >= low && along <= high) ++shell;
     });
     return shell;
   }
 
+  /// Stripe points within `band` of the surface between the inliers' axial extremes, whatever
+  /// their normals, ascending: the whole arc the scanner saw.
+  std::vector<std::uint32_t> gatherBand(const CylinderFit& fit, const std::vector<std::uint32_t>& inliers,
+                                        double band) const {
+    const auto [low, high] = axialRange(fit, inliers);
+    std::vector<std::uint32_t> points;
+    visitNear(fit, band, [&](std::uint32_t i, double offset, const Eigen::Vector3d&) {
+      const double along = alongAxis(fit, i);
+      if (std::abs(offset) < band && along >= low && along <= high) points.push_back(i);
+    });
+    std::sort(points.begin(), points.end());
+    return points;
+  }
+
  private:
+  double alongAxis(const CylinderFit& fit, std::uint32_t i) const {
+    return (cloud_.positions[stripe_.points[i]].cast<double>() - fit.point).dot(fit.direction);
+  }
+
+  std::pair<double, double> axialRange(const CylinderFit& fit, const std::vector<std::uint32_t>& inliers) const {
+    double low = std::numeric_limits<double>::infinity(), high = -low;
+    for (const std::uint32_t i : inliers) {
+      const double along = alongAxis(fit, i);
+      low = std::min(low, along);
+      high = std::max(high, along);
+    }
+    return {low, high};
+  }
+
   /// Calls visit(stripe index, surface offset, unit radial direction) for the stripe points in the
   /// grid cells that the cylinder's trace, grown by `reach`, touches.
   template <typename Visit>
@@ -808,7 +836,14 @@ DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDir
     if (static_cast<int>(inliers.size()) < params.minInliers) return;
     const std::size_t shell = search.countShell(fit, inliers, band);
     if (static_cast<double>(shell) > params.maxShellShare * static_cast<double>(inliers.size())) return;
-    if (outOfRoundness(fit, cloud, stripe, inliers) > std::max(kMinOutOfRound, params.maxOutOfRound * fit.radius)) return;
+    const double maxOutOfRound = std::max(kMinOutOfRound, params.maxOutOfRound * fit.radius);
+    if (outOfRoundness(fit, cloud, stripe, inliers) > maxOutOfRound) return;
+    // The inliers' normals agree with the circle, and over two scan columns a chord's normal does
+    // at a box's corner or a square post's as well: over every point in the band, a corner sticks
+    // out and the faces fall in.
+    if (outOfRoundness(fit, cloud, stripe, search.gatherBand(fit, inliers, band)) > kBandOutOfRoundFactor * maxOutOfRound) {
+      return;
+    }
     Cylinder cylinder;
     cylinder.point = fit.point;
     cylinder.direction = fit.direction.dot(stripe.axis) >= 0.0 ? fit.direction : Eigen::Vector3d(-fit.direction);

@@ -39,6 +39,8 @@ struct PlacementParams {
   double maxOutOfRound = 0.02;      ///< Dropped when the inliers' mean surface offset varies around the axis by more
                                     ///< than this share of the radius (at least 1 mm; RMS over 10° sectors, the worst
                                     ///< one left out, noise discounted): square posts and beams do, pipes do not.
+                                    ///< All points in the inlier band, whatever their normals, may vary twice as much
+                                    ///< (a post's corner seen in a few scan columns passes on its inliers alone).
   int refineIterations = 8;         ///< Gauss-Newton iterations of each least-squares refinement (two are run).
 };
 
