@@ -370,7 +370,8 @@ void addPostInScanColumns(PointCloud& cloud, const Eigen::Vector2d& center, doub
     const Eigen::Vector2d p = center + start - *hit * view;
     for (double z = rng.uniform(0.0, 0.025); z < 1.1; z += 0.025) {
       const Eigen::Vector2d noisy = p + 0.002 * rng.normal() * view;
-      addPoint(cloud, Eigen::Vector3d(noisy.x(), noisy.y(), z), perturbed(Eigen::Vector3d(view.x(), view.y(), 0.0), 10.0, rng));
+      addPoint(cloud, Eigen::Vector3d(noisy.x(), noisy.y(), z),
+               perturbed(Eigen::Vector3d(view.x(), view.y(), 0.0), 10.0, rng));
     }
   }
 }

@@ -244,9 +244,9 @@ class JointBuilder {
   }
 
   /// The tee that replaces an elbow hypothesis with no bend: voted tighter than any fitting, with
-  /// almost no points on its torus where it should hold enough to tell, at a near-square corner. Its main pipe is the one whose end
-  /// reaches nearer the corner (in radii of the other); the main's far side was not seen, so the
-  /// tee counts half its confidence and is proposed for review.
+  /// almost no points on a torus that should hold enough to tell, at a near-square corner. Its main
+  /// pipe is the one whose end reaches nearer the corner (in radii of the other); the main's far
+  /// side was not seen, so the tee counts half its confidence and is proposed for review.
   std::optional<Hypothesis> teeForBendlessCorner(const Hypothesis& elbow,
                                                  const std::vector<std::uint32_t>& nearby) const {
     if (elbow.type != JointType::Elbow || !elbow.valid) return std::nullopt;

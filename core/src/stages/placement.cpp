@@ -71,7 +71,10 @@ constexpr double kMaxAxisTilt = 10.0 * kDegree;  // a refined axis farther than 
 constexpr double kDuplicateShare = 0.5;   // a cylinder sharing this share of its inliers is a copy
 constexpr double kRadiusSlack = 0.8;     // a refined radius may leave [minRadius, maxRadius] by this factor
 constexpr double kMinOutOfRound = 0.001;  // out-of-roundness always tolerated (m): noise on few points
-constexpr double kBandOutOfRoundFactor = 2.0;  // all points in the band (other surfaces' too) may be this many times as out of round
+constexpr int kMinSectorPoints = 10;       // a 10° sector counts in the out-of-roundness with this many inliers
+constexpr double kBandOutOfRoundFactor = 2.0;  // all points in the band (other surfaces' too) may be this
+                                               // many times as far out of round as the inliers...
+constexpr int kMinBandSectorPoints = 5;   // ...in sectors of this many: a box edge seen by a few scan lines
 constexpr double kShellReach = 2.5;       // outer edge of the shell tested beyond the inlier band, in bands
 constexpr double kNoiseBands = 2.5;       // a noisy scan's inlier band, in standard deviations of its surface noise...
 constexpr double kMaxBandFactor = 3.0;    // ...at most this many times inlierDistance...
@@ -745,13 +748,13 @@ double robustNoise(const CylinderFit& fit, const PointCloud& cloud, const Stripe
 }
 
 /// How far the inliers' surface offsets vary systematically around the axis (m): the RMS of the
-/// mean offsets in 10° sectors (the worst sector left out), less what the noise alone would give.
+/// mean offsets in the 10° sectors holding `minSectorPoints` (the worst sector left out), less what
+/// the noise alone would give.
 /// A circle fitted to a square post or beam leaves its corners outside and its faces inside
 /// (2–4 mm for a 5 cm post with 2 mm noise in generated scenes); a pipe leaves only noise (below
 /// 0.4 mm for 95 % of them).
 double outOfRoundness(const CylinderFit& fit, const PointCloud& cloud, const StripeProjection& stripe,
-                      const std::vector<std::uint32_t>& inliers) {
-  constexpr int kMinSectorPoints = 10;
+                      const std::vector<std::uint32_t>& inliers, int minSectorPoints) {
   const Eigen::Vector3d b1 = anyPerpendicular(fit.direction);
   const Eigen::Vector3d b2 = fit.direction.cross(b1);
   SectorOffsets offsets;
@@ -760,7 +763,7 @@ double outOfRoundness(const CylinderFit& fit, const PointCloud& cloud, const Str
     const Eigen::Vector3d radial = q - q.dot(fit.direction) * fit.direction;
     offsets.add(std::atan2(radial.dot(b2), radial.dot(b1)), radial.norm() - fit.radius);
   }
-  return offsets.outOfRoundness(kMinSectorPoints);
+  return offsets.outOfRoundness(minSectorPoints);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -837,13 +840,12 @@ DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDir
     const std::size_t shell = search.countShell(fit, inliers, band);
     if (static_cast<double>(shell) > params.maxShellShare * static_cast<double>(inliers.size())) return;
     const double maxOutOfRound = std::max(kMinOutOfRound, params.maxOutOfRound * fit.radius);
-    if (outOfRoundness(fit, cloud, stripe, inliers) > maxOutOfRound) return;
+    if (outOfRoundness(fit, cloud, stripe, inliers, kMinSectorPoints) > maxOutOfRound) return;
     // The inliers' normals agree with the circle, and over two scan columns a chord's normal does
     // at a box's corner or a square post's as well: over every point in the band, a corner sticks
     // out and the faces fall in.
-    if (outOfRoundness(fit, cloud, stripe, search.gatherBand(fit, inliers, band)) > kBandOutOfRoundFactor * maxOutOfRound) {
-      return;
-    }
+    const std::vector<std::uint32_t> inBand = search.gatherBand(fit, inliers, band);
+    if (outOfRoundness(fit, cloud, stripe, inBand, kMinBandSectorPoints) > kBandOutOfRoundFactor * maxOutOfRound) return;
     Cylinder cylinder;
     cylinder.point = fit.point;
     cylinder.direction = fit.direction.dot(stripe.axis) >= 0.0 ? fit.direction : Eigen::Vector3d(-fit.direction);
