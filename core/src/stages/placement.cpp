@@ -637,32 +637,28 @@ class InlierSearch {
     return inliers;
   }
 
-  /// Stripe points just outside the inlier band (up to kShellReach bands off the surface) between
-  /// the inliers' axial extremes: the faces that continue past a box edge.
-  std::size_t countShell(const CylinderFit& fit, const std::vector<std::uint32_t>& inliers, double band) const {
-    const auto [low, high] = axialRange(fit, inliers);
-    const double reach = kShellReach * band;
-    std::size_t shell = 0;
-    visitNear(fit, reach, [&](std::uint32_t i, double offset, const Eigen::Vector3d&) {
-      if (offset < band || offset > reach) return;
-      const double along = alongAxis(fit, i);
-      if (along >= low && along <= high) ++shell;
-    });
-    return shell;
-  }
+  /// What lies around a fit between its inliers' axial extremes (stripe indices).
+  struct Surroundings {
+    std::size_t shell = 0;             ///< Points just outside the inlier band (up to kShellReach bands off
+                                       ///< the surface): the faces that continue past a box edge.
+    std::vector<std::uint32_t> inBand;  ///< Points within the band whatever their normals, ascending: the
+                                        ///< whole arc the scanner saw.
+  };
 
-  /// Stripe points within `band` of the surface between the inliers' axial extremes, whatever
-  /// their normals, ascending: the whole arc the scanner saw.
-  std::vector<std::uint32_t> gatherBand(const CylinderFit& fit, const std::vector<std::uint32_t>& inliers,
-                                        double band) const {
+  Surroundings surroundings(const CylinderFit& fit, const std::vector<std::uint32_t>& inliers, double band) const {
     const auto [low, high] = axialRange(fit, inliers);
-    std::vector<std::uint32_t> points;
-    visitNear(fit, band, [&](std::uint32_t i, double offset, const Eigen::Vector3d&) {
+    Surroundings around;
+    visitNear(fit, kShellReach * band, [&](std::uint32_t i, double offset, const Eigen::Vector3d&) {
       const double along = alongAxis(fit, i);
-      if (std::abs(offset) < band && along >= low && along <= high) points.push_back(i);
+      if (along < low || along > high) return;
+      if (offset >= band) {
+        ++around.shell;
+      } else if (offset > -band) {
+        around.inBand.push_back(i);
+      }
     });
-    std::sort(points.begin(), points.end());
-    return points;
+    std::sort(around.inBand.begin(), around.inBand.end());
+    return around;
   }
 
  private:
@@ -837,15 +833,16 @@ DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDir
       if (!refineAndGather()) return;
     }
     if (static_cast<int>(inliers.size()) < params.minInliers) return;
-    const std::size_t shell = search.countShell(fit, inliers, band);
-    if (static_cast<double>(shell) > params.maxShellShare * static_cast<double>(inliers.size())) return;
+    const InlierSearch::Surroundings around = search.surroundings(fit, inliers, band);
+    if (static_cast<double>(around.shell) > params.maxShellShare * static_cast<double>(inliers.size())) return;
     const double maxOutOfRound = std::max(kMinOutOfRound, params.maxOutOfRound * fit.radius);
     if (outOfRoundness(fit, cloud, stripe, inliers, kMinSectorPoints) > maxOutOfRound) return;
     // The inliers' normals agree with the circle, and over two scan columns a chord's normal does
     // at a box's corner or a square post's as well: over every point in the band, a corner sticks
     // out and the faces fall in.
-    const std::vector<std::uint32_t> inBand = search.gatherBand(fit, inliers, band);
-    if (outOfRoundness(fit, cloud, stripe, inBand, kMinBandSectorPoints) > kBandOutOfRoundFactor * maxOutOfRound) return;
+    if (outOfRoundness(fit, cloud, stripe, around.inBand, kMinBandSectorPoints) > kBandOutOfRoundFactor * maxOutOfRound) {
+      return;
+    }
     Cylinder cylinder;
     cylinder.point = fit.point;
     cylinder.direction = fit.direction.dot(stripe.axis) >= 0.0 ? fit.direction : Eigen::Vector3d(-fit.direction);
