@@ -70,6 +70,28 @@ class ConstructedScene {
     return static_cast<int>(pipes_.size()) - 1;
   }
 
+  /// An unlisted straight pipe seen in a few scan columns: at each of `columnDegrees` around the
+  /// pipe from `facing` (towards the scanner), a point every `step` along. Each column's normal
+  /// leans `leanDegrees` off the radial, turning the other way column by column, as normals
+  /// fitted over neighbourhoods that span a few columns do.
+  void addScanColumns(const Eigen::Vector3d& start, const Eigen::Vector3d& end, double radius,
+                      const Eigen::Vector3d& facing, const std::vector<double>& columnDegrees, double leanDegrees,
+                      double step) {
+    const Eigen::Vector3d axis = (end - start).normalized();
+    const Eigen::Vector3d side = axis.cross(facing).normalized();
+    const int steps = static_cast<int>((end - start).norm() / step);
+    double lean = leanDegrees * kPi / 180.0;
+    for (const double degrees : columnDegrees) {
+      const double angle = degrees * kPi / 180.0;
+      const Eigen::Vector3d radial = std::cos(angle) * facing + std::sin(angle) * side;
+      const Eigen::Vector3d normal = Eigen::AngleAxisd(lean, axis) * radial;
+      for (int k = 0; k <= steps; ++k) {
+        addPoint(start + (end - start) * (static_cast<double>(k) / steps) + radius * radial, normal);
+      }
+      lean = -lean;
+    }
+  }
+
   /// The four side faces of an upright box of square section `width` centred on (x, y), sampled
   /// every 5 mm, with the faces' normals.
   void addPost(double x, double y, double width, double bottom, double top) {
@@ -456,6 +478,19 @@ TEST(Joints, AnEndTakesAtMostOneJointTheBestSupported) {
   EXPECT_EQ(result.joints[0].pipeIds, (std::vector<int>{1, 2}));
 }
 
+/// One pipe completed, upright from the corner at the origin, and the only joint an elbow: for
+/// scenes of a listed pipe ending at that corner, the points of a missed leg, and a third pipe.
+void expectUprightLegCompletedAtTheOrigin(const JointsResult& result) {
+  EXPECT_EQ(result.diagnostics.completedPipes, 1u);
+  ASSERT_EQ(result.pipes.size(), 3u);
+  const PipeSegment& leg = result.pipes[2];  // Completed pipes come after the input pipes.
+  EXPECT_GT(std::fabs((leg.end - leg.start).normalized().z()), 0.999);
+  EXPECT_NEAR(leg.start.x(), 0.0, 0.01);
+  EXPECT_NEAR(leg.start.y(), 0.0, 0.01);
+  ASSERT_EQ(result.joints.size(), 1u);
+  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
+}
+
 TEST(Joints, ALegBetweenTwoElbowsThatNoPipeCoversIsCompleted) {
   // Pipe 1 comes along +x to a corner at the origin, a 30 cm leg (points only, as a leg too short
   // for the Gaussian sphere) rises along +y to a second corner, pipe 2 leaves along +z. Both
@@ -571,14 +606,52 @@ TEST(Joints, AThinPipeWhoseNormalsFaceTheScannerIsCompleted) {
   scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
   scene.addPipeSeenFromAfar({0, 0, R}, {0, 0, 0.8}, r, -Eigen::Vector3d::UnitY(), 0.002);
   scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
+  expectUprightLegCompletedAtTheOrigin(scene.connect());
+}
+
+TEST(Joints, ALegSeenInAFewScanColumnsWithLeaningNormalsIsCompleted) {
+  // A 3" pipe comes along +x to a corner at the origin and turns down (R = 2r) into a 40 cm leg
+  // that the scanner, far off along -y, saw in four columns 3 cm apart down the leg; their normals
+  // lean 35° off the radial, as normals over sparse columns do. Pipe 3, far off, runs along z.
+  const double r = 0.0707, R = 2.0 * r;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  scene.addScanColumns({0, 0, -R}, {0, 0, -R - 0.4}, r, -Eigen::Vector3d::UnitY(), {-60.0, -20.0, 20.0, 60.0}, 35.0,
+                       0.03);
+  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
+  expectUprightLegCompletedAtTheOrigin(scene.connect());
+}
+
+TEST(Joints, ALegSeenFromAfarCompletesFromItsCornerNotFromTheMirrorOne) {
+  // A 4" pipe comes along +x to a corner at the origin and rises (R = 2r) into a leg seen from far
+  // off along +x, towards the pipe's end, every normal towards the scanner. Only the column down
+  // the leg's front agrees with the surface, and it sits on the front of a tube around the true
+  // corner and on the back of one 2r nearer the end; a hanger rod 3r in front, seen as one column,
+  // sits on that one's front. So the nearer corner has the most votes, but round it the leg's side
+  // columns lie in the clutter shell. Pipe 3, far off, runs along z.
+  const double r = 0.05715, R = 2.0 * r;
+  const Eigen::Vector3d towardsScanner = -Eigen::Vector3d::UnitX();
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  scene.addPipeSeenFromAfar({0, 0, R}, {0, 0, R + 0.4}, r, towardsScanner, 0.001, false, 0.02);
+  scene.addScanColumns({-3.0 * r, 0, R}, {-3.0 * r, 0, R + 0.4}, 0.0, towardsScanner, {0.0}, 0.0, 0.02);
+  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
+  expectUprightLegCompletedAtTheOrigin(scene.connect());
+}
+
+TEST(Joints, AnEndAtAPoleThatRunsOnBothWaysIsNotCompletedAsAnElbowLeg) {
+  // A 2" pipe ends at an upright pole of its own radius (points only) that runs on 60 cm below and
+  // above it: round and on the radius either way, but no elbow's leg, which starts at its corner.
+  // Pipe 3, far off, runs along z.
+  const double r = 0.03015;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-r, 0, 0}, r);
+  scene.addPipe({0, 0, -0.6}, {0, 0, 0.6}, r, false);
+  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
   const JointsResult result = scene.connect();
-  EXPECT_EQ(result.diagnostics.completedPipes, 1u);
-  ASSERT_EQ(result.pipes.size(), 3u);
-  const PipeSegment& riser = result.pipes[2];
-  EXPECT_GT(std::fabs((riser.end - riser.start).normalized().z()), 0.999);
-  EXPECT_NEAR(riser.start.x(), 0.0, 0.01);
-  ASSERT_EQ(result.joints.size(), 1u);
-  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
+  EXPECT_EQ(result.diagnostics.completedPipes, 0u);
+  EXPECT_EQ(result.pipes.size(), 2u);
+  EXPECT_TRUE(result.joints.empty());
 }
 
 TEST(Joints, APostWithRoundedNormalsIsNotCompletedAsAPipe) {

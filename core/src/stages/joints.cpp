@@ -61,9 +61,10 @@ constexpr double kMaxBendlessSupport = 0.2;
 constexpr double kMinBendlessEvidence = 10.0;
 
 /// Whether point i's normal is within the support angle of the unit `radial` (normals are unoriented).
-bool normalAgrees(const PointCloud& cloud, std::uint32_t i, const Eigen::Vector3d& radial) {
+bool normalAgrees(const PointCloud& cloud, std::uint32_t i, const Eigen::Vector3d& radial,
+                  double maxAngleDeg = kSupportNormalAngleDeg) {
   if (cloud.normals.empty()) return true;
-  return std::fabs(cloud.normals[i].cast<double>().dot(radial)) >= std::cos(radians(kSupportNormalAngleDeg));
+  return std::fabs(cloud.normals[i].cast<double>().dot(radial)) >= std::cos(radians(maxAngleDeg));
 }
 
 bool isFragment(const PipeSegment& pipe, const JointsParams& params) {
@@ -90,20 +91,40 @@ class VoteHistogram {
     std::size_t best = 0;
     double most = 0.0;
     for (std::size_t k = 0; k < bins_.size(); ++k) {
-      const double smoothed =
-          2.0 * bins_[k] + (k > 0 ? bins_[k - 1] : 0.0) + (k + 1 < bins_.size() ? bins_[k + 1] : 0.0);
-      if (smoothed > most) {
-        most = smoothed;
+      if (smoothed(k) > most) {
+        most = smoothed(k);
         best = k;
       }
     }
     return {low_ + static_cast<double>(best) * width_, most};
   }
 
+  /// The values at the `count` highest local peaks of the smoothed votes, highest first (ties in
+  /// order of value).
+  std::vector<double> peaks(std::size_t count) const {
+    std::vector<std::pair<double, std::size_t>> found;  // (votes, bin)
+    for (std::size_t k = 0; k < bins_.size(); ++k) {
+      const double here = smoothed(k);
+      if (here > 0.0 && (k == 0 || here > smoothed(k - 1)) && (k + 1 == bins_.size() || here >= smoothed(k + 1))) {
+        found.emplace_back(here, k);
+      }
+    }
+    std::stable_sort(found.begin(), found.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    std::vector<double> values;
+    for (std::size_t k = 0; k < std::min(count, found.size()); ++k) {
+      values.push_back(low_ + static_cast<double>(found[k].second) * width_);
+    }
+    return values;
+  }
+
  private:
   double low_;
   double width_;
   std::vector<double> bins_;
+
+  double smoothed(std::size_t k) const {
+    return 2.0 * bins_[k] + (k > 0 ? bins_[k - 1] : 0.0) + (k + 1 < bins_.size() ? bins_[k + 1] : 0.0);
+  }
 };
 
 struct PipeEnd {
@@ -756,11 +777,16 @@ class EndCompletion {
 
  private:
   static constexpr double kLocalDirectionSnapDeg = 5.0;  // See complete().
+  static constexpr std::size_t kCornerPeaks = 3;  // Corners tried per direction (see completeAlong).
+  // A missed pipe is sparse: a normal fitted over a few of its scan columns leans up to about 45°
+  // off the radial direction, where one fitted over a dense surface keeps within 30°.
+  static constexpr double kCompletionNormalAngleDeg = 40.0;
   static constexpr int kMaxLeadSections = 3;  // The straight must start this close to the elbow...
   static constexpr int kMaxGapSections = 3;   // ...and it ends at a gap longer than this.
+  static constexpr std::size_t kBehindSections = 5;  // Sections looked at behind the corner (see completeAt).
   static constexpr double kMaxClutterShare = 0.5;  // Points off the surface, against those on it.
   static constexpr double kMaxFlatShare = 0.4;          // Normals sharing one direction (see flatShare)...
-  static constexpr double kLineToCircle = 0.9;          // ...with a line fit's RMS under this share of the
+  static constexpr double kLineToCircle = 1.0;          // ...with a line fit's RMS under this share of the
                                                         // circle's: a flat face.
   static constexpr int kSquareToleranceDeg = 15;        // Two normal directions this close to square...
   static constexpr double kMinFaceShare = 0.2;          // ...each holding this share of the points...
@@ -1015,12 +1041,32 @@ class EndCompletion {
           continue;
         }
         const Eigen::Vector3d radial = (alpha - root) * across + c * aside;
-        if (normalAgrees(input_.cloud, i, radial / r)) histogram.vote(corner);
+        if (normalAgrees(input_.cloud, i, radial / r, kCompletionNormalAngleDeg)) histogram.vote(corner);
       }
     }
-    const auto [cornerDistance, peakVotes] = histogram.peak();
-    if (peakVotes <= 0.0) return std::nullopt;
-    const Eigen::Vector3d corner = end.point + cornerDistance * end.outward;
+    // A column down the leg's front fits both roots with its normal, so it votes for a mirror corner
+    // 2r from the true one as much as for that; other surfaces nearby, and the elbow short of its
+    // tangent point, vote as well. The most voted corner may leave the leg's points inside the
+    // tube: the best-supported completion from the highest few peaks wins.
+    std::optional<Completion> best;
+    for (const double cornerDistance : histogram.peaks(kCornerPeaks)) {
+      const Eigen::Vector3d corner = end.point + cornerDistance * end.outward;
+      auto candidate = completeAt(end, corner, along, across, aside, firstAlong, nearby);
+      if (candidate && (!best || candidate->pipe.inliers.size() > best->pipe.inliers.size())) {
+        best = std::move(candidate);
+      }
+    }
+    return best;
+  }
+
+  /// The completion of `end` by a pipe from `corner` along `along` (see completeAlong), if the
+  /// points support it.
+  std::optional<Completion> completeAt(const PipeEnd& end, const Eigen::Vector3d& corner, const Eigen::Vector3d& along,
+                                       const Eigen::Vector3d& across, const Eigen::Vector3d& aside, double firstAlong,
+                                       const std::vector<std::uint32_t>& nearby) const {
+    const double r = end.radius;
+    const double band = params_.supportDistance;
+    const double lastAlong = firstAlong + params_.maxCompletionLength;
 
     // Sections along the new pipe holding a point on its surface.
     const auto sections = static_cast<std::size_t>(std::ceil(params_.maxCompletionLength / kSectionLength));
@@ -1030,20 +1076,33 @@ class EndCompletion {
     std::vector<std::size_t> clutterBySection(sections, 0);
     // Every point within the band, whatever its normal: the whole arc the scanner saw.
     std::vector<std::vector<std::uint32_t>> bandBySection(sections);
+    // Sections behind the corner, past where the end's own pipe meets the surface, holding a point
+    // on it: a post the pipe ends at, or the main of a tee, carries on through the corner.
+    const double cosine = end.outward.dot(along);
+    const double behindStart = r + 2.0 * r * std::max(0.0, cosine) / std::sqrt(1.0 - cosine * cosine) + 2.0 * band;
+    std::array<char, kBehindSections> behind{};
     for (std::uint32_t i : nearby) {
       const Eigen::Vector3d d = input_.cloud.positions[i].cast<double>() - corner;
       const double distanceAlong = d.dot(along);
-      if (distanceAlong < firstAlong || distanceAlong >= lastAlong) continue;
-      const auto section =
-          std::min(sections - 1, static_cast<std::size_t>((distanceAlong - firstAlong) / kSectionLength));
+      const double pastBehindStart = -distanceAlong - behindStart;
+      const bool isBehind = pastBehindStart >= 0.0 && pastBehindStart < kBehindSections * kSectionLength;
+      if (!isBehind && (distanceAlong < firstAlong || distanceAlong >= lastAlong)) continue;
       const Eigen::Vector3d radial = d - distanceAlong * along;
       const double distance = radial.norm();
+      const bool withinBand = std::fabs(distance - r) <= band;
+      const bool onSurface =
+          withinBand && normalAgrees(input_.cloud, i, radial / std::max(distance, 1e-12), kCompletionNormalAngleDeg);
+      if (isBehind) {
+        if (onSurface) behind[static_cast<std::size_t>(pastBehindStart / kSectionLength)] = 1;
+        continue;
+      }
+      const auto section =
+          std::min(sections - 1, static_cast<std::size_t>((distanceAlong - firstAlong) / kSectionLength));
       if (distance < r - 2.0 * band || (distance > r + 2.0 * band && distance <= 2.0 * (r + band))) {
         ++clutterBySection[section];
       }
-      if (std::fabs(distance - r) > band) continue;
-      bandBySection[section].push_back(i);
-      if (normalAgrees(input_.cloud, i, radial / std::max(distance, 1e-12))) bySection[section].push_back(i);
+      if (withinBand) bandBySection[section].push_back(i);
+      if (onSurface) bySection[section].push_back(i);
     }
     std::size_t first = 0;
     while (first < sections && bySection[first].empty()) ++first;
@@ -1064,6 +1123,8 @@ class EndCompletion {
     }
     const double coverage = static_cast<double>(covered) / static_cast<double>(last + 1);
     const double length = firstAlong + static_cast<double>(last + 1) * kSectionLength;
+    const auto behindCovered = std::count(behind.begin(), behind.end(), 1);
+    if (static_cast<double>(behindCovered) >= params_.minCompletionCoverage * kBehindSections) return std::nullopt;
     if (completion.pipe.inliers.size() < params_.minCompletionPoints || coverage < params_.minCompletionCoverage ||
         static_cast<double>(clutter) > kMaxClutterShare * static_cast<double>(completion.pipe.inliers.size()) ||
         length - firstAlong < 2.0 * r * params_.minPipeDiameters) {
