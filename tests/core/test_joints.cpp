@@ -371,6 +371,25 @@ TEST(Joints, AThinBranchStoppingShortLooksForItsMainAsFarAsTheMainIsThick) {
   EXPECT_LT((result.joints[0].axis.front() - Eigen::Vector3d(0.2, 0, 0)).norm(), 1e-9);
 }
 
+TEST(Joints, ABranchMeetsAMainBrokenAtTheJunction) {
+  // The main pipe was found in two pieces, one stopping 20 cm short of the junction and one 3 cm
+  // past it (the junction breaks the surface): a boundary joint closes the gap, and the branch
+  // meets the main's line there, in neither piece's body.
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-0.2, 0, 0}, 0.07);
+  scene.addPipe({0.03, 0, 0}, {1.5, 0, 0}, 0.07);
+  scene.addPipe({0, 0, -1.2}, {0, 0, -0.09}, 0.03);
+  const JointsResult result = scene.connect();
+  ASSERT_EQ(result.joints.size(), 2u);
+  EXPECT_EQ(result.joints[0].type, JointType::Boundary);
+  EXPECT_EQ(result.joints[0].pipeIds, (std::vector<int>{1, 2}));
+  const Joint& tee = result.joints[1];
+  EXPECT_EQ(tee.type, JointType::Tee);
+  EXPECT_EQ(tee.pipeIds.back(), 3);
+  EXPECT_LT(tee.axis.front().norm(), 1e-6);
+  ASSERT_EQ(result.runs.size(), 1u);
+}
+
 TEST(Joints, ASquareCornerWithNoBendIsATeeWhoseMainWasSeenOnOneSide) {
   // The main pipe's far side was not scanned: it ends at the branch's near wall, and the branch
   // reaches the main's wall. No torus fits there (it would bend tighter than any elbow), so it is a

@@ -304,9 +304,13 @@ class JointBuilder {
     const auto [alongBranch, alongMain] = *parameters;
     const double mainLength = (mainPipe.end - mainPipe.start).norm();
     // Well inside the main pipe's body: a branch meeting the main near its end is an elbow whose
-    // pipe overshot the tangent point, or a corner of which nothing says it is a tee.
+    // pipe overshot the tangent point, or a corner of which nothing says it is a tee. Unless the
+    // main's line carries on there in another pipe: the main broken at the junction.
     const double margin = 2.0 * branch.radius;
-    if (mainSeenBeyond && (alongMain < margin || alongMain > mainLength - margin)) return std::nullopt;
+    if (mainSeenBeyond && ((alongMain < margin && !lineCarriesOn(main, alongMain - margin)) ||
+                           (alongMain > mainLength - margin && !lineCarriesOn(main, alongMain + margin)))) {
+      return std::nullopt;
+    }
     Hypothesis h;
     h.type = JointType::Tee;
     h.a = branch;
@@ -325,6 +329,39 @@ class JointBuilder {
     h.center = 0.5 * (h.corner + branch.point);
     h.reach = 0.5 * alongBranch + mainPipe.radius + params_.supportDistance;
     return h;
+  }
+
+  /// Whether another pipe on the line of pipe `main`, within a boundary joint's gap of it, covers
+  /// that line to `along` (from the main's start along its axis) past the main's nearer end.
+  bool lineCarriesOn(int main, double along) const {
+    const PipeSegment& mainPipe = input_.pipes[static_cast<std::size_t>(main)];
+    const Eigen::Vector3d axis = unitAxis(mainPipe);
+    const double mainLength = (mainPipe.end - mainPipe.start).norm();
+    const bool pastStart = along < 0.5 * mainLength;
+    for (std::size_t q = 0; q < input_.pipes.size(); ++q) {
+      const PipeSegment& other = input_.pipes[q];
+      if (static_cast<int>(q) == main || isFragment(other, params_)) continue;
+      const double smaller = std::min(other.radius, mainPipe.radius);
+      const double larger = std::max(other.radius, mainPipe.radius);
+      if (smaller < params_.minRadiusRatio * larger ||
+          std::fabs(unitAxis(other).dot(axis)) < std::cos(radians(params_.maxBoundaryAngleDeg))) {
+        continue;
+      }
+      const auto offLine = [&](const Eigen::Vector3d& p) {
+        const Eigen::Vector3d d = p - mainPipe.start;
+        return (d - d.dot(axis) * axis).norm();
+      };
+      if (std::max(offLine(other.start), offLine(other.end)) > skewLimit(smaller)) continue;
+      const double first = (other.start - mainPipe.start).dot(axis);
+      const double second = (other.end - mainPipe.start).dot(axis);
+      const double low = std::min(first, second), high = std::max(first, second);
+      const double gapLimit = boundaryGapLimit(larger);
+      if (pastStart ? (low <= along && high >= -gapLimit && high <= 0.0)
+                    : (high >= along && low <= mainLength + gapLimit && low >= mainLength)) {
+        return true;
+      }
+    }
+    return false;
   }
 
   /// Completes a hypothesis with its points (indices into the cloud within its reach).
