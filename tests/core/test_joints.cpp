@@ -658,6 +658,23 @@ TEST(Joints, ALegSeenFromAfarCompletesFromItsCornerNotFromTheMirrorOne) {
   expectUprightLegCompletedAtTheOrigin(scene.connect());
 }
 
+TEST(Joints, ALegIsCompletedAcrossAnOcclusionToTheLongerRunBeyond) {
+  // A 4" pipe comes along +x to a corner at the origin and rises (R = 2r) into a leg that something
+  // in front hides from 12 cm to 45 cm past its start; 50 cm of it show beyond. Pipe 3, far off,
+  // runs along z.
+  const double r = 0.05715, R = 2.0 * r;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  scene.addPipe({0, 0, R}, {0, 0, R + 0.12}, r, false);
+  scene.addPipe({0, 0, R + 0.45}, {0, 0, R + 0.95}, r, false);
+  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
+  const JointsResult result = scene.connect();
+  expectUprightLegCompletedAtTheOrigin(result);
+  ASSERT_EQ(result.pipes.size(), 3u);
+  const PipeSegment& leg = result.pipes[2];
+  EXPECT_GT(std::max(leg.start.z(), leg.end.z()), R + 0.9);
+}
+
 TEST(Joints, AnEndAtAPoleThatRunsOnBothWaysIsNotCompletedAsAnElbowLeg) {
   // A 2" pipe ends at an upright pole of its own radius (points only) that runs on 60 cm below and
   // above it: round and on the radius either way, but no elbow's leg, which starts at its corner.

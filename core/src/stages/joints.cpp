@@ -819,7 +819,8 @@ class EndCompletion {
   // off the radial direction, where one fitted over a dense surface keeps within 30°.
   static constexpr double kCompletionNormalAngleDeg = 40.0;
   static constexpr int kMaxLeadSections = 3;  // The straight must start this close to the elbow...
-  static constexpr int kMaxGapSections = 3;   // ...and it ends at a gap longer than this.
+  static constexpr int kMaxGapSections = 3;   // ...and it ends at a gap longer than this...
+  static constexpr std::size_t kMaxBridgeSections = 20;  // ...unless a run as long follows within this.
   static constexpr std::size_t kBehindSections = 5;  // Sections looked at behind the corner (see completeAt).
   static constexpr double kMaxClutterShare = 0.5;  // Points off the surface, against those on it.
   static constexpr double kMaxFlatShare = 0.4;          // Normals sharing one direction (see flatShare)...
@@ -1144,9 +1145,21 @@ class EndCompletion {
     std::size_t first = 0;
     while (first < sections && bySection[first].empty()) ++first;
     if (first >= static_cast<std::size_t>(kMaxLeadSections)) return std::nullopt;
-    std::size_t last = first;
-    for (std::size_t k = first + 1; k < sections && k - last <= static_cast<std::size_t>(kMaxGapSections); ++k) {
-      if (!bySection[k].empty()) last = k;
+    // The run of sections from `from` with gaps of at most kMaxGapSections: its last section.
+    const auto runEnd = [&](std::size_t from) {
+      std::size_t end = from;
+      for (std::size_t k = from + 1; k < sections && k - end <= static_cast<std::size_t>(kMaxGapSections); ++k) {
+        if (!bySection[k].empty()) end = k;
+      }
+      return end;
+    };
+    std::size_t last = runEnd(first);
+    // An occlusion is bridged to a run beyond it at least as long as the gap (as the extents do).
+    for (std::size_t next = last + 1; next < sections && next - last - 1 <= kMaxBridgeSections; ++next) {
+      if (bySection[next].empty()) continue;
+      const std::size_t end = runEnd(next);
+      if (end - next + 1 < next - last - 1) break;
+      last = end;
     }
     std::size_t covered = 0;
     std::size_t clutter = 0;
