@@ -675,6 +675,16 @@ TEST(Joints, ALegIsCompletedAcrossAnOcclusionToTheLongerRunBeyond) {
   EXPECT_GT(std::max(leg.start.z(), leg.end.z()), R + 0.9);
 }
 
+TEST(Joints, ALegHiddenNextToItsElbowIsCompletedFromTheRunBeyond) {
+  // As above, but the first 25 cm of the leg are hidden and 50 cm show beyond.
+  const double r = 0.05715, R = 2.0 * r;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  scene.addPipe({0, 0, R + 0.25}, {0, 0, R + 0.75}, r, false);
+  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
+  expectUprightLegCompletedAtTheOrigin(scene.connect());
+}
+
 TEST(Joints, AnEndAtAPoleThatRunsOnBothWaysIsNotCompletedAsAnElbowLeg) {
   // A 2" pipe ends at an upright pole of its own radius (points only) that runs on 60 cm below and
   // above it: round and on the radius either way, but no elbow's leg, which starts at its corner.

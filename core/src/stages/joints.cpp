@@ -818,9 +818,9 @@ class EndCompletion {
   // A missed pipe is sparse: a normal fitted over a few of its scan columns leans up to about 45°
   // off the radial direction, where one fitted over a dense surface keeps within 30°.
   static constexpr double kCompletionNormalAngleDeg = 40.0;
-  static constexpr int kMaxLeadSections = 3;  // The straight must start this close to the elbow...
-  static constexpr int kMaxGapSections = 3;   // ...and it ends at a gap longer than this...
-  static constexpr std::size_t kMaxBridgeSections = 20;  // ...unless a run as long follows within this.
+  static constexpr int kMaxLeadSections = 3;  // The straight starts this close to the elbow...
+  static constexpr int kMaxGapSections = 3;   // ...and ends at a gap longer than this, unless...
+  static constexpr std::size_t kMaxBridgeSections = 20;  // ...a run as long follows a gap up to this.
   static constexpr std::size_t kBehindSections = 5;  // Sections looked at behind the corner (see completeAt).
   static constexpr double kMaxClutterShare = 0.5;  // Points off the surface, against those on it.
   static constexpr double kMaxFlatShare = 0.4;          // Normals sharing one direction (see flatShare)...
@@ -1144,7 +1144,7 @@ class EndCompletion {
     }
     std::size_t first = 0;
     while (first < sections && bySection[first].empty()) ++first;
-    if (first >= static_cast<std::size_t>(kMaxLeadSections)) return std::nullopt;
+    if (first == sections) return std::nullopt;
     // The run of sections from `from` with gaps of at most kMaxGapSections: its last section.
     const auto runEnd = [&](std::size_t from) {
       std::size_t end = from;
@@ -1154,7 +1154,10 @@ class EndCompletion {
       return end;
     };
     std::size_t last = runEnd(first);
-    // An occlusion is bridged to a run beyond it at least as long as the gap (as the extents do).
+    // The straight starts next to the elbow, or past an occlusion no longer than the run beyond it.
+    // An occlusion between runs is bridged in the same way (as the extents do).
+    const bool nextToElbow = first < static_cast<std::size_t>(kMaxLeadSections);
+    if (!nextToElbow && (first > kMaxBridgeSections || last - first + 1 < first)) return std::nullopt;
     for (std::size_t next = last + 1; next < sections && next - last - 1 <= kMaxBridgeSections; ++next) {
       if (bySection[next].empty()) continue;
       const std::size_t end = runEnd(next);
