@@ -135,16 +135,22 @@ class ConstructedScene {
   }
 
   /// The elbow surface between tangent points: centre circle around `center` from `start`, turning
-  /// by `sweep` in the plane with normal `normal`.
+  /// by `sweep` in the plane with normal `normal`. Sampled every 5 mm along and 10° around, or
+  /// every `step` along at `aroundDegrees` (from the bend's outside towards `normal`) only.
   void addElbow(const Eigen::Vector3d& center, const Eigen::Vector3d& start, const Eigen::Vector3d& normal,
-                double sweep, double radius) {
+                double sweep, double radius, const std::vector<double>& aroundDegrees = {}, double step = 0.005) {
     const double bendRadius = (start - center).norm();
-    const int steps = static_cast<int>(bendRadius * sweep / 0.005);
+    const int steps = static_cast<int>(bendRadius * sweep / step);
+    std::vector<double> around = angles();
+    if (!aroundDegrees.empty()) {
+      around.clear();
+      for (const double degrees : aroundDegrees) around.push_back(degrees * kPi / 180.0);
+    }
     for (int k = 0; k <= steps; ++k) {
       const double t = sweep * k / steps;
       const Eigen::Vector3d outward = Eigen::AngleAxisd(t, normal) * (start - center).normalized();
       const Eigen::Vector3d onCircle = center + bendRadius * outward;
-      for (double angle : angles()) {
+      for (double angle : around) {
         const Eigen::Vector3d radial = std::cos(angle) * outward + std::sin(angle) * normal;
         addPoint(onCircle + radius * radial, radial);
       }
@@ -681,6 +687,22 @@ TEST(Joints, ALegHiddenNextToItsElbowIsCompletedFromTheRunBeyond) {
   ConstructedScene scene;
   scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
   scene.addPipe({0, 0, R + 0.25}, {0, 0, R + 0.75}, r, false);
+  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
+  expectUprightLegCompletedAtTheOrigin(scene.connect());
+}
+
+TEST(Joints, ALegIsNotClutteredByItsElbowsBend) {
+  // A 2.5" pipe comes along +x to a corner at the origin and turns up through a long-radius elbow
+  // (R = 3r) into a 30 cm leg, seen from far off along +y: the leg in three scan columns of five
+  // points, the elbow in two columns along the inside of its bend. Up to two radii past the corner
+  // the bend still runs, its inside in the shell round the leg's tube, where a wall would leave
+  // clutter: more than half as many points as the sparse leg has.
+  const double r = 0.0365, R = 3.0 * r;
+  const Eigen::Vector3d towardsScanner = -Eigen::Vector3d::UnitY();
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  scene.addElbow({-R, 0, R}, {-R, 0, 0}, towardsScanner, kPi / 2, r, {170.0, 180.0}, 0.008);
+  scene.addScanColumns({0, 0, R}, {0, 0, R + 0.3}, r, towardsScanner, {-45.0, 0.0, 45.0}, 0.0, 0.07);
   scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
   expectUprightLegCompletedAtTheOrigin(scene.connect());
 }

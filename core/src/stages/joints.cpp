@@ -822,6 +822,7 @@ class EndCompletion {
   static constexpr int kMaxGapSections = 3;   // ...and ends at a gap longer than this, unless...
   static constexpr std::size_t kMaxBridgeSections = 20;  // ...a run as long follows a gap up to this.
   static constexpr std::size_t kBehindSections = 5;  // Sections looked at behind the corner (see completeAt).
+  static constexpr double kShortElbowRadii = 2.0;    // A short-radius elbow's bend radius, in pipe radii.
   static constexpr double kMaxClutterShare = 0.5;  // Points off the surface, against those on it.
   static constexpr double kMaxFlatShare = 0.4;          // Normals sharing one direction (see flatShare)...
   static constexpr double kLineToCircle = 1.0;          // ...with a line fit's RMS under this share of the
@@ -1117,6 +1118,9 @@ class EndCompletion {
     // Sections behind the corner, past where the end's own pipe meets the surface, holding a point
     // on it: a post the pipe ends at, or the main of a tee, carries on through the corner.
     const double cosine = end.outward.dot(along);
+    // Up to a short-radius elbow's tangent point (R = 2r, the tightest fitting) the bend may still
+    // run, its torus inside the tube's start and outside it: no clutter is counted there.
+    const double shortElbowTangent = kShortElbowRadii * r * std::sqrt(1.0 - cosine * cosine) / (1.0 + cosine);
     const double behindStart = r + 2.0 * r * std::max(0.0, cosine) / std::sqrt(1.0 - cosine * cosine) + 2.0 * band;
     std::array<char, kBehindSections> behind{};
     for (std::uint32_t i : nearby) {
@@ -1136,7 +1140,8 @@ class EndCompletion {
       }
       const auto section =
           std::min(sections - 1, static_cast<std::size_t>((distanceAlong - firstAlong) / kSectionLength));
-      if (distance < r - 2.0 * band || (distance > r + 2.0 * band && distance <= 2.0 * (r + band))) {
+      const bool clutters = distance < r - 2.0 * band || (distance > r + 2.0 * band && distance <= 2.0 * (r + band));
+      if (clutters && distanceAlong >= shortElbowTangent) {
         ++clutterBySection[section];
       }
       if (withinBand) bandBySection[section].push_back(i);
