@@ -1115,13 +1115,14 @@ class EndCompletion {
     std::vector<std::size_t> clutterBySection(sections, 0);
     // Every point within the band, whatever its normal: the whole arc the scanner saw.
     std::vector<std::vector<std::uint32_t>> bandBySection(sections);
-    // Sections behind the corner, past where the end's own pipe meets the surface, holding a point
-    // on it: a post the pipe ends at, or the main of a tee, carries on through the corner.
     const double cosine = end.outward.dot(along);
+    const double sine = std::sqrt(1.0 - cosine * cosine);
     // Up to a short-radius elbow's tangent point (R = 2r, the tightest fitting) the bend may still
     // run, its torus inside the tube's start and outside it: no clutter is counted there.
-    const double shortElbowTangent = kShortElbowRadii * r * std::sqrt(1.0 - cosine * cosine) / (1.0 + cosine);
-    const double behindStart = r + 2.0 * r * std::max(0.0, cosine) / std::sqrt(1.0 - cosine * cosine) + 2.0 * band;
+    const double shortElbowTangent = kShortElbowRadii * r * sine / (1.0 + cosine);
+    // Sections behind the corner, past where the end's own pipe meets the surface, holding a point
+    // on it: a post the pipe ends at, or the main of a tee, carries on through the corner.
+    const double behindStart = r + 2.0 * r * std::max(0.0, cosine) / sine + 2.0 * band;
     std::array<char, kBehindSections> behind{};
     for (std::uint32_t i : nearby) {
       const Eigen::Vector3d d = input_.cloud.positions[i].cast<double>() - corner;
