@@ -503,6 +503,16 @@ TEST(Joints, AnEndTakesAtMostOneJointTheBestSupported) {
   EXPECT_EQ(result.joints[0].pipeIds, (std::vector<int>{1, 2}));
 }
 
+/// The scene of the completion tests: a pipe along +x ending `tangent` short of a corner at the
+/// origin, and far off a pipe along z, which makes z one of the network's directions. A test adds
+/// the missed leg's points to it.
+ConstructedScene cornerScene(double r, double tangent) {
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-tangent, 0, 0}, r);
+  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
+  return scene;
+}
+
 /// One pipe completed, upright from the corner at the origin, and the only joint an elbow: for
 /// scenes of a listed pipe ending at that corner, the points of a missed leg, and a third pipe.
 void expectUprightLegCompletedAtTheOrigin(const JointsResult& result) {
@@ -625,25 +635,21 @@ TEST(Joints, AThinPipeWhoseNormalsFaceTheScannerIsCompleted) {
   // A 1.25" pipe comes along +x to a corner at the origin and rises along +z, seen from far off
   // along +y: the riser's normals all point at the scanner, so only the points down its front
   // agree with the surface's, and across the pipe those lie on a line (along the rays). All the
-  // points in the support band lie on its arc. Pipe 3, far off, runs along z.
+  // points in the support band lie on its arc.
   const double r = 0.0211, R = 3.0 * r;
-  ConstructedScene scene;
-  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  ConstructedScene scene = cornerScene(r, R);
   scene.addPipeSeenFromAfar({0, 0, R}, {0, 0, 0.8}, r, -Eigen::Vector3d::UnitY(), 0.002);
-  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
   expectUprightLegCompletedAtTheOrigin(scene.connect());
 }
 
 TEST(Joints, ALegSeenInAFewScanColumnsWithLeaningNormalsIsCompleted) {
   // A 3" pipe comes along +x to a corner at the origin and turns down (R = 2r) into a 40 cm leg
   // that the scanner, far off along -y, saw in four columns 3 cm apart down the leg; their normals
-  // lean 35° off the radial, as normals over sparse columns do. Pipe 3, far off, runs along z.
+  // lean 35° off the radial, as normals over sparse columns do.
   const double r = 0.0707, R = 2.0 * r;
-  ConstructedScene scene;
-  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  ConstructedScene scene = cornerScene(r, R);
   scene.addScanColumns({0, 0, -R}, {0, 0, -R - 0.4}, r, -Eigen::Vector3d::UnitY(), {-60.0, -20.0, 20.0, 60.0}, 35.0,
                        0.03);
-  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
   expectUprightLegCompletedAtTheOrigin(scene.connect());
 }
 
@@ -653,27 +659,22 @@ TEST(Joints, ALegSeenFromAfarCompletesFromItsCornerNotFromTheMirrorOne) {
   // the leg's front agrees with the surface, and it sits on the front of a tube around the true
   // corner and on the back of one 2r nearer the end; a hanger rod 3r in front, seen as one column,
   // sits on that one's front. So the nearer corner has the most votes, but round it the leg's side
-  // columns lie in the clutter shell. Pipe 3, far off, runs along z.
+  // columns lie in the clutter shell.
   const double r = 0.05715, R = 2.0 * r;
   const Eigen::Vector3d towardsScanner = -Eigen::Vector3d::UnitX();
-  ConstructedScene scene;
-  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  ConstructedScene scene = cornerScene(r, R);
   scene.addPipeSeenFromAfar({0, 0, R}, {0, 0, R + 0.4}, r, towardsScanner, 0.001, false, 0.02);
   scene.addScanColumns({-3.0 * r, 0, R}, {-3.0 * r, 0, R + 0.4}, 0.0, towardsScanner, {0.0}, 0.0, 0.02);
-  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
   expectUprightLegCompletedAtTheOrigin(scene.connect());
 }
 
 TEST(Joints, ALegIsCompletedAcrossAnOcclusionToTheLongerRunBeyond) {
   // A 4" pipe comes along +x to a corner at the origin and rises (R = 2r) into a leg that something
-  // in front hides from 12 cm to 45 cm past its start; 50 cm of it show beyond. Pipe 3, far off,
-  // runs along z.
+  // in front hides from 12 cm to 45 cm past its start; 50 cm of it show beyond.
   const double r = 0.05715, R = 2.0 * r;
-  ConstructedScene scene;
-  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  ConstructedScene scene = cornerScene(r, R);
   scene.addPipe({0, 0, R}, {0, 0, R + 0.12}, r, false);
   scene.addPipe({0, 0, R + 0.45}, {0, 0, R + 0.95}, r, false);
-  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
   const JointsResult result = scene.connect();
   expectUprightLegCompletedAtTheOrigin(result);
   ASSERT_EQ(result.pipes.size(), 3u);
@@ -684,10 +685,8 @@ TEST(Joints, ALegIsCompletedAcrossAnOcclusionToTheLongerRunBeyond) {
 TEST(Joints, ALegHiddenNextToItsElbowIsCompletedFromTheRunBeyond) {
   // As above, but the first 25 cm of the leg are hidden and 50 cm show beyond.
   const double r = 0.05715, R = 2.0 * r;
-  ConstructedScene scene;
-  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  ConstructedScene scene = cornerScene(r, R);
   scene.addPipe({0, 0, R + 0.25}, {0, 0, R + 0.75}, r, false);
-  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
   expectUprightLegCompletedAtTheOrigin(scene.connect());
 }
 
@@ -699,23 +698,18 @@ TEST(Joints, ALegIsNotClutteredByItsElbowsBend) {
   // clutter: more than half as many points as the sparse leg has.
   const double r = 0.0365, R = 3.0 * r;
   const Eigen::Vector3d towardsScanner = -Eigen::Vector3d::UnitY();
-  ConstructedScene scene;
-  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  ConstructedScene scene = cornerScene(r, R);
   scene.addElbow({-R, 0, R}, {-R, 0, 0}, towardsScanner, kPi / 2, r, {170.0, 180.0}, 0.008);
   scene.addScanColumns({0, 0, R}, {0, 0, R + 0.3}, r, towardsScanner, {-45.0, 0.0, 45.0}, 0.0, 0.07);
-  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
   expectUprightLegCompletedAtTheOrigin(scene.connect());
 }
 
 TEST(Joints, AnEndAtAPoleThatRunsOnBothWaysIsNotCompletedAsAnElbowLeg) {
   // A 2" pipe ends at an upright pole of its own radius (points only) that runs on 60 cm below and
   // above it: round and on the radius either way, but no elbow's leg, which starts at its corner.
-  // Pipe 3, far off, runs along z.
   const double r = 0.03015;
-  ConstructedScene scene;
-  scene.addPipe({-1.5, 0, 0}, {-r, 0, 0}, r);
+  ConstructedScene scene = cornerScene(r, r);
   scene.addPipe({0, 0, -0.6}, {0, 0, 0.6}, r, false);
-  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
   const JointsResult result = scene.connect();
   EXPECT_EQ(result.diagnostics.completedPipes, 0u);
   EXPECT_EQ(result.pipes.size(), 2u);

@@ -197,6 +197,29 @@ class JointBuilder {
   }
   double skewLimit(double radius) const { return std::max(params_.minSkewDistance, params_.maxSkewRadii * radius); }
 
+  /// The boundary joint between two ends whose axes continue each other, where the limits allow one.
+  std::optional<Hypothesis> boundaryBetween(const PipeEnd& a, const PipeEnd& b) const {
+    const double smaller = std::min(a.radius, b.radius);
+    const double larger = std::max(a.radius, b.radius);
+    if (smaller < params_.minRadiusRatio * larger) return std::nullopt;
+    const double bendAngle = std::acos(std::clamp(-a.outward.dot(b.outward), -1.0, 1.0));
+    if (bendAngle > radians(params_.maxBoundaryAngleDeg)) return std::nullopt;
+    Hypothesis h;
+    h.type = JointType::Boundary;
+    h.a = a;
+    h.b = b;
+    h.gap = (b.point - a.point).dot(a.outward);
+    h.gapLimit = boundaryGapLimit(larger);
+    if (h.gap < -smaller || h.gap > h.gapLimit) return std::nullopt;
+    h.skew = std::max(distanceToLine(a.point, b.point, b.outward), distanceToLine(b.point, a.point, a.outward));
+    h.skewLimit = skewLimit(smaller);
+    if (h.skew > h.skewLimit) return std::nullopt;
+    h.bendAngle = bendAngle;
+    h.center = 0.5 * (a.point + b.point);
+    h.reach = 0.5 * std::max(h.gap, 0.0) + larger + params_.supportDistance;
+    return h;
+  }
+
   /// Hypotheses from an end and an end of another pipe (elbow or boundary joint).
   void tryEndPair(const PipeEnd& a, const PipeEnd& b, std::vector<Hypothesis>& out) const {
     const double smaller = std::min(a.radius, b.radius);
@@ -205,24 +228,7 @@ class JointBuilder {
     const double bendAngle = std::acos(std::clamp(-a.outward.dot(b.outward), -1.0, 1.0));
 
     if (bendAngle <= radians(params_.maxBoundaryAngleDeg)) {
-      Hypothesis h;
-      h.type = JointType::Boundary;
-      h.a = a;
-      h.b = b;
-      h.gap = (b.point - a.point).dot(a.outward);
-      h.gapLimit = boundaryGapLimit(larger);
-      if (h.gap < -smaller || h.gap > h.gapLimit) return;
-      const auto offsetFromLine = [](const PipeEnd& from, const PipeEnd& line) {
-        const Eigen::Vector3d d = from.point - line.point;
-        return (d - d.dot(line.outward) * line.outward).norm();
-      };
-      h.skew = std::max(offsetFromLine(a, b), offsetFromLine(b, a));
-      h.skewLimit = skewLimit(smaller);
-      if (h.skew > h.skewLimit) return;
-      h.bendAngle = bendAngle;
-      h.center = 0.5 * (a.point + b.point);
-      h.reach = 0.5 * std::max(h.gap, 0.0) + larger + params_.supportDistance;
-      out.push_back(std::move(h));
+      if (auto h = boundaryBetween(a, b)) out.push_back(std::move(*h));
       return;
     }
     if (bendAngle < radians(params_.minElbowAngleDeg) || bendAngle > radians(params_.maxElbowAngleDeg)) return;
@@ -331,34 +337,19 @@ class JointBuilder {
     return h;
   }
 
-  /// Whether another pipe on the line of pipe `main`, within a boundary joint's gap of it, covers
-  /// that line to `along` (from the main's start along its axis) past the main's nearer end.
+  /// Whether another pipe, one a boundary joint could join to the nearer end of pipe `main`, covers
+  /// the main's line to `along` (from the main's start along its axis) past that end.
   bool lineCarriesOn(int main, double along) const {
     const PipeSegment& mainPipe = input_.pipes[static_cast<std::size_t>(main)];
     const Eigen::Vector3d axis = unitAxis(mainPipe);
-    const double mainLength = (mainPipe.end - mainPipe.start).norm();
-    const bool pastStart = along < 0.5 * mainLength;
-    for (std::size_t q = 0; q < input_.pipes.size(); ++q) {
-      const PipeSegment& other = input_.pipes[q];
-      if (static_cast<int>(q) == main || isFragment(other, params_)) continue;
-      const double smaller = std::min(other.radius, mainPipe.radius);
-      const double larger = std::max(other.radius, mainPipe.radius);
-      if (smaller < params_.minRadiusRatio * larger ||
-          std::fabs(unitAxis(other).dot(axis)) < std::cos(radians(params_.maxBoundaryAngleDeg))) {
-        continue;
-      }
-      const auto offLine = [&](const Eigen::Vector3d& p) {
-        const Eigen::Vector3d d = p - mainPipe.start;
-        return (d - d.dot(axis) * axis).norm();
-      };
-      if (std::max(offLine(other.start), offLine(other.end)) > skewLimit(smaller)) continue;
-      const double first = (other.start - mainPipe.start).dot(axis);
-      const double second = (other.end - mainPipe.start).dot(axis);
-      const double low = std::min(first, second), high = std::max(first, second);
-      const double gapLimit = boundaryGapLimit(larger);
-      if (pastStart ? (low <= along && high >= -gapLimit && high <= 0.0)
-                    : (high >= along && low <= mainLength + gapLimit && low >= mainLength)) {
-        return true;
+    const bool pastStart = along < 0.5 * (mainPipe.end - mainPipe.start).norm();
+    const PipeEnd mainEnd = endOf(input_.pipes, main, pastStart ? 0 : 1);
+    for (int other = 0; other < static_cast<int>(input_.pipes.size()); ++other) {
+      if (other == main || isFragment(input_.pipes[static_cast<std::size_t>(other)], params_)) continue;
+      for (int side = 0; side < 2; ++side) {
+        if (!boundaryBetween(mainEnd, endOf(input_.pipes, other, side))) continue;
+        const double farEnd = (endOf(input_.pipes, other, side ^ 1).point - mainPipe.start).dot(axis);
+        if (pastStart ? farEnd <= along : farEnd >= along) return true;
       }
     }
     return false;

@@ -42,11 +42,6 @@ double distanceToSegment(const Eigen::Vector3d& p, const PipeSegment& segment) {
   return (p - (segment.start + along * axis)).norm();
 }
 
-double distanceToLine(const Eigen::Vector3d& p, const Eigen::Vector3d& origin, const Eigen::Vector3d& axis) {
-  const Eigen::Vector3d offset = p - origin;
-  return (offset - offset.dot(axis) * axis).norm();
-}
-
 bool samePipe(const PipeSegment& a, const PipeSegment& b, const MergeParams& params) {
   const Eigen::Vector3d da = unitAxis(a);
   const Eigen::Vector3d db = unitAxis(b);

@@ -1,5 +1,5 @@
 #pragma once
-// The axis of a found pipe segment, shared by the merge and joints stages.
+// The axis of a found pipe segment and distances from a line, shared by the merge and joints stages.
 
 #include <Eigen/Core>
 
@@ -12,6 +12,12 @@ inline Eigen::Vector3d unitAxis(const PipeSegment& segment) {
   const Eigen::Vector3d d = segment.end - segment.start;
   const double length = d.norm();
   return length > 0.0 ? Eigen::Vector3d(d / length) : Eigen::Vector3d::UnitZ();
+}
+
+/// Distance of `p` from the line through `origin` along the unit `axis`.
+inline double distanceToLine(const Eigen::Vector3d& p, const Eigen::Vector3d& origin, const Eigen::Vector3d& axis) {
+  const Eigen::Vector3d offset = p - origin;
+  return (offset - offset.dot(axis) * axis).norm();
 }
 
 }  // namespace piperun
