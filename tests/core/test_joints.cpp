@@ -157,6 +157,27 @@ class ConstructedScene {
     }
   }
 
+  /// A pipe fitted over points already in the scene (a piece of an elbow's arc fitted as a
+  /// cylinder): its inliers are the points within `band` of its surface. Returns its index.
+  int addFittedPipe(const Eigen::Vector3d& start, const Eigen::Vector3d& end, double radius, double band = 0.01) {
+    PipeSegment segment;
+    segment.start = start;
+    segment.end = end;
+    segment.radius = radius;
+    segment.confidence = 1.0;
+    const Eigen::Vector3d axis = (end - start).normalized();
+    for (std::size_t i = 0; i < cloud_.positions.size(); ++i) {
+      const Eigen::Vector3d fromStart = cloud_.positions[i].cast<double>() - start;
+      const double along = fromStart.dot(axis);
+      const double fromAxis = (fromStart - along * axis).norm();
+      if (along >= 0.0 && along <= (end - start).norm() && std::fabs(fromAxis - radius) <= band) {
+        segment.inliers.push_back(static_cast<std::uint32_t>(i));
+      }
+    }
+    pipes_.push_back(std::move(segment));
+    return static_cast<int>(pipes_.size()) - 1;
+  }
+
   JointsResult connect(const JointsParams& params = {}) const { return connectPipes({cloud_, pipes_}, params); }
   std::vector<PipeSegment>& pipes() { return pipes_; }
 
@@ -344,6 +365,40 @@ TEST(Joints, APieceLeftShorterThanADiameterBetweenTwoElbowsGoesAndOneElbowJoinsT
   EXPECT_LT((result.pipes[1].start - elbow.axis.back()).norm(), 1e-9);
   const Eigen::Vector3d fromLine = result.pipes[1].start - secondCorner;
   EXPECT_LT((fromLine - fromLine.dot(out) * out).norm(), 1e-6);
+}
+
+TEST(Joints, AnElbowsArcFittedAsTwoPiecesIsOneElbowBetweenThePipesBeyond) {
+  // A 90° elbow of R = 3r with the pipes and pieces the earlier stages fitted on medium seed 5
+  // (scaled to r = 5 cm): both pipes reach past their tangent points into the arc, and two
+  // overlapping cylinders lie across the arc. The middle of the arc is hidden, so each piece's
+  // elbow with a pipe is better supported than the elbow between the pipes: the pieces' joints
+  // must wait for that elbow, and the pieces, though longer than a diameter, go.
+  const double r = 0.05, R = 3.0 * r;
+  ConstructedScene scene;
+  scene.addPipe({-1.35, 0.0, 0.0}, {-R, 0.0, 0.0}, r);
+  scene.addPipe({0.0, R, 0.0}, {0.0, 1.35, 0.0}, r);
+  const Eigen::Vector3d center(-R, R, 0.0);
+  const auto onArc = [&](double degrees) {
+    const double t = degrees * kPi / 180.0;
+    return Eigen::Vector3d(center + R * Eigen::Vector3d(std::sin(t), -std::cos(t), 0.0));
+  };
+  const double seen = 40.0 * kPi / 180.0;
+  scene.addElbow(center, onArc(0.0), Eigen::Vector3d::UnitZ(), seen, r);
+  scene.addElbow(center, onArc(50.0), Eigen::Vector3d::UnitZ(), seen, r);
+  scene.pipes()[0].end = Eigen::Vector3d(-0.096, 0.0, 0.0);
+  scene.pipes()[1].start = Eigen::Vector3d(0.0, 0.089, 0.0);
+  scene.addFittedPipe({0.0, 0.0998, 0.0}, {-0.070, 0.0124, 0.0}, r);
+  scene.addFittedPipe({-0.0225, 0.0604, 0.0}, {-0.103, 0.0, 0.0}, r);
+  JointsParams params;
+  params.maxCompletionLength = 0.0;  // The resolution alone.
+  const JointsResult result = scene.connect(params);
+  ASSERT_EQ(result.pipes.size(), 2u);
+  EXPECT_EQ(result.diagnostics.absorbedFragments, 2u);
+  ASSERT_EQ(result.joints.size(), 1u);
+  const Joint& elbow = result.joints[0];
+  EXPECT_EQ(elbow.type, JointType::Elbow);
+  EXPECT_EQ(elbow.pipeIds, (std::vector<int>{1, 2}));
+  EXPECT_NEAR(elbow.bendRadius, R, 0.05 * R);
 }
 
 TEST(Joints, TeeExtendsTheBranchToTheMainAxis) {

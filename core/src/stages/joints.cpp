@@ -13,7 +13,9 @@
 // 3. Confidence = how well the criteria hold, blended with the point support on the joint's
 //    surface; the best-supported hypothesis takes an end first, an end takes at most one joint.
 //    A piece of an elbow's arc fitted as a cylinder makes two elbows of one; when they would
-//    leave it shorter than a fragment, the elbow between the pipes beyond replaces them.
+//    leave it shorter than a fragment, the elbow between the pipes beyond replaces them. A pipe
+//    lying on the arc of a confident elbow between two other pipes waits for that elbow, and
+//    goes when it is chosen.
 // 4. Completion: an end no joint took looks beyond an elbow, along each of the network's
 //    directions and along the direction its nearby points vote for (a sloped leg), for a pipe the
 //    earlier stages missed (short legs between elbows, tails into equipment: too few points to
@@ -564,6 +566,15 @@ std::vector<double> elbowRadiusVotes(const Eigen::Vector3d& point, const Eigen::
 
 namespace {
 
+/// Whether both ends of `pipe` lie within its radius of the arc of `elbow` (reconstructed).
+bool liesOnArc(const PipeSegment& pipe, const Hypothesis& elbow) {
+  const auto nearArc = [&](const Eigen::Vector3d& point) {
+    return std::any_of(elbow.axis.begin(), elbow.axis.end(),
+                       [&](const Eigen::Vector3d& sample) { return (sample - point).norm() <= pipe.radius; });
+  };
+  return nearArc(pipe.start) && nearArc(pipe.end);
+}
+
 /// The joints chosen among the hypotheses between a set of pipes.
 struct Resolution {
   std::vector<Hypothesis> hypotheses;
@@ -646,6 +657,34 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
     }
   }
 
+  // A pipe of an elbow's radius lying on the arc of an elbow hypothesis between two other pipes,
+  // one confident enough to be accepted, may be a piece of that elbow's arc fitted as a cylinder.
+  // Its joints wait for that elbow: they take their ends no earlier than it would.
+  constexpr double kNoArc = 2.0;  // Above every confidence.
+  std::vector<double> arcConfidence(static_cast<std::size_t>(pipeCount), kNoArc);
+  for (const Hypothesis& elbow : hypotheses) {
+    if (!elbow.valid || elbow.type != JointType::Elbow || elbow.confidence < params.acceptConfidence) continue;
+    pipeGrid.forEachInCube(elbow.center, elbow.reach, [&](std::uint32_t p) {
+      const PipeSegment& pipe = pipes[p];
+      const double radiusRatio = std::min(pipe.radius, elbow.a.radius) / std::max(pipe.radius, elbow.a.radius);
+      if (static_cast<int>(p) != elbow.a.pipe && static_cast<int>(p) != elbow.b.pipe && !fragment(static_cast<int>(p)) &&
+          radiusRatio >= params.minRadiusRatio && liesOnArc(pipe, elbow)) {
+        arcConfidence[p] = std::min(arcConfidence[p], elbow.confidence);
+      }
+    });
+  }
+  const auto onArc = [&](int p) { return arcConfidence[static_cast<std::size_t>(p)] < kNoArc; };
+  const auto otherPipe = [](const Hypothesis& joint) {
+    return joint.type == JointType::Tee ? joint.mainPipe : joint.b.pipe;
+  };
+  const auto rank = [&](std::size_t h) {
+    const Hypothesis& joint = hypotheses[h];
+    const double waitsFor = std::min(arcConfidence[static_cast<std::size_t>(joint.a.pipe)],
+                                     arcConfidence[static_cast<std::size_t>(otherPipe(joint))]);
+    // (confidence, whether it does not wait): an elbow goes before the joints that wait for it.
+    return std::pair{std::min(joint.confidence, waitsFor), joint.confidence < waitsFor};
+  };
+
   // Conflicts: the best-supported hypothesis takes its ends first.
   std::vector<std::size_t> order;
   for (std::size_t h = 0; h < hypotheses.size(); ++h) {
@@ -653,9 +692,7 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
     ++resolution.diagnostics.hypotheses[static_cast<std::size_t>(hypotheses[h].type)];
     order.push_back(h);
   }
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
-    return hypotheses[x].confidence > hypotheses[y].confidence;
-  });
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return rank(x) > rank(y); });
   auto& takenBy = resolution.takenBy;
   takenBy.assign(2 * static_cast<std::size_t>(pipeCount), -1);
   const auto taken = [&](const PipeEnd& end) { return takenBy[static_cast<std::size_t>(end.key())] >= 0; };
@@ -726,6 +763,28 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
     endPoint[static_cast<std::size_t>(whole->b.key())] = whole->newB;
     resolution.arcPieces[static_cast<std::size_t>(p)] = 1;
   }
+  // The pieces on the arc of an elbow chosen between two other pipes go, and their own joints
+  // with them.
+  for (std::size_t h : chosen) {
+    const Hypothesis& elbow = hypotheses[h];
+    if (elbow.type != JointType::Elbow || onArc(elbow.a.pipe) || onArc(elbow.b.pipe)) continue;
+    for (int p = 0; p < pipeCount; ++p) {
+      if (onArc(p) && p != elbow.a.pipe && p != elbow.b.pipe &&
+          liesOnArc(pipes[static_cast<std::size_t>(p)], elbow)) {
+        resolution.arcPieces[static_cast<std::size_t>(p)] = 1;
+      }
+    }
+  }
+  const auto onPiece = [&](std::size_t h) {
+    return resolution.arcPieces[static_cast<std::size_t>(hypotheses[h].a.pipe)] ||
+           resolution.arcPieces[static_cast<std::size_t>(otherPipe(hypotheses[h]))];
+  };
+  for (std::size_t h : chosen) {
+    if (!onPiece(h)) continue;
+    takenBy[static_cast<std::size_t>(hypotheses[h].a.key())] = -1;
+    if (hypotheses[h].type != JointType::Tee) takenBy[static_cast<std::size_t>(hypotheses[h].b.key())] = -1;
+  }
+  chosen.erase(std::remove_if(chosen.begin(), chosen.end(), onPiece), chosen.end());
   return resolution;
 }
 
@@ -1331,21 +1390,15 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   const int pipeCount = static_cast<int>(pipes.size());
 
   // Fragments lying on a chosen elbow's arc are bits of the elbow fitted as cylinders: they go,
-  // and so do the arc pieces whose elbows the resolution replaced.
+  // and so do the arc pieces the resolution found.
   std::vector<char> absorbed = resolution.arcPieces;
   for (int p = 0; p < pipeCount; ++p) {
     if (!isFragment(pipes[static_cast<std::size_t>(p)], params)) continue;
-    const PipeSegment& fragment = pipes[static_cast<std::size_t>(p)];
     for (std::size_t h : chosen) {
       const Hypothesis& elbow = hypotheses[h];
-      if (elbow.type != JointType::Elbow) continue;
-      const auto nearArc = [&](const Eigen::Vector3d& point) {
-        for (const auto& sample : elbow.axis) {
-          if ((sample - point).norm() <= fragment.radius) return true;
-        }
-        return false;
-      };
-      if (nearArc(fragment.start) && nearArc(fragment.end)) absorbed[static_cast<std::size_t>(p)] = 1;
+      if (elbow.type == JointType::Elbow && liesOnArc(pipes[static_cast<std::size_t>(p)], elbow)) {
+        absorbed[static_cast<std::size_t>(p)] = 1;
+      }
     }
   }
   // Pipe ids: input order, absorbed fragments left out.
