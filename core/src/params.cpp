@@ -97,6 +97,7 @@ const std::vector<Field>& fields() {
       PIPERUN_FIELD("merge", "max_gap", "m", Stage::Merge, merge.maxGap, "...and they overlap or leave at most this gap"),
       PIPERUN_FIELD("merge", "max_extension", "m", Stage::Merge, merge.maxExtension, "Merged pipes' ends carry on over surface points up to this far (0: off)"),
       PIPERUN_FIELD("merge", "extension_normal_angle_deg", "deg", Stage::Merge, merge.extensionNormalAngleDeg, "...points whose normals are this close to radial"),
+      PIPERUN_FIELD("merge", "extension_bridge_sections", "", Stage::Merge, merge.extensionBridgeSections, "...across gaps up to this many 4 cm sections when the run beyond is at least as long"),
 
       PIPERUN_FIELD("joints", "search_diameters", "", Stage::Joints, joints.searchDiameters, "An end looks for partners within this many diameters of the larger pipe (an elbow's two ends together twice that)"),
       PIPERUN_FIELD("joints", "min_search_distance", "m", Stage::Joints, joints.minSearchDistance, "...and at least this far"),

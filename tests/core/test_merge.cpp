@@ -114,6 +114,25 @@ TEST(Merge, AnEndCarriesOnOverItsSparseTail) {
   EXPECT_EQ(mergeAndExtend(cloud, {gappy}, {}).diagnostics.extendedEnds, 0u);
 }
 
+TEST(Merge, AnEndCarriesOnAcrossAnOcclusionToALongerRunBeyond) {
+  // Past the found end at x = 2 the tail is hidden from 2.2 to 2.6 (ten sections, behind a pipe in
+  // front of it): the run beyond, 2.6 to 3.2, is longer than the occlusion, so the pipe carries on
+  // to its end, as the extents bridge a gap; a run beyond shorter than the occlusion is not taken.
+  const double r = 0.05;
+  const auto tailEnd = [&](double beyondTo) {
+    PointCloud cloud;
+    const auto inliers = addPipePoints(cloud, r, 0.0, 2.0, 0.01, 12, 0.0);
+    addPipePoints(cloud, r, 2.04, 2.2, 0.04, 3, 0.0);
+    addPipePoints(cloud, r, 2.6, beyondTo, 0.04, 3, 0.0);
+    PipeSegment found = segment({0, 0, 0}, {2, 0, 0}, r, inliers);
+    found.confidence = 1.0;
+    const auto result = mergeAndExtend(cloud, {found}, {});
+    return std::max(result.segments[0].start.x(), result.segments[0].end.x());
+  };
+  EXPECT_NEAR(tailEnd(3.2), 3.2, 1e-6);
+  EXPECT_NEAR(tailEnd(2.8), 2.2, 1e-6);
+}
+
 TEST(Merge, AnEndStopsAtClutterAndAtAnotherPipe) {
   const double r = 0.05;
   // A wall across the pipe's extension 30 cm past its end (points in the shell around the tube

@@ -12,9 +12,10 @@
 // neighbourhoods of a few scan columns, stray 30–45° from radial: placement leaves those points out
 // of its inliers, and the extents stop where too few remain. Past each end, 4 cm sections holding
 // an unexplained point within the pipe's noise band of the surface, with its normal within
-// `extensionNormalAngleDeg` of radial, carry the pipe on (gaps of up to three sections), until a
-// section holds more clutter than surface points (points inside the tube, or unexplained points in
-// a shell around it) or the axis would enter another pipe.
+// `extensionNormalAngleDeg` of radial, carry the pipe on (gaps of up to three sections, and an
+// occlusion of up to `extensionBridgeSections` when the run beyond is as long), until a section
+// holds more clutter than surface points (points inside the tube, or unexplained points in a shell
+// around it) or the axis would enter another pipe.
 
 #include "piperun/stages/merge.h"
 
@@ -171,14 +172,31 @@ double extension(const PointCloud& cloud, const PipeSegment& pipe, const Eigen::
     }
   }
   // Outward over sections holding surface points, across gaps of at most kMaxGap, up to the first
-  // section with more clutter than surface points.
-  std::size_t last = 0, covered = 0;
-  for (std::size_t k = 0; k < sections && k <= last + kMaxGap; ++k) {
-    if (clutter[k] > bySection[k].size() || static_cast<double>(k + 1) * kSection > limit) break;
-    if (bySection[k].empty()) continue;
-    last = k;
-    ++covered;
+  // section with more clutter than surface points. A longer occlusion is crossed when the run
+  // beyond it is at least as long, as the extents bridge.
+  std::size_t open = 0;
+  while (open < sections && clutter[open] <= bySection[open].size() && static_cast<double>(open + 1) * kSection <= limit) {
+    ++open;
   }
+  const auto runEnd = [&](std::size_t from) {
+    std::size_t end = from;
+    for (std::size_t k = from + 1; k < open && k - end <= kMaxGap; ++k) {
+      if (!bySection[k].empty()) end = k;
+    }
+    return end;
+  };
+  std::size_t first = 0;
+  while (first < open && bySection[first].empty()) ++first;
+  if (first >= open || first > kMaxGap) return 0.0;
+  std::size_t last = runEnd(first);
+  for (std::size_t next = last + 1; next < open && next - last - 1 <= static_cast<std::size_t>(std::max(0, params.extensionBridgeSections)); ++next) {
+    if (bySection[next].empty()) continue;
+    const std::size_t end = runEnd(next);
+    if (end - next + 1 < next - last - 1) break;
+    last = end;
+  }
+  std::size_t covered = 0;
+  for (std::size_t k = 0; k <= last; ++k) covered += bySection[k].empty() ? 0 : 1;
   if (covered < 2) return 0.0;
   double farthest = 0.0;
   for (std::size_t k = 0; k <= last; ++k) {

@@ -15,10 +15,11 @@ struct MergeParams {
   double maxAxisDistance = 0.3;      ///< ...at most this × the smaller radius apart (min 1 cm)...
   double maxRadiusDifference = 0.15; ///< ...radii within this share of the larger one (min 3 mm)...
   double maxGap = 0.05;              ///< ...and overlapping or separated by at most this (m) are merged.
-  double maxExtension = 1.0;         ///< Merged pipes' ends carry on along the axis over points of the surface
+  double maxExtension = 2.0;         ///< Merged pipes' ends carry on along the axis over points of the surface
                                      ///< up to this far (m; 0: off): a pipe's far, sparse end whose normals
                                      ///< stray too far from radial for placement's inliers...
   double extensionNormalAngleDeg = 45.0;  ///< ...over points whose normals are this close to radial (deg).
+  int extensionBridgeSections = 20;  ///< ...across gaps up to this many 4 cm sections when the run beyond is as long.
 };
 
 struct MergeResult {
