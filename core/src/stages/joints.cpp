@@ -770,12 +770,12 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
   for (std::size_t h : chosen) {
     const Hypothesis& elbow = hypotheses[h];
     if (elbow.type != JointType::Elbow || onArc(elbow.a.pipe) || onArc(elbow.b.pipe)) continue;
-    for (int p = 0; p < pipeCount; ++p) {
-      if (onArc(p) && p != elbow.a.pipe && p != elbow.b.pipe &&
-          liesOnArc(pipes[static_cast<std::size_t>(p)], elbow)) {
-        resolution.arcPieces[static_cast<std::size_t>(p)] = 1;
+    pipeGrid.forEachInCube(elbow.center, elbow.reach, [&](std::uint32_t p) {
+      if (onArc(static_cast<int>(p)) && static_cast<int>(p) != elbow.a.pipe && static_cast<int>(p) != elbow.b.pipe &&
+          liesOnArc(pipes[p], elbow)) {
+        resolution.arcPieces[p] = 1;
       }
-    }
+    });
   }
   const auto onPiece = [&](std::size_t h) {
     return resolution.arcPieces[static_cast<std::size_t>(hypotheses[h].a.pipe)] ||
