@@ -35,6 +35,7 @@
 #include "angles.h"
 #include "points_near.h"
 #include "sector_offsets.h"
+#include "stages/section_runs.h"
 #include "stages/segment_axis.h"
 
 #include <Eigen/Eigenvalues>
@@ -1200,28 +1201,17 @@ class EndCompletion {
       if (withinBand) bandBySection[section].push_back(i);
       if (onSurface) bySection[section].push_back(i);
     }
+    const auto occupied = [&](std::size_t k) { return !bySection[k].empty(); };
     std::size_t first = 0;
-    while (first < sections && bySection[first].empty()) ++first;
+    while (first < sections && !occupied(first)) ++first;
     if (first == sections) return std::nullopt;
-    // The run of sections from `from` with gaps of at most kMaxGapSections: its last section.
-    const auto runEnd = [&](std::size_t from) {
-      std::size_t end = from;
-      for (std::size_t k = from + 1; k < sections && k - end <= static_cast<std::size_t>(kMaxGapSections); ++k) {
-        if (!bySection[k].empty()) end = k;
-      }
-      return end;
-    };
-    std::size_t last = runEnd(first);
+    const auto maxGap = static_cast<std::size_t>(kMaxGapSections);
+    std::size_t last = runEnd(first, sections, maxGap, occupied);
     // The straight starts next to the elbow, or past an occlusion no longer than the run beyond it.
     // An occlusion between runs is bridged in the same way (as the extents do).
     const bool nextToElbow = first < static_cast<std::size_t>(kMaxLeadSections);
     if (!nextToElbow && (first > kMaxBridgeSections || last - first + 1 < first)) return std::nullopt;
-    for (std::size_t next = last + 1; next < sections && next - last - 1 <= kMaxBridgeSections; ++next) {
-      if (bySection[next].empty()) continue;
-      const std::size_t end = runEnd(next);
-      if (end - next + 1 < next - last - 1) break;
-      last = end;
-    }
+    last = bridgedEnd(last, sections, maxGap, kMaxBridgeSections, occupied);
     std::size_t covered = 0;
     std::size_t clutter = 0;
     Completion completion;

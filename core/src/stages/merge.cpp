@@ -21,6 +21,7 @@
 
 #include "angles.h"
 #include "points_near.h"
+#include "stages/section_runs.h"
 #include "stages/segment_axis.h"
 #include "union_find.h"
 
@@ -178,23 +179,12 @@ double extension(const PointCloud& cloud, const PipeSegment& pipe, const Eigen::
   while (open < sections && clutter[open] <= bySection[open].size() && static_cast<double>(open + 1) * kSection <= limit) {
     ++open;
   }
-  const auto runEnd = [&](std::size_t from) {
-    std::size_t end = from;
-    for (std::size_t k = from + 1; k < open && k - end <= kMaxGap; ++k) {
-      if (!bySection[k].empty()) end = k;
-    }
-    return end;
-  };
+  const auto occupied = [&](std::size_t k) { return !bySection[k].empty(); };
   std::size_t first = 0;
-  while (first < open && bySection[first].empty()) ++first;
+  while (first < open && !occupied(first)) ++first;
   if (first >= open || first > kMaxGap) return 0.0;
-  std::size_t last = runEnd(first);
-  for (std::size_t next = last + 1; next < open && next - last - 1 <= static_cast<std::size_t>(std::max(0, params.extensionBridgeSections)); ++next) {
-    if (bySection[next].empty()) continue;
-    const std::size_t end = runEnd(next);
-    if (end - next + 1 < next - last - 1) break;
-    last = end;
-  }
+  const std::size_t last = bridgedEnd(runEnd(first, open, kMaxGap, occupied), open, kMaxGap,
+                                      static_cast<std::size_t>(std::max(0, params.extensionBridgeSections)), occupied);
   std::size_t covered = 0;
   for (std::size_t k = 0; k <= last; ++k) covered += bySection[k].empty() ? 0 : 1;
   if (covered < 2) return 0.0;
