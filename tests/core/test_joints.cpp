@@ -331,6 +331,23 @@ TEST(Joints, AGentleBendBetweenALevelAndASlopedPipeIsAnElbow) {
   EXPECT_EQ(result.runs.size(), 1u);
 }
 
+/// The joints of `scene` from the resolution alone (no free-end completion).
+JointsResult resolveOnly(const ConstructedScene& scene) {
+  JointsParams params;
+  params.maxCompletionLength = 0.0;
+  return scene.connect(params);
+}
+
+/// The network is the scene's two pipes, `absorbedPieces` pieces of the arc gone, joined by one
+/// elbow.
+void expectOneElbowBetweenTwoPipes(const JointsResult& result, std::size_t absorbedPieces) {
+  ASSERT_EQ(result.pipes.size(), 2u);
+  EXPECT_EQ(result.diagnostics.absorbedFragments, absorbedPieces);
+  ASSERT_EQ(result.joints.size(), 1u);
+  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
+  EXPECT_EQ(result.joints[0].pipeIds, (std::vector<int>{1, 2}));
+}
+
 TEST(Joints, APieceLeftShorterThanADiameterBetweenTwoElbowsGoesAndOneElbowJoinsThePipesBeyond) {
   // A bend of 20° (R = 2r) and 60° (R = 3r) around 6 cm of straight pipe, whose piece was fitted
   // 3 cm into each arc, as cylinders fitted on elbows reach: the two elbows would leave it 1.2
@@ -349,15 +366,9 @@ TEST(Joints, APieceLeftShorterThanADiameterBetweenTwoElbowsGoesAndOneElbowJoinsT
   const int piece = scene.addPipe(firstTangent * along, (firstTangent + straight) * along, r);
   scene.pipes()[static_cast<std::size_t>(piece)].start -= overshoot * along;
   scene.pipes()[static_cast<std::size_t>(piece)].end += overshoot * along;
-  JointsParams params;
-  params.maxCompletionLength = 0.0;  // The resolution alone.
-  const JointsResult result = scene.connect(params);
-  ASSERT_EQ(result.pipes.size(), 2u);
-  EXPECT_EQ(result.diagnostics.absorbedFragments, 1u);
-  ASSERT_EQ(result.joints.size(), 1u);
+  const JointsResult result = resolveOnly(scene);
+  ASSERT_NO_FATAL_FAILURE(expectOneElbowBetweenTwoPipes(result, 1));
   const Joint& elbow = result.joints[0];
-  EXPECT_EQ(elbow.type, JointType::Elbow);
-  EXPECT_EQ(elbow.pipeIds, (std::vector<int>{1, 2}));
   EXPECT_EQ(elbow.status, JointStatus::Accepted);
   // The pipes end on their own lines where the elbow's arc starts and ends.
   EXPECT_NEAR(result.pipes[0].end.y(), 0.0, 1e-9);
@@ -389,16 +400,9 @@ TEST(Joints, AnElbowsArcFittedAsTwoPiecesIsOneElbowBetweenThePipesBeyond) {
   scene.pipes()[1].start = Eigen::Vector3d(0.0, 0.089, 0.0);
   scene.addFittedPipe({0.0, 0.0998, 0.0}, {-0.070, 0.0124, 0.0}, r);
   scene.addFittedPipe({-0.0225, 0.0604, 0.0}, {-0.103, 0.0, 0.0}, r);
-  JointsParams params;
-  params.maxCompletionLength = 0.0;  // The resolution alone.
-  const JointsResult result = scene.connect(params);
-  ASSERT_EQ(result.pipes.size(), 2u);
-  EXPECT_EQ(result.diagnostics.absorbedFragments, 2u);
-  ASSERT_EQ(result.joints.size(), 1u);
-  const Joint& elbow = result.joints[0];
-  EXPECT_EQ(elbow.type, JointType::Elbow);
-  EXPECT_EQ(elbow.pipeIds, (std::vector<int>{1, 2}));
-  EXPECT_NEAR(elbow.bendRadius, R, 0.05 * R);
+  const JointsResult result = resolveOnly(scene);
+  ASSERT_NO_FATAL_FAILURE(expectOneElbowBetweenTwoPipes(result, 2));
+  EXPECT_NEAR(result.joints[0].bendRadius, R, 0.05 * R);
 }
 
 TEST(Joints, TeeExtendsTheBranchToTheMainAxis) {
