@@ -88,7 +88,8 @@ const std::vector<Field>& fields() {
       PIPERUN_FIELD("extents", "closing_sections", "", Stage::Extents, extents.closingSections, "1-D closing fills gaps up to this many sections"),
       PIPERUN_FIELD("extents", "bridge_sections", "", Stage::Extents, extents.bridgeSections, "...and gaps up to this many between runs at least as long as the gap"),
       PIPERUN_FIELD("extents", "opening_sections", "", Stage::Extents, extents.openingSections, "1-D opening drops pieces shorter than this many sections"),
-      PIPERUN_FIELD("extents", "min_confidence", "", Stage::Extents, extents.minConfidence, "Pieces where fewer than this share of the sections passed both coverage tests are dropped"),
+      PIPERUN_FIELD("extents", "min_confidence", "", Stage::Extents, extents.minConfidence, "Pieces where fewer than this share of the sections passed both coverage tests are opened again at their longest gaps; the part with most inliers stays when it keeps the share and holds over half of them"),
+      PIPERUN_FIELD("extents", "min_part_points", "", Stage::Extents, extents.minPartPoints, "...and at least this many"),
       PIPERUN_FIELD("extents", "min_length", "m", Stage::Extents, extents.minLength, "Pipes shorter than this are dropped"),
 
       PIPERUN_FIELD("merge", "max_angle_deg", "deg", Stage::Merge, merge.maxAngleDeg, "Pieces merge when their axes are at most this far from parallel"),

@@ -129,6 +129,23 @@ TEST(Extents, PieceMostlyMadeUpByTheClosingIsDropped) {
   EXPECT_LT(result.segments[0].confidence, 0.5);
 }
 
+TEST(Extents, PipeSeenWholeBeyondItsGlimpsesKeepsItsWholePart) {
+  // 20 cm, then a 4 cm glimpse between two occlusions, then 40 cm seen whole: the closing joins
+  // them into a run where about half the sections passed, too few to keep it, but its 40 cm part
+  // holds most of its points and passed throughout.
+  const ScannedPipe pipe(1.2, [](double x) { return x < 0.2 || (x > 0.44 && x < 0.48) || x > 0.8; });
+  ExtentsResult result = computeExtents({pipe.cloud, pipe.placement}, ExtentsParams{});
+  ASSERT_EQ(result.segments.size(), 1u);
+  EXPECT_NEAR(result.segments[0].start.x(), 0.8, 0.02);
+  EXPECT_NEAR(result.segments[0].end.x(), 1.2, 0.02);
+  EXPECT_DOUBLE_EQ(result.segments[0].confidence, 1.0);
+
+  // Two parts of 24 cm either side of a 2 cm glimpse: neither holds over half the run's points.
+  const ScannedPipe even(0.96, [](double x) { return x < 0.24 || (x > 0.45 && x < 0.47) || x > 0.72; });
+  result = computeExtents({even.cloud, even.placement}, ExtentsParams{});
+  EXPECT_TRUE(result.segments.empty());
+}
+
 TEST(Extents, NoiseBlobsAndSliversAreDropped) {
   ScannedPipe pipe(1.5, [](double) { return true; });
   Rng rng(9);

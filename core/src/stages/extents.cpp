@@ -58,13 +58,43 @@ double passedShare(const std::vector<std::size_t>& passedBefore, std::size_t fir
   return static_cast<double>(passedBefore[last] - passedBefore[first]) / static_cast<double>(last - first);
 }
 
+/// The parts of [first, last) (both ends passing) that keep `minConfidence` of passing sections:
+/// the whole span if it does, otherwise the parts on either side of its longest gap, recursively.
+void confidentParts(const std::vector<bool>& pass, const std::vector<std::size_t>& passedBefore, std::size_t first,
+                    std::size_t last, double minConfidence, std::vector<Run>& parts) {
+  if (passedShare(passedBefore, first, last) >= minConfidence) {
+    parts.push_back({first, last});
+    return;
+  }
+  std::size_t gapFirst = first, gapLast = first;
+  for (std::size_t k = first; k < last;) {
+    if (pass[k]) {
+      ++k;
+      continue;
+    }
+    std::size_t end = k;
+    while (end < last && !pass[end]) ++end;
+    if (end - k > gapLast - gapFirst) gapFirst = k, gapLast = end;
+    k = end;
+  }
+  confidentParts(pass, passedBefore, first, gapFirst, minConfidence, parts);
+  confidentParts(pass, passedBefore, gapLast, last, minConfidence, parts);
+}
+
 /// 1-D closing (interior gaps of at most `closing` sections are filled; the mask never grows past
 /// its outermost passing sections), then gaps of at most `bridge` sections between runs at least as
 /// long as the gap are filled too when the joined run keeps `minConfidence` of passing sections,
 /// then an opening (runs shorter than `opening` go). A long stretch of pipe on both sides of a gap
 /// is strong evidence that the pipe runs on behind whatever hides it; a few scattered passing
-/// sections of a chance fit are not.
-std::vector<bool> closeThenOpen(const std::vector<bool>& pass, int closing, int bridge, double minConfidence, int opening) {
+/// sections of a chance fit are not. A closed run left with less than `minConfidence` of passing
+/// sections is opened again at its longest gaps until its parts keep that share; the part holding
+/// the most points (`pointsBefore` counts them) stays when that is more than half the run's and at
+/// least `minPartPoints`. A pipe seen whole on one side of a gap and in glimpses between occlusions
+/// on the other keeps its whole part; the glimpses of a chance fit through scattered surface
+/// patches each hold a small share (every run left keeps the share).
+std::vector<bool> closeThenOpen(const std::vector<bool>& pass, const std::vector<std::size_t>& pointsBefore,
+                                const ExtentsParams& params) {
+  const double minConfidence = params.minConfidence;
   std::vector<std::size_t> passedBefore(pass.size() + 1, 0);
   for (std::size_t k = 0; k < pass.size(); ++k) passedBefore[k + 1] = passedBefore[k] + (pass[k] ? 1 : 0);
   std::vector<bool> mask = pass;
@@ -82,10 +112,23 @@ std::vector<bool> closeThenOpen(const std::vector<bool>& pass, int closing, int 
       std::fill(mask.begin() + before.last, mask.begin() + after.first, true);
     }
   };
-  fillGaps(static_cast<std::size_t>(std::max(0, closing)), false);
-  fillGaps(static_cast<std::size_t>(std::max(0, bridge)), true);
+  fillGaps(static_cast<std::size_t>(std::max(0, params.closingSections)), false);
+  fillGaps(static_cast<std::size_t>(std::max(0, params.bridgeSections)), true);
+  const auto pointsIn = [&](const Run& run) { return pointsBefore[run.last] - pointsBefore[run.first]; };
+  std::vector<Run> parts;
   for (const Run& run : runsOf(mask)) {
-    if (run.last - run.first < static_cast<std::size_t>(std::max(0, opening))) {
+    if (passedShare(passedBefore, run.first, run.last) >= minConfidence) continue;
+    std::fill(mask.begin() + run.first, mask.begin() + run.last, false);
+    parts.clear();
+    confidentParts(pass, passedBefore, run.first, run.last, minConfidence, parts);
+    const Run& best = *std::max_element(parts.begin(), parts.end(),
+                                        [&](const Run& a, const Run& b) { return pointsIn(a) < pointsIn(b); });
+    if (2 * pointsIn(best) > pointsIn(run) && pointsIn(best) >= static_cast<std::size_t>(std::max(0, params.minPartPoints))) {
+      std::fill(mask.begin() + best.first, mask.begin() + best.last, true);
+    }
+  }
+  for (const Run& run : runsOf(mask)) {
+    if (run.last - run.first < static_cast<std::size_t>(std::max(0, params.openingSections))) {
       std::fill(mask.begin() + run.first, mask.begin() + run.last, false);
     }
   }
@@ -179,8 +222,7 @@ std::vector<PipeSegment> segmentsOf(const PointCloud& cloud, const Cylinder& cyl
     std::sort(angles.begin(), angles.end());
     pass[k] = spannedDeg(angles) >= params.minArcDeg;
   }
-  const std::vector<bool> mask =
-      closeThenOpen(pass, params.closingSections, params.bridgeSections, params.minConfidence, params.openingSections);
+  const std::vector<bool> mask = closeThenOpen(pass, begin, params);
   sectionCount += sections;
   keptCount += static_cast<std::size_t>(std::count(mask.begin(), mask.end(), true));
 
@@ -202,8 +244,7 @@ std::vector<PipeSegment> segmentsOf(const PointCloud& cloud, const Cylinder& cyl
     segment.rms = std::sqrt(sum2 / static_cast<double>(segment.inliers.size()));
     const auto passed = std::count(pass.begin() + static_cast<std::ptrdiff_t>(run.first),
                                    pass.begin() + static_cast<std::ptrdiff_t>(run.last), true);
-    segment.confidence = static_cast<double>(passed) / static_cast<double>(run.last - run.first);
-    if (segment.confidence < params.minConfidence) continue;
+    segment.confidence = static_cast<double>(passed) / static_cast<double>(run.last - run.first);  // ≥ minConfidence
     segment.cylinderIndex = cylinderIndex;
     segments.push_back(std::move(segment));
   }

@@ -30,7 +30,10 @@ struct ExtentsParams {
   int openingSections = 2;           ///< ...then opening drops pieces shorter than this many sections.
   double minConfidence = 0.6;        ///< Pieces where fewer than this share of the sections passed both coverage tests
                                      ///< (the closing filled the rest) are dropped, and a bridge must leave this share.
-                                     ///< (0.7 drops the pump room's short piece between two elbows.)
+                                     ///< (0.7 drops the pump room's short piece between two elbows.) A closed run
+                                     ///< below this share is opened again at its longest gaps until its parts keep it,
+                                     ///< and the part with most inliers stays when it holds over half the run's...
+  int minPartPoints = 40;            ///< ...and at least this many (placement's minInliers).
   double minLength = 0.1;            ///< Pipes shorter than this (m) are dropped.
 };
 
