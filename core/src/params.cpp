@@ -73,11 +73,11 @@ const std::vector<Field>& fields() {
       PIPERUN_FIELD("placement", "radius_bandwidth", "m", Stage::Placement, placement.radiusBandwidth, "Mean-shift kernel width for the radius"),
       PIPERUN_FIELD("placement", "min_candidates", "", Stage::Placement, placement.minCandidates, "A circle needs at least this many candidates in its mode"),
       PIPERUN_FIELD("placement", "inlier_distance", "m", Stage::Placement, placement.inlierDistance, "Inliers lie within this of the cylinder surface (widened on noisy scans, up to 3x)"),
-      PIPERUN_FIELD("placement", "inlier_normal_angle_deg", "deg", Stage::Placement, placement.inlierNormalAngleDeg, "Inliers' normals (re-estimated in the projection plane) lie within this of the radial direction"),
+      PIPERUN_FIELD("placement", "inlier_normal_angle_deg", "deg", Stage::Placement, placement.inlierNormalAngleDeg, "Inliers' normals (re-estimated in the projection plane; a scan column's across the columns beside it) lie within this of the radial direction"),
       PIPERUN_FIELD("placement", "min_inliers", "", Stage::Placement, placement.minInliers, "Cylinders with fewer inliers are dropped"),
       PIPERUN_FIELD("placement", "min_candidate_share", "", Stage::Placement, placement.minCandidateShare, "A circle's mode must hold at least this many candidates per inlier"),
       PIPERUN_FIELD("placement", "max_shell_share", "", Stage::Placement, placement.maxShellShare, "Points just outside the inlier band, as a share of inliers (box edges fail)"),
-      PIPERUN_FIELD("placement", "max_out_of_round", "", Stage::Placement, placement.maxOutOfRound, "Systematic offset around the axis, times the radius, at least 1 mm (square posts fail); twice that over every point in the band"),
+      PIPERUN_FIELD("placement", "max_out_of_round", "", Stage::Placement, placement.maxOutOfRound, "Systematic offset around the axis, times the radius, at least 1 mm unless the fit needs normals across scan columns (square posts fail); twice that over every point in the band"),
       PIPERUN_FIELD("placement", "refine_iterations", "", Stage::Placement, placement.refineIterations, "Gauss-Newton iterations of the least-squares refinement"),
 
       PIPERUN_FIELD("extents", "section_length", "m", Stage::Extents, extents.sectionLength, "Axial section length"),

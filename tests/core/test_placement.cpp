@@ -350,6 +350,31 @@ TEST(Placement, AThinPipeSeenInFourScanColumnsKeepsItsOuterColumns) {
   EXPECT_GT(result.cylinders[0].inliers.size(), cloud.size() * 9 / 10);
 }
 
+TEST(Placement, AThinPipeSeenInThreeScanColumnsTakesTheirArcsNormals) {
+  Rng rng(47);
+  PointCloud cloud;
+  // A 3 cm riser seen in three scan columns 40° and 60° round from the middle one, 2.3 cm between
+  // points down each, as on a sparse far branch. A k-neighbourhood spans the three columns, so
+  // every 3-D normal is that of their plane: right on the middle column, 40° and 60° off on the
+  // outer ones. Alone, each column is a tight cluster in the plane; across the three, an arc.
+  const TrueCylinder truth{{0.0, 0.0, 0.0}, Eigen::Vector3d::UnitZ(), 3.0, 0.03};
+  for (const double degrees : {-40.0, 0.0, 60.0}) {
+    const Eigen::Vector3d radial(std::cos(degrees * kDegree), std::sin(degrees * kDegree), 0.0);
+    for (double z = rng.uniform(0.0, 0.023); z < truth.length; z += 0.023) {
+      addPoint(cloud, (truth.radius + 0.002 * rng.normal()) * radial + Eigen::Vector3d(0.0, 0.0, z),
+               perturbed(Eigen::Vector3d::UnitX(), 5.0, rng));
+    }
+  }
+  const DirectionsResult directions = oneDirection(cloud, truth.axis);
+  const PlacementResult result = placeCylinders({cloud, directions, 1}, PlacementParams{});
+  // With the outer columns' normals rejected, the middle column alone leaves the circle free to
+  // slide along it: the fit went astray and no pipe was found.
+  ASSERT_EQ(result.cylinders.size(), 1u);
+  EXPECT_NEAR(result.cylinders[0].radius, truth.radius, 0.003);
+  EXPECT_LT(axisOffset(result.cylinders[0], truth), 0.004);
+  EXPECT_GT(result.cylinders[0].inliers.size(), cloud.size() * 9 / 10);
+}
+
 /// The faces of a square post along z (centre `center`, half its width `half` < 6 cm, 1.1 m tall)
 /// that a scanner far along `view` sees in columns `step` apart across it, offset by `offset`, with the
 /// 3-D normals facing the scanner as on thin things seen from afar.
@@ -383,6 +408,22 @@ TEST(Placement, ASquarePostSeenInAFewScanColumnsIsNoPipe) {
   // normal of a circle inscribed there: the columns round the corner pass as a small pipe's
   // inliers, and a circle through them is round. The other columns in its band are not.
   addPostInScanColumns(cloud, {0.0, 0.0}, 0.034, {1.0, 1.0}, 0.015, 0.0, rng);
+  const DirectionsResult directions = oneDirection(cloud, Eigen::Vector3d::UnitZ());
+  const PlacementResult result = placeCylinders({cloud, directions, 1}, PlacementParams{});
+  for (const Cylinder& c : result.cylinders) {
+    ADD_FAILURE() << "cylinder r=" << c.radius << " at (" << c.point.x() << ", " << c.point.y() << ") with "
+                  << c.inliers.size() << " of " << cloud.size() << " points as inliers";
+  }
+}
+
+TEST(Placement, ASquarePostSeenInThreeScanColumnsIsNoPipeWhateverNormalsTheyTake) {
+  Rng rng(43);
+  PointCloud cloud;
+  // A 5 cm handrail post seen in three columns 2 cm apart, two on one face and one on the other:
+  // across the columns the normals are those of an arc, and a circle through them stays within
+  // a millimetre of round. A fit that needs the normals across columns has its shape from those
+  // few columns alone, so it gets no tolerance for noise on few points.
+  addPostInScanColumns(cloud, {0.0, 0.0}, 0.025, {1.0, 0.5}, 0.02, 0.0, rng);
   const DirectionsResult directions = oneDirection(cloud, Eigen::Vector3d::UnitZ());
   const PlacementResult result = placeCylinders({cloud, directions, 1}, PlacementParams{});
   for (const Cylinder& c : result.cylinders) {

@@ -197,6 +197,15 @@ Eigen::Vector3d anyPerpendicular(const Eigen::Vector3d& axis) {
 // ---------------------------------------------------------------------------------------------
 // The stripe in the direction's plane.
 
+/// Normals in the plane estimated at one scale.
+struct PlaneNormals {
+  /// What a point's neighbourhood was: a tight cluster (a scan column seen end-on, whose normal
+  /// only a wider neighbourhood across the next columns tells), or an arc curving like a pipe's.
+  enum Shape : char { kOther = 0, kColumn, kCurvedArc };
+  std::vector<Eigen::Vector2f> normals;
+  std::vector<Shape> shapes;  // per point; empty when the normals were not estimated in the plane
+};
+
 struct StripeProjection {
   Eigen::Vector3d axis, u, v;
   std::vector<std::uint32_t> points;       // cloud indices
@@ -205,17 +214,18 @@ struct StripeProjection {
   std::vector<Eigen::Vector2f> normals;    // unit projected 3-D normal; zero when too tilted to use
   float alongMin = 0.0f, alongMax = 0.0f;
   std::vector<double> scales;                            // pair-selection cell sizes
-  std::vector<std::vector<Eigen::Vector2f>> scaleNormals;  // normals in the plane estimated at each scale
+  std::vector<PlaneNormals> scaleNormals;  // normals in the plane estimated at each scale
 
-  /// The normals estimated over the widest neighbourhood (half a cell, see drawCandidates) that is
-  /// about `radius` or smaller: wide enough to average the noise, not wider than the pipe's own arc.
-  const std::vector<Eigen::Vector2f>& normalsFor(double radius) const {
+  /// The scale whose normals are estimated over the widest neighbourhood (half a cell, see
+  /// drawCandidates) that is about `radius` or smaller: wide enough to average the noise, not wider
+  /// than the pipe's own arc.
+  std::size_t normalScaleFor(double radius) const {
     constexpr double kSlack = 1.2;
     std::size_t best = 0;
     for (std::size_t s = 1; s < scales.size(); ++s) {
       if (0.5 * scales[s] <= kSlack * radius) best = s;
     }
-    return scaleNormals[best];
+    return best;
   }
 };
 
@@ -353,8 +363,10 @@ class SlabGrid {
 /// Where the neighbourhood is no arc (too few points, a blob, or a tight cluster of points that
 /// share their angle and differ only by noise) the projected 3-D normal stays, and so does a
 /// projected normal within 15° of the arc's (it averages over more points). Over two scan columns
-/// the chord's normal is taken, half their angle off each.
-std::vector<Eigen::Vector2f> planeNormals(const StripeProjection& stripe, const SlabGrid& grid, double radius) {
+/// the chord's normal is taken, half their angle off each. Each point's neighbourhood is marked a
+/// column (a cluster of enough points that is no arc: a scan column seen end-on) or a curved arc
+/// (one that took the parabola's slope), for InlierSearch::gather.
+PlaneNormals planeNormals(const StripeProjection& stripe, const SlabGrid& grid, double radius) {
   constexpr std::size_t kNeighbours = 24;  // at most this many of the block are tried, evenly strided
   constexpr int kMinNeighbours = 5;
   constexpr double kMaxFlatness = 0.25;    // smaller / larger eigenvalue: an arc, not a blob
@@ -365,7 +377,8 @@ std::vector<Eigen::Vector2f> planeNormals(const StripeProjection& stripe, const 
   constexpr double kMinSpread = 0.1;
   constexpr double kMinCurvatureRadius = 1.5;  // an arc curving tighter than this many radii takes the parabola's slope
   const double keepCos = std::cos(15.0 * kDegree);
-  std::vector<Eigen::Vector2f> normals = stripe.normals;
+  PlaneNormals estimated{stripe.normals, std::vector<PlaneNormals::Shape>(stripe.points.size(), PlaneNormals::kOther)};
+  std::vector<Eigen::Vector2f>& normals = estimated.normals;
   grid.forEachCell([&](std::size_t, const SlabGrid::Neighbourhood& neighbourhood) {
     const std::vector<Eigen::Vector2f>& block = *neighbourhood.positions;
     const std::size_t stride = (block.size() + kNeighbours - 1) / kNeighbours;
@@ -391,7 +404,10 @@ std::vector<Eigen::Vector2f> planeNormals(const StripeProjection& stripe, const 
       const double spread = std::sqrt(half * half + covariance(0, 1) * covariance(0, 1));
       const double middle = 0.5 * (covariance(0, 0) + covariance(1, 1));
       const double major = middle + spread, minor = middle - spread;
-      if (minor > kMaxFlatness * major || major < kMinExtent * kMinExtent * radius * radius) continue;
+      if (minor > kMaxFlatness * major || major < kMinExtent * kMinExtent * radius * radius) {
+        estimated.shapes[i] = PlaneNormals::kColumn;
+        continue;
+      }
       // The major axis at half the angle of (half, covariance(0, 1)); spread > 0 here (an isotropic
       // blob failed the flatness test), so the half-angle formulas need no trigonometry.
       const double cosDouble = half / spread;
@@ -430,25 +446,29 @@ std::vector<Eigen::Vector2f> planeNormals(const StripeProjection& stripe, const 
         const double b1 = (c12 * w0 + c22 * w1 + c23 * w2) / determinant;
         const double b2 = (c13 * w0 + c23 * w1 + c33 * w2) / determinant;
         const double curvature = 2.0 * std::abs(b2) / unit;
-        if (curvature * kMinCurvatureRadius * radius > 1.0) slope = b1 + 2.0 * b2 * (-mean.dot(tangent) / unit);
+        if (curvature * kMinCurvatureRadius * radius > 1.0) {
+          slope = b1 + 2.0 * b2 * (-mean.dot(tangent) / unit);
+          estimated.shapes[i] = PlaneNormals::kCurvedArc;
+        }
       }
       const Eigen::Vector2f normal = (across - slope * tangent).normalized().cast<float>();
       if (std::abs(normal.dot(stripe.normals[i])) < keepCos) normals[i] = normal;
     }
   });
-  return normals;
+  return estimated;
 }
 
 /// Candidates from pairs drawn at one scale: the cells are `cellSize` across, the normals are
 /// estimated over half of that (a fraction of the radii this scale serves). Returns the normals.
-std::vector<Eigen::Vector2f> drawCandidates(const StripeProjection& stripe, std::size_t scaleIndex, double cellSize,
-                                            const PlacementParams& params, const CandidateLimits& limits, std::uint64_t seed,
-                                            std::uint64_t directionIndex, std::vector<Candidate>& out) {
+PlaneNormals drawCandidates(const StripeProjection& stripe, std::size_t scaleIndex, double cellSize,
+                            const PlacementParams& params, const CandidateLimits& limits, std::uint64_t seed,
+                            std::uint64_t directionIndex, std::vector<Candidate>& out) {
   const SlabGrid grid(stripe, cellSize, std::max(kMinSlabLength, 2.0 * cellSize));
   // Pipes this large keep good 3-D normals (a median error of 2° above 6 cm radius in generated
   // scenes), and their large neighbourhoods are the costliest to fit.
-  std::vector<Eigen::Vector2f> normals =
-      cellSize <= kMaxArcNormalScale ? planeNormals(stripe, grid, 0.5 * cellSize) : stripe.normals;
+  PlaneNormals estimated =
+      cellSize <= kMaxArcNormalScale ? planeNormals(stripe, grid, 0.5 * cellSize) : PlaneNormals{stripe.normals, {}};
+  const std::vector<Eigen::Vector2f>& normals = estimated.normals;
   std::vector<std::vector<Candidate>> parts(grid.chunkCount());
   grid.forEachCell([&](std::size_t chunk, const SlabGrid::Neighbourhood& neighbourhood) {
     Rng rng(seed, {directionIndex, scaleIndex, neighbourhood.cell});
@@ -467,7 +487,7 @@ std::vector<Eigen::Vector2f> drawCandidates(const StripeProjection& stripe, std:
   });
   std::vector<Candidate> all = concatenate(parts);
   out.insert(out.end(), all.begin(), all.end());
-  return normals;
+  return estimated;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -622,14 +642,27 @@ class InlierSearch {
         grid_(gridKeys(stripe)) {}
 
   /// Stripe points (indices into the stripe) within `band` of the surface whose normal in the plane is
-  /// radial, ascending.
-  std::vector<std::uint32_t> gather(const CylinderFit& fit, double band) const {
+  /// radial, ascending; with `acrossColumns`, a column's point whose normal across the columns
+  /// beside it is.
+  std::vector<std::uint32_t> gather(const CylinderFit& fit, double band, bool acrossColumns = true) const {
     std::vector<std::uint32_t> inliers;
-    const std::vector<Eigen::Vector2f>& normals = stripe_.normalsFor(fit.radius);
+    const std::size_t scale = stripe_.normalScaleFor(fit.radius);
+    const PlaneNormals& estimated = stripe_.scaleNormals[scale];
+    // A scan column's point may take the normal of the wider neighbourhood across the next columns
+    // when that curves like a pipe: a thin pipe seen in a few columns has no other.
+    const PlaneNormals* wider = acrossColumns && scale + 1 < stripe_.scaleNormals.size() && !estimated.shapes.empty() &&
+                                        !stripe_.scaleNormals[scale + 1].shapes.empty()
+                                    ? &stripe_.scaleNormals[scale + 1]
+                                    : nullptr;
     visitNear(fit, band, [&](std::uint32_t i, double offset, const Eigen::Vector3d& radial) {
-      const Eigen::Vector2d normal = normals[i].cast<double>();
-      if (std::abs(offset) < band &&
-          std::abs(normal.x() * radial.dot(stripe_.u) + normal.y() * radial.dot(stripe_.v)) >= minNormalCos_) {
+      if (std::abs(offset) >= band) return;
+      const Eigen::Vector2d inPlane(radial.dot(stripe_.u), radial.dot(stripe_.v));
+      const auto radialNormal = [&](const Eigen::Vector2f& normal) {
+        return std::abs(normal.cast<double>().dot(inPlane)) >= minNormalCos_;
+      };
+      if (radialNormal(estimated.normals[i]) ||
+          (wider && estimated.shapes[i] == PlaneNormals::kColumn && wider->shapes[i] == PlaneNormals::kCurvedArc &&
+           radialNormal(wider->normals[i]))) {
         inliers.push_back(i);
       }
     });
@@ -835,7 +868,10 @@ DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDir
     if (static_cast<int>(inliers.size()) < params.minInliers) return;
     const InlierSearch::Surroundings around = search.surroundings(fit, inliers, band);
     if (static_cast<double>(around.shell) > params.maxShellShare * static_cast<double>(inliers.size())) return;
-    const double maxOutOfRound = std::max(kMinOutOfRound, params.maxOutOfRound * fit.radius);
+    // A fit that needs normals across scan columns has its shape from those few columns, which are
+    // what a square post shows as well: it gets no allowance for noise on few points.
+    const bool acrossColumns = search.gather(fit, band, false).size() < inliers.size();
+    const double maxOutOfRound = std::max(acrossColumns ? 0.0 : kMinOutOfRound, params.maxOutOfRound * fit.radius);
     if (outOfRoundness(fit, cloud, stripe, inliers, kMinSectorPoints) > maxOutOfRound) return;
     // The inliers' normals agree with the circle, and over two scan columns a chord's normal does
     // at a box's corner or a square post's as well: over every point in the band, a corner sticks

@@ -29,7 +29,9 @@ struct PlacementParams {
   double inlierDistance = 0.012;    ///< A point is an inlier when within this of the cylinder surface (m; widened to
                                     ///< 2.5 robust standard deviations of a noisier fit's offsets, up to 3 × this)...
   double inlierNormalAngleDeg = 30; ///< ...and its normal in the plane (re-estimated there from its neighbours) within
-                                    ///< this angle of the radial direction.
+                                    ///< this angle of the radial direction. A point of a scan column seen end-on (a
+                                    ///< tight cluster in the plane) may instead take the normal over the columns beside
+                                    ///< it, where they curve like a pipe: a thin pipe seen in a few columns has no other.
   int minInliers = 40;              ///< Cylinders with fewer inliers are dropped.
   double minCandidateShare = 0.1;   ///< A cylinder's mode must hold this many candidates per inlier: pairs of a real
                                     ///< pipe's points agree on its circle, the faces of a box edge on a ridge of circles.
@@ -37,7 +39,8 @@ struct PlacementParams {
                                     ///< inlierDistance off the surface, along the inliers) exceed this share of the
                                     ///< inliers: the faces beyond a box edge do, a pipe's surroundings do not.
   double maxOutOfRound = 0.02;      ///< Dropped when the inliers' mean surface offset varies around the axis by more
-                                    ///< than this share of the radius (at least 1 mm; RMS over 10° sectors, the worst
+                                    ///< than this share of the radius (at least 1 mm, unless the fit needs normals
+                                    ///< across scan columns, as a square post's would; RMS over 10° sectors, the worst
                                     ///< one left out, noise discounted): square posts and beams do, pipes do not.
                                     ///< All points in the inlier band, whatever their normals, may vary twice as much
                                     ///< (a post's corner seen in a few scan columns passes on its inliers alone).
