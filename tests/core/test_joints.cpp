@@ -350,8 +350,8 @@ void expectOneElbowBetweenTwoPipes(const JointsResult& result, std::size_t absor
 
 TEST(Joints, APieceLeftShorterThanADiameterBetweenTwoElbowsGoesAndOneElbowJoinsThePipesBeyond) {
   // A bend of 20° (R = 2r) and 60° (R = 3r) around 6 cm of straight pipe, whose piece was fitted
-  // 3 cm into each arc, as cylinders fitted on elbows reach: the two elbows would leave it 1.2
-  // radii long, so the 80° elbow between the pipes beyond takes its place.
+  // 3 cm into each arc, as cylinders fitted on elbows reach: it lies on the arc of the 80° elbow
+  // between the pipes beyond, which takes the place of its two elbows.
   const double r = 0.05, straight = 0.06, overshoot = 0.03;
   const double firstAngle = 20.0 * kPi / 180.0, secondAngle = 60.0 * kPi / 180.0;
   const double firstTangent = 2.0 * r * std::tan(0.5 * firstAngle), secondTangent = 3.0 * r * std::tan(0.5 * secondAngle);

@@ -12,10 +12,9 @@
 //    the main pipe's axis. Boundary joints bridge the gap between collinear ends.
 // 3. Confidence = how well the criteria hold, blended with the point support on the joint's
 //    surface; the best-supported hypothesis takes an end first, an end takes at most one joint.
-//    A piece of an elbow's arc fitted as a cylinder makes two elbows of one; when they would
-//    leave it shorter than a fragment, the elbow between the pipes beyond replaces them. A pipe
-//    lying on the arc of a confident elbow between two other pipes waits for that elbow, and
-//    goes when it is chosen.
+//    A piece of an elbow's arc fitted as a cylinder makes two elbows of one: a pipe lying on the
+//    arc of a confident elbow between two other pipes waits for that elbow, and goes when it is
+//    chosen.
 // 4. Completion: an end no joint took looks beyond an elbow, along each of the network's
 //    directions and along the direction its nearby points vote for (a sloped leg), for a pipe the
 //    earlier stages missed (short legs between elbows, tails into equipment: too few points to
@@ -730,42 +729,8 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
     resolution.chosen.push_back(h);
   }
 
-  // An elbow's arc fitted as a short cylinder turns one elbow into two, one with each pipe. When
-  // those two leave the piece shorter than a fragment and the pipes beyond it make an elbow of
-  // their own, that elbow replaces the two and the piece goes like a fragment on an arc.
   resolution.arcPieces.assign(static_cast<std::size_t>(pipeCount), 0);
   auto& chosen = resolution.chosen;
-  for (int p = 0; p < pipeCount; ++p) {
-    const PipeEnd pieceEnd = endOf(pipes, p, 1);
-    const auto startKey = static_cast<std::size_t>(pieceEnd.key() ^ 1), endKey = static_cast<std::size_t>(pieceEnd.key());
-    const int first = takenBy[startKey];
-    const int second = takenBy[endKey];
-    if (first < 0 || second < 0 || first == second) continue;
-    const Hypothesis& atStart = hypotheses[static_cast<std::size_t>(first)];
-    const Hypothesis& atEnd = hypotheses[static_cast<std::size_t>(second)];
-    if (atStart.type != JointType::Elbow || atEnd.type != JointType::Elbow) continue;
-    if (lengthLeft(pieceEnd, endPoint[endKey]) >= params.minPipeDiameters * 2.0 * pieceEnd.radius) continue;
-    const PipeEnd& before = atStart.a.pipe == p ? atStart.b : atStart.a;
-    const PipeEnd& after = atEnd.a.pipe == p ? atEnd.b : atEnd.a;
-    const auto joinsOuterEnds = [&](const Hypothesis& h) {
-      return h.valid && h.type == JointType::Elbow &&
-             ((h.a.key() == before.key() && h.b.key() == after.key()) ||
-              (h.a.key() == after.key() && h.b.key() == before.key()));
-    };
-    const auto whole = std::find_if(hypotheses.begin(), hypotheses.end(), joinsOuterEnds);
-    if (whole == hypotheses.end() || !keepsLength(whole->a, whole->newA) || !keepsLength(whole->b, whole->newB)) {
-      continue;
-    }
-    const auto h = static_cast<std::size_t>(whole - hypotheses.begin());
-    const auto replaced = [&](std::size_t c) { return static_cast<int>(c) == first || static_cast<int>(c) == second; };
-    chosen.erase(std::remove_if(chosen.begin(), chosen.end(), replaced), chosen.end());
-    chosen.push_back(h);
-    takenBy[startKey] = takenBy[endKey] = -1;
-    takenBy[static_cast<std::size_t>(before.key())] = takenBy[static_cast<std::size_t>(after.key())] = static_cast<int>(h);
-    endPoint[static_cast<std::size_t>(whole->a.key())] = whole->newA;
-    endPoint[static_cast<std::size_t>(whole->b.key())] = whole->newB;
-    resolution.arcPieces[static_cast<std::size_t>(p)] = 1;
-  }
   // The pieces on the arc of an elbow chosen between two other pipes go, and their own joints
   // with them.
   for (std::size_t h : chosen) {
