@@ -113,7 +113,7 @@ const std::vector<Field>& fields() {
       PIPERUN_FIELD("joints", "min_tee_angle_deg", "deg", Stage::Joints, joints.minTeeAngleDeg, "A branch meets its main pipe at least this far from parallel"),
       PIPERUN_FIELD("joints", "min_bend_radii", "", Stage::Joints, joints.minBendRadii, "Elbow major radius voted from this many pipe radii..."),
       PIPERUN_FIELD("joints", "max_bend_radii", "", Stage::Joints, joints.maxBendRadii, "...up to this many"),
-      PIPERUN_FIELD("joints", "min_pipe_diameters", "", Stage::Joints, joints.minPipeDiameters, "Shorter pipes are fragments: no joints, absorbed when they lie on an elbow; so is a pipe its two elbows would leave shorter, when the pipes beyond make an elbow"),
+      PIPERUN_FIELD("joints", "min_pipe_diameters", "", Stage::Joints, joints.minPipeDiameters, "Shorter pipes are fragments: no joints, absorbed when they lie on an elbow (a longer pipe on a confident elbow's arc waits for it and goes too)"),
       PIPERUN_FIELD("joints", "support_distance", "m", Stage::Joints, joints.supportDistance, "Points within this of a joint's surface support it"),
       PIPERUN_FIELD("joints", "accept_confidence", "", Stage::Joints, joints.acceptConfidence, "Joints with at least this confidence are accepted, the others proposed"),
       PIPERUN_FIELD("joints", "max_completion_length", "m", Stage::Joints, joints.maxCompletionLength, "Ends no accepted joint took look for a missed pipe beyond an elbow up to this long (0: off)"),

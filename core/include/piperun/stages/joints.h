@@ -42,8 +42,8 @@ struct JointsParams {
   double maxBendRadii = 5.0;           ///< ...and this many pipe radii (short elbows R = 2r, long R = 3r).
   double minPipeDiameters = 1.0;       ///< Pipes shorter than this many diameters are fragments (a bit of an elbow
                                        ///< or flange fitted as a cylinder): they take no joint, and those lying on a
-                                       ///< found elbow's arc are absorbed by it. A pipe that the elbows at both its
-                                       ///< ends would leave shorter goes too, when the pipes beyond make an elbow.
+                                       ///< found elbow's arc are absorbed by it. A longer pipe lying on the arc of a
+                                       ///< confident elbow between two other pipes waits for it and goes with it.
   double supportDistance = 0.01;       ///< Points within this of a joint's surface support it (m).
   double acceptConfidence = 0.5;       ///< Joints with at least this confidence are accepted, others proposed.
   double maxCompletionLength = 1.0;    ///< An end no accepted joint took looks for a pipe the earlier stages missed
