@@ -180,6 +180,7 @@ class ConstructedScene {
 
   JointsResult connect(const JointsParams& params = {}) const { return connectPipes({cloud_, pipes_}, params); }
   std::vector<PipeSegment>& pipes() { return pipes_; }
+  const PointCloud& cloud() const { return cloud_; }
 
  private:
   std::vector<double> angles() const {
@@ -661,6 +662,35 @@ TEST(Joints, AnEndThatOnlyAProposedJointTookIsStillCompleted) {
   EXPECT_EQ(elbow.status, JointStatus::Accepted);
   EXPECT_NEAR(elbow.bendRadius, R, 0.1 * R);
   EXPECT_EQ(elbow.pipeIds, (std::vector<int>{1, 3}));
+}
+
+TEST(Joints, AnEndIsNotCompletedByAPipeInsideAnotherPipesTube) {
+  // Pipe 1 comes along +x to a corner at the origin; pipe 2 rises from the elbow's tangent point,
+  // fitted down into the corner as cylinders on an elbow reach, but its inliers left out its
+  // surface points between 0.2 m and 0.9 m (their normals strayed, say). The elbow was not
+  // scanned, so under a strict accept threshold its joint is proposed and pipe 1's end is free. A
+  // vertical pipe through the left-out points is pipe 2 again, not a leg the earlier stages missed
+  // (medium seed 9 had one, and its elbow took pipe 1's end).
+  const double r = 0.05, R = 0.15;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  const int riser = scene.addPipe({0, 0, R}, {0, 0, 1.5}, r);
+  scene.pipes()[static_cast<std::size_t>(riser)].start.z() = 0.0;
+  auto& inliers = scene.pipes()[static_cast<std::size_t>(riser)].inliers;
+  inliers.erase(std::remove_if(inliers.begin(), inliers.end(),
+                               [&](std::uint32_t i) {
+                                 const double z = scene.cloud().positions[i].z();
+                                 return z > 0.2 && z < 0.9;
+                               }),
+                inliers.end());
+  JointsParams strict;
+  strict.acceptConfidence = 0.75;
+  const JointsResult result = scene.connect(strict);
+  EXPECT_EQ(result.diagnostics.completedPipes, 0u);
+  ASSERT_EQ(result.pipes.size(), 2u);
+  ASSERT_EQ(result.joints.size(), 1u);
+  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
+  EXPECT_EQ(result.joints[0].pipeIds, (std::vector<int>{1, 2}));
 }
 
 TEST(Joints, ASlopedLegOffTheNetworkDirectionsIsCompleted) {

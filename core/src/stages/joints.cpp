@@ -1271,9 +1271,20 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
   std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
     return found[x]->pipe.inliers.size() > found[y]->pipe.inliers.size();
   });
+  // A completion whose middle lies inside a pipe's tube is that pipe again, over points its inliers
+  // left out: the end it grew from belongs with that pipe (whose joint it is, proposed or not).
+  const auto insideAPipe = [&](const PipeSegment& completed) {
+    const Eigen::Vector3d middle = 0.5 * (completed.start + completed.end);
+    return std::any_of(input.pipes.begin(), input.pipes.end(), [&](const PipeSegment& pipe) {
+      const Eigen::Vector3d axis = pipe.end - pipe.start;
+      const double along = (middle - pipe.start).dot(axis) / axis.squaredNorm();
+      return along >= 0.0 && along <= 1.0 && (middle - pipe.start - along * axis).norm() < pipe.radius;
+    });
+  };
   std::vector<char> used(input.cloud.size(), 0);
   std::vector<Completion> completions;
   for (std::size_t e : order) {
+    if (insideAPipe(found[e]->pipe)) continue;
     const auto& inliers = found[e]->pipe.inliers;
     const auto shared = static_cast<std::size_t>(
         std::count_if(inliers.begin(), inliers.end(), [&](std::uint32_t i) { return used[i] != 0; }));
