@@ -93,7 +93,7 @@ const std::vector<Field>& fields() {
       PIPERUN_FIELD("extents", "min_length", "m", Stage::Extents, extents.minLength, "Pipes shorter than this are dropped"),
 
       PIPERUN_FIELD("merge", "max_angle_deg", "deg", Stage::Merge, merge.maxAngleDeg, "Pieces merge when their axes are at most this far from parallel"),
-      PIPERUN_FIELD("merge", "max_axis_distance", "", Stage::Merge, merge.maxAxisDistance, "...their axes at most this x the smaller radius apart (min 1 cm)"),
+      PIPERUN_FIELD("merge", "max_axis_distance", "", Stage::Merge, merge.maxAxisDistance, "...the shorter piece's ends at most this x the smaller radius off the longer one's axis (min 1 cm)"),
       PIPERUN_FIELD("merge", "max_radius_difference", "", Stage::Merge, merge.maxRadiusDifference, "...their radii within this share of the larger (min 3 mm)"),
       PIPERUN_FIELD("merge", "max_gap", "m", Stage::Merge, merge.maxGap, "...and they overlap or leave at most this gap"),
       PIPERUN_FIELD("merge", "max_extension", "m", Stage::Merge, merge.maxExtension, "Merged pipes' ends carry on over surface points up to this far (0: off)"),

@@ -39,6 +39,20 @@ TEST(Merge, AbuttingPiecesWithSmallGapMergeOppositeOrientationsToo) {
   EXPECT_NEAR((result.segments[0].end - result.segments[0].start).norm(), 2.0, 1e-9);
 }
 
+TEST(Merge, AShortPieceOverALongPipesEndMergesThoughTheirAxesDifferByADegree) {
+  // A 22 cm piece fitted over the last 20 cm of a 2.4 m pipe (r 7 cm), its axis 1.3° off: measured
+  // from the long pipe's middle, 1.1 m away, its line misses by 2.5 cm, more than the 2.1 cm the
+  // axes may lie apart, though the piece lies on the long pipe's axis within 3 mm.
+  const double tilt = 1.3 * 3.14159265358979323846 / 180.0;
+  const Eigen::Vector3d along(std::cos(tilt), std::sin(tilt), 0.0);
+  const Eigen::Vector3d middle(-0.09, 0.0, 1.0);
+  const auto result = mergeSegments({segment({-2.4, 0, 1}, {0, 0, 1}, 0.07, {1, 2}),
+                                     segment(middle - 0.11 * along, middle + 0.11 * along, 0.069, {3})},
+                                    {});
+  ASSERT_EQ(result.segments.size(), 1u);
+  EXPECT_NEAR((result.segments[0].end - result.segments[0].start).norm(), 2.42, 0.01);
+}
+
 TEST(Merge, KeepsApartWhatIsNotOnePipe) {
   MergeParams params;
   // A large gap, a parallel neighbour in a rack, another radius, a perpendicular pipe.

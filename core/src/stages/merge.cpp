@@ -52,10 +52,17 @@ bool samePipe(const PipeSegment& a, const PipeSegment& b, const MergeParams& par
   const double larger = std::max(a.radius, b.radius);
   if (std::fabs(a.radius - b.radius) > std::max(0.003, params.maxRadiusDifference * larger)) return false;
 
+  // The shorter pipe's ends lie on the longer one's axis: measured from the longer one's middle, a
+  // degree between the axes would put a short piece near its end off by a centimetre per metre.
   const double axisTolerance = std::max(0.01, params.maxAxisDistance * std::min(a.radius, b.radius));
-  const Eigen::Vector3d midA = 0.5 * (a.start + a.end);
-  const Eigen::Vector3d midB = 0.5 * (b.start + b.end);
-  if (distanceToLine(midB, midA, da) > axisTolerance || distanceToLine(midA, midB, db) > axisTolerance) return false;
+  const bool aLonger = (a.end - a.start).squaredNorm() >= (b.end - b.start).squaredNorm();
+  const PipeSegment& longer = aLonger ? a : b;
+  const PipeSegment& shorter = aLonger ? b : a;
+  const Eigen::Vector3d longerAxis = aLonger ? da : db;
+  if (distanceToLine(shorter.start, longer.start, longerAxis) > axisTolerance ||
+      distanceToLine(shorter.end, longer.start, longerAxis) > axisTolerance) {
+    return false;
+  }
 
   // Intervals along a's axis.
   double b0 = (b.start - a.start).dot(da);
