@@ -147,6 +147,25 @@ TEST(Merge, AnEndCarriesOnAcrossAnOcclusionToALongerRunBeyond) {
   EXPECT_NEAR(tailEnd(2.8), 2.2, 1e-6);
 }
 
+TEST(Merge, AnEndStopsAtTheCapOfAPipeOnItsLineAndTheyBecomeOnePipe) {
+  // A pipe found up to x = 2, its sparse tail carrying on to 2.9; a second piece of the same pipe
+  // found from 2.5 to 3.5 (its inliers from 2.9 on: the extents took the stretch before from
+  // points its own inliers left out). The tail stops at the piece's cap at 2.5 instead of running
+  // on inside it, and the two, now meeting, are merged.
+  const double r = 0.05;
+  PointCloud cloud;
+  const auto inliers = addPipePoints(cloud, r, 0.0, 2.0, 0.01, 12, 0.0);
+  addPipePoints(cloud, r, 2.04, 2.88, 0.04, 3, 0.0);
+  const auto pieceInliers = addPipePoints(cloud, r, 2.9, 3.5, 0.01, 12, 0.0);
+  PipeSegment found = segment({0, 0, 0}, {2, 0, 0}, r, inliers);
+  found.confidence = 1.0;
+  PipeSegment piece = segment({2.5, 0, 0}, {3.5, 0, 0}, r, pieceInliers);
+  const auto result = mergeAndExtend(cloud, {found, piece}, {});
+  ASSERT_EQ(result.segments.size(), 1u);
+  EXPECT_NEAR(std::min(result.segments[0].start.x(), result.segments[0].end.x()), 0.0, 1e-6);
+  EXPECT_NEAR(std::max(result.segments[0].start.x(), result.segments[0].end.x()), 3.5, 1e-6);
+}
+
 TEST(Merge, AnEndStopsAtClutterAndAtAnotherPipe) {
   const double r = 0.05;
   // A wall across the pipe's extension 30 cm past its end (points in the shell around the tube

@@ -31,10 +31,13 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <limits>
 
 namespace piperun {
 
 namespace {
+
+constexpr double kSection = 0.04;  // Sections along the axis an end is extended by (m), as the extents'.
 
 constexpr double kMinExtendedConfidence = 0.9;  // See extendEnds.
 
@@ -151,8 +154,7 @@ double surfaceBand(const PipeSegment& pipe) {
 double extension(const PointCloud& cloud, const PipeSegment& pipe, const Eigen::Vector3d& end,
                  const Eigen::Vector3d& outward, double limit, const std::vector<std::uint32_t>& nearby,
                  const std::vector<char>& claimed, const MergeParams& params, std::vector<std::uint32_t>& surface) {
-  constexpr double kSection = 0.04;      // Sections along the axis (m), as the extents'...
-  constexpr std::size_t kMaxGap = 3;     // ...with gaps of at most this many.
+  constexpr std::size_t kMaxGap = 3;     // Sections with gaps of at most this many.
   const double r = pipe.radius;
   const double band = surfaceBand(pipe);
   const double minCos = std::cos(radians(params.extensionNormalAngleDeg));
@@ -206,25 +208,39 @@ double extension(const PointCloud& cloud, const PipeSegment& pipe, const Eigen::
 }
 
 /// How far the axis may run from `end` along `outward` (up to `reach`) before it enters the tube of
-/// another of `pipes`: a branch carries on into its main pipe's wall, not through it.
+/// another of `pipes`: a branch carries on into its main pipe's wall, not through it, and an end
+/// stops at the cap of a pipe that carries its line on.
 double reachBeforeOtherPipes(const std::vector<PipeSegment>& pipes, std::size_t self, const Eigen::Vector3d& end,
                              const Eigen::Vector3d& outward, double reach) {
+  constexpr double kInfinity = std::numeric_limits<double>::infinity();
   for (std::size_t p = 0; p < pipes.size(); ++p) {
     const PipeSegment& other = pipes[p];
     if (p == self || distanceToSegment(end, other) > reach + other.radius) continue;
-    // Entry of the ray into the infinite tube of `other`, kept when it lies within its extent.
+    // The ray's stretch inside the infinite tube of `other`...
     const Eigen::Vector3d axis = unitAxis(other);
     const Eigen::Vector3d w = end - other.start;
     const Eigen::Vector3d across = outward - outward.dot(axis) * axis;
     const Eigen::Vector3d offset = w - w.dot(axis) * axis;
     const double a = across.squaredNorm(), b = offset.dot(across), c = offset.squaredNorm() - other.radius * other.radius;
-    if (a < 1e-12 || b * b - a * c < 0.0) continue;
-    const double root = std::sqrt(b * b - a * c);
-    const double entry = (-b - root) / a, exit = (-b + root) / a;
-    const double along = (w + std::max(entry, 0.0) * outward).dot(axis);
-    if (entry < reach && exit > 0.0 && along >= 0.0 && along <= (other.end - other.start).norm()) {
-      reach = std::max(0.0, entry);
+    double entry = -kInfinity, exit = kInfinity;
+    if (a < 1e-12) {
+      if (c >= 0.0) continue;
+    } else {
+      if (b * b - a * c < 0.0) continue;
+      const double root = std::sqrt(b * b - a * c);
+      entry = (-b - root) / a;
+      exit = (-b + root) / a;
     }
+    // ...and between its caps.
+    const double along = w.dot(axis), rate = outward.dot(axis), length = (other.end - other.start).norm();
+    if (std::fabs(rate) < 1e-12) {
+      if (along < 0.0 || along > length) continue;
+    } else {
+      const double first = -along / rate, second = (length - along) / rate;
+      entry = std::max(entry, std::min(first, second));
+      exit = std::min(exit, std::max(first, second));
+    }
+    if (entry < exit && exit > 0.0 && entry < reach) reach = std::max(0.0, entry);
   }
   return reach;
 }
@@ -282,6 +298,14 @@ MergeResult mergeAndExtend(const PointCloud& cloud, const std::vector<PipeSegmen
   MergeResult result = mergeSegments(segments, params, progress);
   const auto started = std::chrono::steady_clock::now();
   result.diagnostics.extendedEnds = extendEnds(cloud, result.segments, params);
+  if (result.diagnostics.extendedEnds > 0) {
+    // An end that carried on up to the cap of a pipe on its line now meets it, within the section
+    // its extension stopped short by: they are one pipe.
+    MergeParams meeting = params;
+    meeting.maxGap += kSection;
+    Progress quiet(progress, {});
+    result.segments = mergeSegments(result.segments, meeting, quiet).segments;
+  }
   std::sort(result.segments.begin(), result.segments.end(), longerFirst);
   result.diagnostics.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return result;

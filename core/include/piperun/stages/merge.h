@@ -39,7 +39,11 @@ MergeResult mergeSegments(const std::vector<PipeSegment>& segments, const MergeP
 /// mergeSegments, then each merged pipe's ends extended over `cloud` (the points the segments'
 /// inliers index): 4 cm sections along the axis past the end that hold a point of the surface not
 /// explained by any pipe (within the band of its noise, normal near radial), with gaps of at most
-/// three sections, and no more points inside the tube or in a shell around it than on its surface.
+/// three sections (up to extensionBridgeSections when the run beyond is as long), and no more
+/// points inside the tube or in a shell around it than on its surface.
+/// An end stops where its axis enters another pipe's tube (a main's wall, or the cap of a pipe on
+/// its line); the extended pipes are merged again, a section's gap allowed (an end that stopped at
+/// a cap meets that pipe).
 MergeResult mergeAndExtend(const PointCloud& cloud, const std::vector<PipeSegment>& segments, const MergeParams& params,
                            Progress& progress = Progress::none());
 
