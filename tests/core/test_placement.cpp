@@ -308,6 +308,17 @@ TEST(Placement, BoxEdgesAndSquarePostsGiveNoCylinder) {
   EXPECT_GE(placeCylinders({cloud, directions, 1}, lax).cylinders.size(), 3u);
 }
 
+/// Placement along `truth`'s axis finds one cylinder, its radius within 3 mm and its axis within
+/// 4 mm of the truth, holding more than `inlierShare` of the points.
+void expectOnePipe(const PointCloud& cloud, const TrueCylinder& truth, double inlierShare) {
+  const DirectionsResult directions = oneDirection(cloud, truth.axis);
+  const PlacementResult result = placeCylinders({cloud, directions, 1}, PlacementParams{});
+  ASSERT_EQ(result.cylinders.size(), 1u);
+  EXPECT_NEAR(result.cylinders[0].radius, truth.radius, 0.003);
+  EXPECT_LT(axisOffset(result.cylinders[0], truth), 0.004);
+  EXPECT_GT(static_cast<double>(result.cylinders[0].inliers.size()), inlierShare * static_cast<double>(cloud.size()));
+}
+
 TEST(Placement, PoorThreeDimensionalNormalsAreReestimatedInThePlane) {
   Rng rng(37);
   PointCloud cloud;
@@ -319,12 +330,21 @@ TEST(Placement, PoorThreeDimensionalNormalsAreReestimatedInThePlane) {
   for (Eigen::Vector3f& normal : cloud.normals) {
     if (rng.chance(0.7)) normal = (Eigen::AngleAxisd(rng.uniform(0.0, 2.0 * kPi), truth.axis) * across).cast<float>();
   }
-  const DirectionsResult directions = oneDirection(cloud, truth.axis);
-  const PlacementResult result = placeCylinders({cloud, directions, 1}, PlacementParams{});
-  ASSERT_EQ(result.cylinders.size(), 1u);
-  EXPECT_NEAR(result.cylinders[0].radius, truth.radius, 0.003);
-  EXPECT_LT(axisOffset(result.cylinders[0], truth), 0.004);
-  EXPECT_GT(result.cylinders[0].inliers.size(), cloud.size() * 8 / 10);
+  expectOnePipe(cloud, truth, 0.8);
+}
+
+/// A riser along z (`radius`, `length` tall) seen from far along +x in scan columns at `degrees`
+/// round from the facing side, a point every `step` down each with 2 mm noise, and every 3-D normal
+/// facing the scanner (off by `normalNoiseDeg`), as on thin pipes seen from afar.
+void addRiserInScanColumns(PointCloud& cloud, double radius, double length, const std::vector<double>& degrees,
+                           double step, double normalNoiseDeg, Rng& rng) {
+  for (const double column : degrees) {
+    const Eigen::Vector3d radial(std::cos(column * kDegree), std::sin(column * kDegree), 0.0);
+    for (double z = rng.uniform(0.0, step); z < length; z += step) {
+      addPoint(cloud, (radius + 0.002 * rng.normal()) * radial + Eigen::Vector3d(0.0, 0.0, z),
+               perturbed(Eigen::Vector3d::UnitX(), normalNoiseDeg, rng));
+    }
+  }
 }
 
 TEST(Placement, AThinPipeSeenInFourScanColumnsKeepsItsOuterColumns) {
@@ -333,14 +353,9 @@ TEST(Placement, AThinPipeSeenInFourScanColumnsKeepsItsOuterColumns) {
   // A 2.4 cm riser far from the scanner (along +x): the scan lines run down it in four columns
   // 1.2 cm apart across its silhouette, and the 3-D normals all face the scanner.
   const TrueCylinder truth{{0.0, 0.0, 0.0}, Eigen::Vector3d::UnitZ(), 2.4, 0.024};
-  for (const double y : {-0.018, -0.006, 0.006, 0.018}) {
-    const double phi = std::asin(y / truth.radius);
-    const Eigen::Vector3d normal(std::cos(phi), std::sin(phi), 0.0);
-    for (double z = rng.uniform(0.0, 0.02); z < truth.length; z += 0.02) {
-      addPoint(cloud, (truth.radius + 0.002 * rng.normal()) * normal + Eigen::Vector3d(0.0, 0.0, z),
-               perturbed(Eigen::Vector3d::UnitX(), 10.0, rng));
-    }
-  }
+  std::vector<double> columns;
+  for (const double y : {-0.018, -0.006, 0.006, 0.018}) columns.push_back(std::asin(y / truth.radius) / kDegree);
+  addRiserInScanColumns(cloud, truth.radius, truth.length, columns, 0.02, 10.0, rng);
   const DirectionsResult directions = oneDirection(cloud, truth.axis);
   const PlacementResult result = placeCylinders({cloud, directions, 1}, PlacementParams{});
   ASSERT_EQ(result.cylinders.size(), 1u);
@@ -358,21 +373,10 @@ TEST(Placement, AThinPipeSeenInThreeScanColumnsTakesTheirArcsNormals) {
   // every 3-D normal is that of their plane: right on the middle column, 40° and 60° off on the
   // outer ones. Alone, each column is a tight cluster in the plane; across the three, an arc.
   const TrueCylinder truth{{0.0, 0.0, 0.0}, Eigen::Vector3d::UnitZ(), 3.0, 0.03};
-  for (const double degrees : {-40.0, 0.0, 60.0}) {
-    const Eigen::Vector3d radial(std::cos(degrees * kDegree), std::sin(degrees * kDegree), 0.0);
-    for (double z = rng.uniform(0.0, 0.023); z < truth.length; z += 0.023) {
-      addPoint(cloud, (truth.radius + 0.002 * rng.normal()) * radial + Eigen::Vector3d(0.0, 0.0, z),
-               perturbed(Eigen::Vector3d::UnitX(), 5.0, rng));
-    }
-  }
-  const DirectionsResult directions = oneDirection(cloud, truth.axis);
-  const PlacementResult result = placeCylinders({cloud, directions, 1}, PlacementParams{});
+  addRiserInScanColumns(cloud, truth.radius, truth.length, {-40.0, 0.0, 60.0}, 0.023, 5.0, rng);
   // With the outer columns' normals rejected, the middle column alone leaves the circle free to
   // slide along it: the fit went astray and no pipe was found.
-  ASSERT_EQ(result.cylinders.size(), 1u);
-  EXPECT_NEAR(result.cylinders[0].radius, truth.radius, 0.003);
-  EXPECT_LT(axisOffset(result.cylinders[0], truth), 0.004);
-  EXPECT_GT(result.cylinders[0].inliers.size(), cloud.size() * 9 / 10);
+  expectOnePipe(cloud, truth, 0.9);
 }
 
 /// The faces of a square post along z (centre `center`, half its width `half` < 6 cm, 1.1 m tall)
@@ -401,6 +405,16 @@ void addPostInScanColumns(PointCloud& cloud, const Eigen::Vector2d& center, doub
   }
 }
 
+/// Placement along z over the cloud of a post: every cylinder found is a failure.
+void expectNoCylinderOnAPost(const PointCloud& cloud) {
+  const DirectionsResult directions = oneDirection(cloud, Eigen::Vector3d::UnitZ());
+  const PlacementResult result = placeCylinders({cloud, directions, 1}, PlacementParams{});
+  for (const Cylinder& c : result.cylinders) {
+    ADD_FAILURE() << "cylinder r=" << c.radius << " at (" << c.point.x() << ", " << c.point.y() << ") with "
+                  << c.inliers.size() << " of " << cloud.size() << " points as inliers";
+  }
+}
+
 TEST(Placement, ASquarePostSeenInAFewScanColumnsIsNoPipe) {
   Rng rng(43);
   PointCloud cloud;
@@ -408,12 +422,7 @@ TEST(Placement, ASquarePostSeenInAFewScanColumnsIsNoPipe) {
   // normal of a circle inscribed there: the columns round the corner pass as a small pipe's
   // inliers, and a circle through them is round. The other columns in its band are not.
   addPostInScanColumns(cloud, {0.0, 0.0}, 0.034, {1.0, 1.0}, 0.015, 0.0, rng);
-  const DirectionsResult directions = oneDirection(cloud, Eigen::Vector3d::UnitZ());
-  const PlacementResult result = placeCylinders({cloud, directions, 1}, PlacementParams{});
-  for (const Cylinder& c : result.cylinders) {
-    ADD_FAILURE() << "cylinder r=" << c.radius << " at (" << c.point.x() << ", " << c.point.y() << ") with "
-                  << c.inliers.size() << " of " << cloud.size() << " points as inliers";
-  }
+  expectNoCylinderOnAPost(cloud);
 }
 
 TEST(Placement, ASquarePostSeenInThreeScanColumnsIsNoPipeWhateverNormalsTheyTake) {
@@ -424,12 +433,7 @@ TEST(Placement, ASquarePostSeenInThreeScanColumnsIsNoPipeWhateverNormalsTheyTake
   // a millimetre of round. A fit that needs the normals across columns has its shape from those
   // few columns alone, so it gets no tolerance for noise on few points.
   addPostInScanColumns(cloud, {0.0, 0.0}, 0.025, {1.0, 0.5}, 0.02, 0.0, rng);
-  const DirectionsResult directions = oneDirection(cloud, Eigen::Vector3d::UnitZ());
-  const PlacementResult result = placeCylinders({cloud, directions, 1}, PlacementParams{});
-  for (const Cylinder& c : result.cylinders) {
-    ADD_FAILURE() << "cylinder r=" << c.radius << " at (" << c.point.x() << ", " << c.point.y() << ") with "
-                  << c.inliers.size() << " of " << cloud.size() << " points as inliers";
-  }
+  expectNoCylinderOnAPost(cloud);
 }
 
 TEST(Placement, DirectionsAreIndependentAndPointsExclusive) {
