@@ -81,10 +81,10 @@ void confidentParts(const std::vector<bool>& pass, const std::vector<std::size_t
   confidentParts(pass, passedBefore, gapLast, last, minConfidence, parts);
 }
 
-/// 1-D closing (interior gaps of at most `closing` sections are filled; the mask never grows past
-/// its outermost passing sections), then gaps of at most `bridge` sections between runs at least as
+/// 1-D closing (interior gaps of at most `closingSections` are filled; the mask never grows past
+/// its outermost passing sections), then gaps of at most `bridgeSections` between runs at least as
 /// long as the gap are filled too when the joined run keeps `minConfidence` of passing sections,
-/// then an opening (runs shorter than `opening` go). A long stretch of pipe on both sides of a gap
+/// then an opening (runs shorter than `openingSections` go). A long stretch of pipe on both sides of a gap
 /// is strong evidence that the pipe runs on behind whatever hides it; a few scattered passing
 /// sections of a chance fit are not. A closed run left with less than `minConfidence` of passing
 /// sections is opened again at its longest gaps until its parts keep that share; the part holding

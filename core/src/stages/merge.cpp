@@ -31,7 +31,6 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <limits>
 
 namespace piperun {
 
