@@ -636,6 +636,30 @@ TEST(Joints, ALegBetweenTwoElbowsThatNoPipeCoversIsCompleted) {
   EXPECT_TRUE(without.joints.empty());
 }
 
+TEST(Joints, ALegSeenOnlyAsAFragmentIsCompletedAndTheFragmentGoes) {
+  // The scene of the test above, but only 8 cm of the 30 cm leg were scanned, and placement fitted
+  // them as a pipe shorter than its diameter: a fragment, which takes no joint. Its points are the
+  // leg's only ones; the completion takes them, and the fragment goes with the completed leg.
+  const double r = 0.05, R = 0.15, corner = 0.6;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  scene.addElbow({-R, R, 0}, {-R, 0, 0}, Eigen::Vector3d::UnitZ(), kPi / 2, r);
+  scene.addPipe({0, 0.25, 0}, {0, 0.33, 0}, r);
+  scene.addElbow({0, corner - R, R}, {0, corner - R, 0}, Eigen::Vector3d::UnitX(), kPi / 2, r);
+  scene.addPipe({0, corner, R}, {0, corner, 1.5}, r);
+  scene.addPipe({3, 0, 0}, {3, 1.2, 0}, r);
+
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.completedPipes, 1u);
+  EXPECT_EQ(result.diagnostics.absorbedFragments, 1u);
+  ASSERT_EQ(result.pipes.size(), 4u);
+  const PipeSegment& leg = result.pipes[3];
+  EXPECT_GT(std::fabs((leg.end - leg.start).normalized().y()), 0.999);
+  int elbows = 0;
+  for (const Joint& joint : result.joints) elbows += joint.type == JointType::Elbow;
+  EXPECT_EQ(elbows, 2);
+}
+
 TEST(Joints, AnEndThatOnlyAProposedJointTookIsStillCompleted) {
   // Pipe 1 comes along +x to a corner at the origin, where an elbow (R = 3r) turns up into a leg
   // that no pipe covers. Pipe 2 crosses the line of pipe 1 40 cm ahead: a tee with no points on

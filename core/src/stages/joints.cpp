@@ -73,6 +73,15 @@ bool isFragment(const PipeSegment& pipe, const JointsParams& params) {
   return (pipe.end - pipe.start).norm() < params.minPipeDiameters * 2.0 * pipe.radius;
 }
 
+/// Whether the middle of `piece` lies inside the tube of `pipe` (within its radius of the axis,
+/// between its ends).
+bool middleInsideTube(const PipeSegment& piece, const PipeSegment& pipe) {
+  const Eigen::Vector3d middle = 0.5 * (piece.start + piece.end);
+  const Eigen::Vector3d axis = pipe.end - pipe.start;
+  const double along = (middle - pipe.start).dot(axis) / axis.squaredNorm();
+  return along >= 0.0 && along <= 1.0 && (middle - pipe.start - along * axis).norm() < pipe.radius;
+}
+
 /// Votes for values in [low, high], each split linearly between its two nearest bins; the peak is
 /// the bin with the most votes once smoothed by a triangular (1, 2, 1) kernel.
 class VoteHistogram {
@@ -1272,13 +1281,11 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
     return found[x]->pipe.inliers.size() > found[y]->pipe.inliers.size();
   });
   // A completion whose middle lies inside a pipe's tube is that pipe again, over points its inliers
-  // left out: the end it grew from belongs with that pipe (whose joint it is, proposed or not).
+  // left out: the end it grew from belongs with that pipe (whose joint it is, proposed or not). A
+  // fragment's tube does not count: its points are the completion's to take.
   const auto insideAPipe = [&](const PipeSegment& completed) {
-    const Eigen::Vector3d middle = 0.5 * (completed.start + completed.end);
     return std::any_of(input.pipes.begin(), input.pipes.end(), [&](const PipeSegment& pipe) {
-      const Eigen::Vector3d axis = pipe.end - pipe.start;
-      const double along = (middle - pipe.start).dot(axis) / axis.squaredNorm();
-      return along >= 0.0 && along <= 1.0 && (middle - pipe.start - along * axis).norm() < pipe.radius;
+      return !isFragment(pipe, params) && middleInsideTube(completed, pipe);
     });
   };
   std::vector<char> used(input.cloud.size(), 0);
@@ -1312,7 +1319,14 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   // an elbow with the end it grew from (the others go and the rest are resolved again).
   std::size_t completed = 0;
   if (params.maxCompletionLength > 0.0) {
-    std::vector<Completion> completions = completeFreeEnds(input, params, explained, resolution, cellSize);
+    // A fragment's points may be a missed leg's only ones (a short stretch seen between elbows):
+    // the completion may take them, and the fragment goes with the completed pipe (below).
+    std::vector<char> explainedByPipes(input.cloud.size(), 0);
+    for (const auto& pipe : input.pipes) {
+      if (isFragment(pipe, params)) continue;
+      for (std::uint32_t i : pipe.inliers) explainedByPipes[i] = 1;
+    }
+    std::vector<Completion> completions = completeFreeEnds(input, params, explainedByPipes, resolution, cellSize);
     while (!completions.empty()) {
       std::vector<PipeSegment> augmented = input.pipes;
       std::vector<char> augmentedExplained = explained;
@@ -1367,6 +1381,10 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
       if (elbow.type == JointType::Elbow && liesOnArc(pipes[static_cast<std::size_t>(p)], elbow)) {
         absorbed[static_cast<std::size_t>(p)] = 1;
       }
+    }
+    // So do fragments inside a completed pipe's tube: bits of the leg it completed.
+    for (std::size_t c = input.pipes.size(); c < pipes.size(); ++c) {
+      if (middleInsideTube(pipes[static_cast<std::size_t>(p)], pipes[c])) absorbed[static_cast<std::size_t>(p)] = 1;
     }
   }
   // Pipe ids: input order, absorbed fragments left out.
