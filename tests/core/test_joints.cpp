@@ -660,6 +660,31 @@ TEST(Joints, ALegSeenOnlyAsAFragmentIsCompletedAndTheFragmentGoes) {
   EXPECT_EQ(elbows, 2);
 }
 
+TEST(Joints, ALegCompletedFromBothEndsIsOnePipe) {
+  // The scene of the test before last with a 60 cm leg hidden for 40 cm in its middle: each elbow's
+  // free end completes the 10–14 cm it sees, and the two pieces on one line, each short of the
+  // other by a completion's reach at most, are one leg. The first keeps it; the elbow at the other
+  // end extends it to its tangent point.
+  const double r = 0.05, R = 0.15, corner = 0.9;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  scene.addElbow({-R, R, 0}, {-R, 0, 0}, Eigen::Vector3d::UnitZ(), kPi / 2, r);
+  scene.addPipe({0, R, 0}, {0, 0.25, 0}, r, false);
+  scene.addPipe({0, 0.65, 0}, {0, corner - R, 0}, r, false);
+  scene.addElbow({0, corner - R, R}, {0, corner - R, 0}, Eigen::Vector3d::UnitX(), kPi / 2, r);
+  scene.addPipe({0, corner, R}, {0, corner, 1.5}, r);
+  scene.addPipe({3, 0, 0}, {3, 1.2, 0}, r);
+
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.completedPipes, 1u);
+  ASSERT_EQ(result.pipes.size(), 4u);
+  const PipeSegment& leg = result.pipes[3];
+  EXPECT_NEAR(std::min(leg.start.y(), leg.end.y()), R, 0.02);
+  EXPECT_NEAR(std::max(leg.start.y(), leg.end.y()), corner - R, 0.02);
+  ASSERT_EQ(result.joints.size(), 2u);
+  for (const Joint& joint : result.joints) EXPECT_EQ(joint.type, JointType::Elbow);
+}
+
 TEST(Joints, AnEndThatOnlyAProposedJointTookIsStillCompleted) {
   // Pipe 1 comes along +x to a corner at the origin, where an elbow (R = 3r) turns up into a leg
   // that no pipe covers. Pipe 2 crosses the line of pipe 1 40 cm ahead: a tee with no points on

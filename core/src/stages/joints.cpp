@@ -1295,7 +1295,22 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
     const auto& inliers = found[e]->pipe.inliers;
     const auto shared = static_cast<std::size_t>(
         std::count_if(inliers.begin(), inliers.end(), [&](std::uint32_t i) { return used[i] != 0; }));
-    if (2 * shared > inliers.size()) continue;  // The same pipe, completed from its other side.
+    // The same pipe, completed from its other side: over the same points, or (a sparse or partly
+    // hidden leg, whose two completions take different points) on the same line, within a
+    // completion's reach of each other. The elbow at the other end extends the one kept.
+    const auto sameLeg = [&](const Completion& kept) {
+      const PipeSegment& a = found[e]->pipe;
+      const PipeSegment& b = kept.pipe;
+      const Eigen::Vector3d axis = unitAxis(b);
+      if (std::fabs(unitAxis(a).dot(axis)) < std::cos(radians(params.maxBoundaryAngleDeg)) ||
+          distanceToLine(a.start, b.start, axis) > b.radius || distanceToLine(a.end, b.start, axis) > b.radius) {
+        return false;
+      }
+      const double from = (a.start - b.start).dot(axis), to = (a.end - b.start).dot(axis);
+      const double gap = std::max({0.0, std::min(from, to) - (b.end - b.start).norm(), -std::max(from, to)});
+      return gap <= params.maxCompletionLength;
+    };
+    if (2 * shared > inliers.size() || std::any_of(completions.begin(), completions.end(), sameLeg)) continue;
     for (std::uint32_t i : inliers) used[i] = 1;
     completions.push_back(std::move(*found[e]));
   }
