@@ -591,18 +591,27 @@ void expectUprightLegCompletedAtTheOrigin(const JointsResult& result) {
   EXPECT_EQ(result.joints[0].type, JointType::Elbow);
 }
 
-TEST(Joints, ALegBetweenTwoElbowsThatNoPipeCoversIsCompleted) {
-  // Pipe 1 comes along +x to a corner at the origin, a 30 cm leg (points only, as a leg too short
-  // for the Gaussian sphere) rises along +y to a second corner, pipe 2 leaves along +z. Both
-  // elbows have R = 3r. Pipe 3, far off, runs along y: the network's directions are x, y and z.
-  const double r = 0.05, R = 0.15, corner = 0.6;
+/// Pipe 1 comes along +x to a corner at the origin, a leg rises along +y to a second corner at
+/// y = `corner`, pipe 2 leaves along +z; both elbows have R = 3r (r = 5 cm). Pipe 3, far off, runs
+/// along y: the network's directions are x, y and z. The leg is scanned over `stretches` (from y,
+/// to y), as points only, or listed as pipes when `listed`.
+ConstructedScene legBetweenTwoElbows(double corner, const std::vector<std::pair<double, double>>& stretches,
+                                     bool listed = false) {
+  const double r = 0.05, R = 0.15;
   ConstructedScene scene;
   scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
   scene.addElbow({-R, R, 0}, {-R, 0, 0}, Eigen::Vector3d::UnitZ(), kPi / 2, r);
-  scene.addPipe({0, R, 0}, {0, corner - R, 0}, r, false);
+  for (const auto& [from, to] : stretches) scene.addPipe({0, from, 0}, {0, to, 0}, r, listed);
   scene.addElbow({0, corner - R, R}, {0, corner - R, 0}, Eigen::Vector3d::UnitX(), kPi / 2, r);
   scene.addPipe({0, corner, R}, {0, corner, 1.5}, r);
   scene.addPipe({3, 0, 0}, {3, 1.2, 0}, r);
+  return scene;
+}
+
+TEST(Joints, ALegBetweenTwoElbowsThatNoPipeCoversIsCompleted) {
+  // The 30 cm leg is points only, as a leg too short for the Gaussian sphere.
+  const double r = 0.05, R = 0.15, corner = 0.6;
+  const ConstructedScene scene = legBetweenTwoElbows(corner, {{R, corner - R}});
 
   const JointsResult result = scene.connect();
   EXPECT_EQ(result.diagnostics.completedPipes, 1u);
@@ -637,17 +646,10 @@ TEST(Joints, ALegBetweenTwoElbowsThatNoPipeCoversIsCompleted) {
 }
 
 TEST(Joints, ALegSeenOnlyAsAFragmentIsCompletedAndTheFragmentGoes) {
-  // The scene of the test above, but only 8 cm of the 30 cm leg were scanned, and placement fitted
-  // them as a pipe shorter than its diameter: a fragment, which takes no joint. Its points are the
-  // leg's only ones; the completion takes them, and the fragment goes with the completed leg.
-  const double r = 0.05, R = 0.15, corner = 0.6;
-  ConstructedScene scene;
-  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
-  scene.addElbow({-R, R, 0}, {-R, 0, 0}, Eigen::Vector3d::UnitZ(), kPi / 2, r);
-  scene.addPipe({0, 0.25, 0}, {0, 0.33, 0}, r);
-  scene.addElbow({0, corner - R, R}, {0, corner - R, 0}, Eigen::Vector3d::UnitX(), kPi / 2, r);
-  scene.addPipe({0, corner, R}, {0, corner, 1.5}, r);
-  scene.addPipe({3, 0, 0}, {3, 1.2, 0}, r);
+  // Only 8 cm of the 30 cm leg were scanned, and placement fitted them as a pipe shorter than its
+  // diameter: a fragment, which takes no joint. Its points are the leg's only ones; the completion
+  // takes them, and the fragment goes with the completed leg.
+  const ConstructedScene scene = legBetweenTwoElbows(0.6, {{0.25, 0.33}}, /*listed=*/true);
 
   const JointsResult result = scene.connect();
   EXPECT_EQ(result.diagnostics.completedPipes, 1u);
@@ -661,19 +663,11 @@ TEST(Joints, ALegSeenOnlyAsAFragmentIsCompletedAndTheFragmentGoes) {
 }
 
 TEST(Joints, ALegCompletedFromBothEndsIsOnePipe) {
-  // The scene of the test before last with a 60 cm leg hidden for 40 cm in its middle: each elbow's
-  // free end completes the 10–14 cm it sees, and the two pieces on one line, each short of the
-  // other by a completion's reach at most, are one leg. The first keeps it; the elbow at the other
-  // end extends it to its tangent point.
-  const double r = 0.05, R = 0.15, corner = 0.9;
-  ConstructedScene scene;
-  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
-  scene.addElbow({-R, R, 0}, {-R, 0, 0}, Eigen::Vector3d::UnitZ(), kPi / 2, r);
-  scene.addPipe({0, R, 0}, {0, 0.25, 0}, r, false);
-  scene.addPipe({0, 0.65, 0}, {0, corner - R, 0}, r, false);
-  scene.addElbow({0, corner - R, R}, {0, corner - R, 0}, Eigen::Vector3d::UnitX(), kPi / 2, r);
-  scene.addPipe({0, corner, R}, {0, corner, 1.5}, r);
-  scene.addPipe({3, 0, 0}, {3, 1.2, 0}, r);
+  // A 60 cm leg hidden for 40 cm in its middle: each elbow's free end completes the 10 cm it
+  // sees, and the two pieces on one line, each short of the other by a completion's reach at most,
+  // are one leg. The first keeps it; the elbow at the other end extends it to its tangent point.
+  const double R = 0.15, corner = 0.9;
+  const ConstructedScene scene = legBetweenTwoElbows(corner, {{R, 0.25}, {0.65, corner - R}});
 
   const JointsResult result = scene.connect();
   EXPECT_EQ(result.diagnostics.completedPipes, 1u);
