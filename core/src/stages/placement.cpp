@@ -649,11 +649,11 @@ class InlierSearch {
     const std::size_t scale = stripe_.normalScaleFor(fit.radius);
     const PlaneNormals& estimated = stripe_.scaleNormals[scale];
     // A scan column's point may take the normal of the wider neighbourhood across the next columns
-    // when that curves like a pipe: a thin pipe seen in a few columns has no other.
-    const PlaneNormals* wider = acrossColumns && scale + 1 < stripe_.scaleNormals.size() && !estimated.shapes.empty() &&
-                                        !stripe_.scaleNormals[scale + 1].shapes.empty()
-                                    ? &stripe_.scaleNormals[scale + 1]
-                                    : nullptr;
+    // when that curves like a pipe: a thin pipe seen in a few columns has no other. Not in a band
+    // widened for a noisy scan, whose columns are blobs of noise.
+    const bool widerNormals = acrossColumns && band <= params_.inlierDistance && scale + 1 < stripe_.scaleNormals.size() &&
+                              !estimated.shapes.empty() && !stripe_.scaleNormals[scale + 1].shapes.empty();
+    const PlaneNormals* wider = widerNormals ? &stripe_.scaleNormals[scale + 1] : nullptr;
     visitNear(fit, band, [&](std::uint32_t i, double offset, const Eigen::Vector3d& radial) {
       if (std::abs(offset) >= band) return;
       const Eigen::Vector2d inPlane(radial.dot(stripe_.u), radial.dot(stripe_.v));
@@ -869,8 +869,10 @@ DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDir
     const InlierSearch::Surroundings around = search.surroundings(fit, inliers, band);
     if (static_cast<double>(around.shell) > params.maxShellShare * static_cast<double>(inliers.size())) return;
     // A fit that needs normals across scan columns has its shape from those few columns, which are
-    // what a square post shows as well: it gets no allowance for noise on few points.
-    const bool acrossColumns = search.gather(fit, band, false).size() < inliers.size();
+    // what a square post shows as well: on a scan no noisier than the band allows, it gets no
+    // allowance for noise on few points (a noisy scan's columns are blobs that need it).
+    const bool acrossColumns =
+        band <= params.inlierDistance && search.gather(fit, band, false).size() < inliers.size();
     const double maxOutOfRound = std::max(acrossColumns ? 0.0 : kMinOutOfRound, params.maxOutOfRound * fit.radius);
     if (outOfRoundness(fit, cloud, stripe, inliers, kMinSectorPoints) > maxOutOfRound) return;
     // The inliers' normals agree with the circle, and over two scan columns a chord's normal does

@@ -31,7 +31,8 @@ struct PlacementParams {
   double inlierNormalAngleDeg = 30; ///< ...and its normal in the plane (re-estimated there from its neighbours) within
                                     ///< this angle of the radial direction. A point of a scan column seen end-on (a
                                     ///< tight cluster in the plane) may instead take the normal over the columns beside
-                                    ///< it, where they curve like a pipe: a thin pipe seen in a few columns has no other.
+                                    ///< it, where they curve like a pipe: a thin pipe seen in a few columns has no other
+                                    ///< (not once the band is widened for a noisy scan).
   int minInliers = 40;              ///< Cylinders with fewer inliers are dropped.
   double minCandidateShare = 0.1;   ///< A cylinder's mode must hold this many candidates per inlier: pairs of a real
                                     ///< pipe's points agree on its circle, the faces of a box edge on a ridge of circles.
