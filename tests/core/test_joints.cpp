@@ -679,6 +679,26 @@ TEST(Joints, ALegCompletedFromBothEndsIsOnePipe) {
   for (const Joint& joint : result.joints) EXPECT_EQ(joint.type, JointType::Elbow);
 }
 
+TEST(Joints, ALegInARackIsCompletedBesideAPipeNoStageFound) {
+  // A 15 cm riser turns (R = 3r) into a level leg along +x that no pipe covers, in a rack: a 7 cm
+  // pipe, also missed, runs beside the leg 5 cm from its surface (medium seeds 5 and 7). Its points
+  // lay in the shell 2(r + band) from the axis where the completion counts clutter; a shell a
+  // radius wide but at most 5 cm leaves them out. Pipe 3, far off, runs along x.
+  const double r = 0.15, R = 0.45;
+  ConstructedScene scene;
+  scene.addPipe({0, 0, -1.5}, {0, 0, -R}, r);
+  scene.addElbow({R, 0, -R}, {0, 0, -R}, Eigen::Vector3d::UnitY(), kPi / 2, r);
+  scene.addPipe({R, 0, 0}, {R + 0.9, 0, 0}, r, false);
+  scene.addPipe({R, r + 0.05 + 0.07, 0}, {R + 0.9, r + 0.05 + 0.07, 0}, 0.07, false);
+  scene.addPipe({3, 2, 0}, {4.2, 2, 0}, 0.05);
+
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.completedPipes, 1u);
+  ASSERT_EQ(result.joints.size(), 1u);
+  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
+  EXPECT_NEAR(result.joints[0].bendRadius, R, 0.1 * R);
+}
+
 TEST(Joints, AnEndThatOnlyAProposedJointTookIsStillCompleted) {
   // Pipe 1 comes along +x to a corner at the origin, where an elbow (R = 3r) turns up into a leg
   // that no pipe covers. Pipe 2 crosses the line of pipe 1 40 cm ahead: a tee with no points on
