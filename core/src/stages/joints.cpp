@@ -1298,19 +1298,15 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
     const auto shared = static_cast<std::size_t>(
         std::count_if(inliers.begin(), inliers.end(), [&](std::uint32_t i) { return used[i] != 0; }));
     // The same pipe, completed from its other side: over the same points, or (a sparse or partly
-    // hidden leg, whose two completions take different points) on the same line, within a
-    // completion's reach of each other. The elbow at the other end extends the one kept.
+    // hidden leg, whose two completions take different points) one inside the other's tube or the
+    // two ends a boundary joint could join. The elbow at the other end extends the one kept.
     const auto sameLeg = [&](const Completion& kept) {
-      const PipeSegment& a = found[e]->pipe;
-      const PipeSegment& b = kept.pipe;
-      const Eigen::Vector3d axis = unitAxis(b);
-      if (std::fabs(unitAxis(a).dot(axis)) < std::cos(radians(params.maxBoundaryAngleDeg)) ||
-          distanceToLine(a.start, b.start, axis) > b.radius || distanceToLine(a.end, b.start, axis) > b.radius) {
-        return false;
+      const std::vector<PipeSegment> pair{found[e]->pipe, kept.pipe};
+      if (middleInsideTube(pair[0], pair[1]) || middleInsideTube(pair[1], pair[0])) return true;
+      for (int side = 0; side < 4; ++side) {
+        if (builder.boundaryBetween(endOf(pair, 0, side / 2), endOf(pair, 1, side % 2))) return true;
       }
-      const double from = (a.start - b.start).dot(axis), to = (a.end - b.start).dot(axis);
-      const double gap = std::max({0.0, std::min(from, to) - (b.end - b.start).norm(), -std::max(from, to)});
-      return gap <= params.maxCompletionLength;
+      return false;
     };
     if (2 * shared > inliers.size() || std::any_of(completions.begin(), completions.end(), sameLeg)) continue;
     for (std::uint32_t i : inliers) used[i] = 1;

@@ -642,16 +642,17 @@ class InlierSearch {
         grid_(gridKeys(stripe)) {}
 
   /// Stripe points (indices into the stripe) within `band` of the surface whose normal in the plane is
-  /// radial, ascending; with `acrossColumns`, a column's point whose normal across the columns
-  /// beside it is.
-  std::vector<std::uint32_t> gather(const CylinderFit& fit, double band, bool acrossColumns = true) const {
+  /// radial, or for a column's point whose normal across the columns beside it is, ascending.
+  /// `acrossColumns` counts those taken for the latter alone.
+  std::vector<std::uint32_t> gather(const CylinderFit& fit, double band, std::size_t& acrossColumns) const {
     std::vector<std::uint32_t> inliers;
+    acrossColumns = 0;
     const std::size_t scale = stripe_.normalScaleFor(fit.radius);
     const PlaneNormals& estimated = stripe_.scaleNormals[scale];
     // A scan column's point may take the normal of the wider neighbourhood across the next columns
     // when that curves like a pipe: a thin pipe seen in a few columns has no other. Not in a band
     // widened for a noisy scan, whose columns are blobs of noise.
-    const bool widerNormals = acrossColumns && band <= params_.inlierDistance && scale + 1 < stripe_.scaleNormals.size() &&
+    const bool widerNormals = band <= params_.inlierDistance && scale + 1 < stripe_.scaleNormals.size() &&
                               !estimated.shapes.empty() && !stripe_.scaleNormals[scale + 1].shapes.empty();
     const PlaneNormals* wider = widerNormals ? &stripe_.scaleNormals[scale + 1] : nullptr;
     visitNear(fit, band, [&](std::uint32_t i, double offset, const Eigen::Vector3d& radial) {
@@ -660,10 +661,12 @@ class InlierSearch {
       const auto radialNormal = [&](const Eigen::Vector2f& normal) {
         return std::abs(normal.cast<double>().dot(inPlane)) >= minNormalCos_;
       };
-      if (radialNormal(estimated.normals[i]) ||
-          (wider && estimated.shapes[i] == PlaneNormals::kColumn && wider->shapes[i] == PlaneNormals::kCurvedArc &&
-           radialNormal(wider->normals[i]))) {
+      if (radialNormal(estimated.normals[i])) {
         inliers.push_back(i);
+      } else if (wider && estimated.shapes[i] == PlaneNormals::kColumn && wider->shapes[i] == PlaneNormals::kCurvedArc &&
+                 radialNormal(wider->normals[i])) {
+        inliers.push_back(i);
+        ++acrossColumns;
       }
     });
     std::sort(inliers.begin(), inliers.end());
@@ -839,7 +842,8 @@ DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDir
     fit.point = mode.at.x() * stripe.u + mode.at.y() * stripe.v + 0.5 * double(stripe.alongMin + stripe.alongMax) * stripe.axis;
     fit.radius = mode.at.z();
     double band = params.inlierDistance;
-    std::vector<std::uint32_t> inliers = search.gather(fit, band);
+    std::size_t acrossColumns = 0;  // inliers taken for their normal across scan columns alone
+    std::vector<std::uint32_t> inliers = search.gather(fit, band, acrossColumns);
     // A mode far short of the candidate share (checked on the final inliers below) is not worth
     // refining: the fits of such ridge modes are most of the refinement work.
     if (mode.support < 0.5 * params.minCandidateShare * static_cast<double>(inliers.size())) return;
@@ -849,7 +853,7 @@ DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDir
       if (!refineFit(fit, cloud, stripe, inliers, params.refineIterations)) return false;
       if (std::abs(fit.direction.dot(stripe.axis)) < std::cos(kMaxAxisTilt)) return false;
       if (fit.radius < kRadiusSlack * params.minRadius || fit.radius > params.maxRadius / kRadiusSlack) return false;
-      inliers = search.gather(fit, band);
+      inliers = search.gather(fit, band, acrossColumns);
       return true;
     };
     for (int pass = 0; pass < 2; ++pass) {
@@ -862,18 +866,16 @@ DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDir
       const double noiseBand = std::min(kMaxBandFactor * params.inlierDistance, kNoiseBands * noise);
       if (noiseBand <= kMinWidening * band) break;
       band = noiseBand;
-      inliers = search.gather(fit, band);
+      inliers = search.gather(fit, band, acrossColumns);
       if (!refineAndGather()) return;
     }
     if (static_cast<int>(inliers.size()) < params.minInliers) return;
     const InlierSearch::Surroundings around = search.surroundings(fit, inliers, band);
     if (static_cast<double>(around.shell) > params.maxShellShare * static_cast<double>(inliers.size())) return;
     // A fit that needs normals across scan columns has its shape from those few columns, which are
-    // what a square post shows as well: on a scan no noisier than the band allows, it gets no
-    // allowance for noise on few points (a noisy scan's columns are blobs that need it).
-    const bool acrossColumns =
-        band <= params.inlierDistance && search.gather(fit, band, false).size() < inliers.size();
-    const double maxOutOfRound = std::max(acrossColumns ? 0.0 : kMinOutOfRound, params.maxOutOfRound * fit.radius);
+    // what a square post shows as well: it gets no allowance for noise on few points (gather takes
+    // no such normals in a band widened for a noisy scan, whose columns are blobs that need it).
+    const double maxOutOfRound = std::max(acrossColumns > 0 ? 0.0 : kMinOutOfRound, params.maxOutOfRound * fit.radius);
     if (outOfRoundness(fit, cloud, stripe, inliers, kMinSectorPoints) > maxOutOfRound) return;
     // The inliers' normals agree with the circle, and over two scan columns a chord's normal does
     // at a box's corner or a square post's as well: over every point in the band, a corner sticks
