@@ -166,6 +166,24 @@ TEST(Merge, AnEndStopsAtTheCapOfAPipeOnItsLineAndTheyBecomeOnePipe) {
   EXPECT_NEAR(std::max(result.segments[0].start.x(), result.segments[0].end.x()), 3.5, 1e-6);
 }
 
+TEST(Merge, AnEndCarriesOnBesideARackNeighbour) {
+  // Medium seed 2: a 7 cm rack pipe's sparse tail runs beside a 5 cm neighbour 19 cm away (axis to
+  // axis), which no pipe explains there. The neighbour's wall, 14 cm from the tail's axis, is no
+  // clutter on it: the shell counted reaches a radius out but at most 5 cm.
+  const double r = 0.07;
+  PointCloud cloud;
+  const auto inliers = addPipePoints(cloud, r, 0.0, 2.0, 0.01, 12, 0.0);
+  addPipePoints(cloud, r, 2.04, 2.8, 0.04, 3, 0.0);
+  const std::size_t neighbourFirst = cloud.size();
+  addPipePoints(cloud, 0.05, 1.5, 3.0, 0.01, 12, 0.0);
+  for (std::size_t i = neighbourFirst; i < cloud.size(); ++i) cloud.positions[i].y() += 0.19f;
+  PipeSegment found = segment({0, 0, 0}, {2, 0, 0}, r, inliers);
+  found.confidence = 1.0;
+  const auto result = mergeAndExtend(cloud, {found}, {});
+  ASSERT_EQ(result.segments.size(), 1u);
+  EXPECT_NEAR(std::max(result.segments[0].start.x(), result.segments[0].end.x()), 2.8, 1e-6);
+}
+
 TEST(Merge, AnEndStopsAtClutterAndAtAnotherPipe) {
   const double r = 0.05;
   // A wall across the pipe's extension 30 cm past its end (points in the shell around the tube

@@ -850,8 +850,7 @@ class EndCompletion {
   static constexpr std::size_t kMaxBridgeSections = 20;  // ...a run as long follows a gap up to this.
   static constexpr std::size_t kBehindSections = 5;  // Sections looked at behind the corner (see completeAt).
   static constexpr double kShortElbowRadii = 2.0;    // A short-radius elbow's bend radius, in pipe radii.
-  static constexpr double kMaxClutterShare = 0.5;  // Points off the surface, against those on it...
-  static constexpr double kMaxShell = 0.05;        // ...in a shell a radius wide around it, at most this (m).
+  static constexpr double kMaxClutterShare = 0.5;  // Clutter (see isClutter), against points on the surface.
   static constexpr double kMaxFlatShare = 0.4;          // Normals sharing one direction (see flatShare)...
   static constexpr double kLineToCircle = 1.0;          // ...with a line fit's RMS under this share of the
                                                         // circle's: a flat face.
@@ -1169,9 +1168,7 @@ class EndCompletion {
       }
       const auto section =
           std::min(sections - 1, static_cast<std::size_t>((distanceAlong - firstAlong) / kSectionLength));
-      const bool clutters =
-          distance < r - 2.0 * band || (distance > r + 2.0 * band && distance <= r + 2.0 * band + std::min(r, kMaxShell));
-      if (clutters && distanceAlong >= shortElbowTangent) {
+      if (isClutter(distance, r, band, /*unexplained=*/true) && distanceAlong >= shortElbowTangent) {
         ++clutterBySection[section];
       }
       if (withinBand) bandBySection[section].push_back(i);

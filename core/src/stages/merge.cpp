@@ -15,7 +15,7 @@
 // `extensionNormalAngleDeg` of radial, carry the pipe on (gaps of up to three sections, and an
 // occlusion of up to `extensionBridgeSections` when the run beyond is as long), until a section
 // holds more clutter than surface points (points inside the tube, or unexplained points in a shell
-// around it) or the axis would enter another pipe.
+// around it, see isClutter) or the axis would enter another pipe.
 
 #include "piperun/stages/merge.h"
 
@@ -167,15 +167,9 @@ double extension(const PointCloud& cloud, const PipeSegment& pipe, const Eigen::
     const std::size_t k = std::min(sections - 1, static_cast<std::size_t>(along / kSection));
     const Eigen::Vector3d radial = d - along * outward;
     const double distance = radial.norm();
-    // Points inside the tube (another pipe's wall where a branch meets its main pipe, a box) or,
-    // not explained by any pipe, in a shell around it (a wall grazing the surface) end the pipe.
-    if (distance < r - 2.0 * band) {
+    if (isClutter(distance, r, band, !claimed[i])) {
       ++clutter[k];
-    } else if (claimed[i]) {
-      continue;
-    } else if (distance > r + 2.0 * band && distance <= 2.0 * (r + band)) {
-      ++clutter[k];
-    } else if (std::fabs(distance - r) <= band &&
+    } else if (!claimed[i] && std::fabs(distance - r) <= band &&
                std::fabs(cloud.normals[i].cast<double>().dot(radial)) >= minCos * distance) {
       bySection[k].push_back(i);
     }
