@@ -488,6 +488,43 @@ TEST(Joints, ASquareCornerWithNoBendIsATeeWhoseMainWasSeenOnOneSide) {
   EXPECT_NEAR(elbow.joints[0].bendRadius, 2.0 * r, 0.1 * r);
 }
 
+TEST(Joints, AReducingCornerHiddenAtTheJunctionIsATeeWhoseMainWasSeenOnOneSide) {
+  // Medium seed 10: an 8.4 cm main is hidden for 26 cm before its junction and beyond it, and its
+  // 5.7 cm branch for 15 cm below the main's wall. Too unequal for an elbow, the corner is a tee.
+  const auto scene = [](double mainEnd, bool junctionSeen) {
+    ConstructedScene built;
+    built.addPipe({-1.5, 0, 0}, {mainEnd, 0, 0}, 0.085);
+    built.addPipe({0, 0, -1.2}, {0, 0, -0.24}, 0.057);
+    if (junctionSeen) built.addPipe({mainEnd + 0.01, 0, 0}, {0.1, 0, 0}, 0.085, /*listed=*/false);
+    return built;
+  };
+  const JointsResult result = resolveOnly(scene(-0.26, false));
+  ASSERT_EQ(result.joints.size(), 1u);
+  const Joint& tee = result.joints[0];
+  EXPECT_EQ(tee.type, JointType::Tee);
+  EXPECT_EQ(tee.pipeIds, (std::vector<int>{1, 2}));  // Main first, then the branch.
+  EXPECT_LT(tee.axis.front().norm(), 1e-6);
+  EXPECT_EQ(tee.status, JointStatus::Proposed);
+
+  // Hidden farther than the branch looks for partners, or seen at the junction (where whatever
+  // the points show decides), it is no tee.
+  EXPECT_TRUE(resolveOnly(scene(-0.6, false)).joints.empty());
+  EXPECT_TRUE(resolveOnly(scene(-0.26, true)).joints.empty());
+}
+
+TEST(Joints, AThinnerCylinderInsideAPipesTubeIsNoBranchAtAHiddenCorner) {
+  // Small seed 2: an 11 cm cylinder fitted inside a 16 cm leg meets the line of the pipe beyond
+  // the leg's hidden elbow in a reducing corner. It is no branch of that pipe.
+  const double r = 0.16;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-0.25, 0, 0}, r);
+  scene.addPipe({0, 0.25, 0}, {0, 1.5, 0}, r);
+  scene.addFittedPipe({0, 0.3, 0}, {0, 0.9, 0}, 0.11);
+  const JointsResult result = resolveOnly(scene);
+  EXPECT_TRUE(std::none_of(result.joints.begin(), result.joints.end(),
+                           [](const Joint& joint) { return joint.type == JointType::Tee; }));
+}
+
 TEST(Joints, ASquareCornerOfThinSparsePipesStaysAnElbow) {
   // The ends of the square-corner tee above, on 1.6 cm pipes seen from afar in three rays every
   // 2 cm. Their inliers run into the corner, so no point is left to vote for a bend, and an

@@ -3,8 +3,9 @@
 // 1. Hypotheses. A hash grid over the pipes' axis samples gives, for each pipe end, the pipes
 //    near it. Each end–end pair whose axes continue each other is a boundary-joint hypothesis;
 //    each end–end pair whose axes meet ahead of both ends at a bend angle is an elbow hypothesis;
-//    each end whose extension meets another pipe's body is a T-junction hypothesis. Every limit
-//    scales with the radii.
+//    each end whose extension meets another pipe's body is a T-junction hypothesis, and so is a
+//    thinner end whose extension meets a thicker pipe's line past its end, both hidden at the
+//    junction (too unequal for an elbow). Every limit scales with the radii.
 // 2. Reconstruction. Elbows: the two axes are forced onto their common mid-plane and intersected
 //    at the corner P_I; the bend centre lies on the bisector, and each point near the corner votes
 //    for the major radii R that put it on the torus (paper eqs. 3–4); the most voted R wins and the
@@ -180,6 +181,7 @@ struct Hypothesis {
   double gapLimit = 0.0;
   double reach = 0.0;       // Points within this of `center` are gathered for the hypothesis.
   Eigen::Vector3d center = Eigen::Vector3d::Zero();
+  bool mainSeenOneSide = false;  // Tee: the main's end stops short of the junction.
 
   // Completed by reconstruct():
   double geometric = 0.0;   // How well the criteria hold, in [0, 1].
@@ -235,8 +237,11 @@ class JointBuilder {
   void tryEndPair(const PipeEnd& a, const PipeEnd& b, std::vector<Hypothesis>& out) const {
     const double smaller = std::min(a.radius, b.radius);
     const double larger = std::max(a.radius, b.radius);
-    if (smaller < params_.minRadiusRatio * larger) return;
     const double bendAngle = std::acos(std::clamp(-a.outward.dot(b.outward), -1.0, 1.0));
+    if (smaller < params_.minRadiusRatio * larger) {
+      tryTeeBeyondEnd(a.radius < b.radius ? a : b, a.radius < b.radius ? b : a, out);
+      return;
+    }
 
     if (bendAngle <= radians(params_.maxBoundaryAngleDeg)) {
       if (auto h = boundaryBetween(a, b)) out.push_back(std::move(*h));
@@ -276,6 +281,25 @@ class JointBuilder {
     const double longestTangent = params_.maxBendRadii * larger / std::tan(0.5 * (kPi - bendAngle));
     h.reach = std::max({alongA, alongB, longestTangent}) + 2.0 * larger + params_.supportDistance;
     out.push_back(std::move(h));
+  }
+
+  /// A reducing corner: the thinner `branch`'s extension meets the line of the thicker pipe past
+  /// its `mainEnd`, both hidden at the junction for no farther than the branch looks for a partner.
+  /// Too unequal for an elbow, it is a tee whose main was seen on one side only, and it counts half
+  /// its confidence like teeForBendlessCorner's. (A thinner cylinder fitted inside another pipe's
+  /// tube meets the lines of the pipes that pipe joins in just such corners: it is no branch.)
+  void tryTeeBeyondEnd(const PipeEnd& branch, const PipeEnd& mainEnd, std::vector<Hypothesis>& out) const {
+    auto h = teeAt(branch, mainEnd.pipe, /*mainSeenBeyond=*/false);
+    if (!h) return;
+    const double hidden = searchDistance(branch.radius);
+    const double pastEnd = (h->corner - mainEnd.point).dot(mainEnd.outward);
+    if (pastEnd <= 0.0 || pastEnd > hidden || (h->corner - branch.point).norm() > hidden) return;
+    const PipeSegment& branchPipe = input_.pipes[static_cast<std::size_t>(branch.pipe)];
+    for (const PipeSegment& pipe : input_.pipes) {
+      if (&pipe != &branchPipe && middleInsideTube(branchPipe, pipe)) return;
+    }
+    h->mainSeenOneSide = true;
+    out.push_back(std::move(*h));
   }
 
   /// A T-junction hypothesis: `branch`'s extension meets the body of pipe `main`.
@@ -513,6 +537,13 @@ class JointBuilder {
 
   void reconstructTee(Hypothesis& h, const std::vector<std::uint32_t>& nearby) const {
     const PipeSegment& main = input_.pipes[static_cast<std::size_t>(h.mainPipe)];
+    // A junction taken for hidden must be: points on or in a ball of the main's radius around the
+    // corner are the main or a fitting seen there.
+    if (h.mainSeenOneSide && std::any_of(nearby.begin(), nearby.end(), [&](std::uint32_t i) {
+          return (input_.cloud.positions[i].cast<double>() - h.corner).norm() < main.radius + params_.supportDistance;
+        })) {
+      return;
+    }
     // The gap between the main pipe's surface and the branch end is checked for points; a branch
     // that already reaches the main pipe is direct evidence.
     const Eigen::Vector3d toBranch = (h.a.point - h.corner).normalized();
@@ -523,6 +554,7 @@ class JointBuilder {
                     : straightCoverage(surface, h.a.point, h.a.radius, nearby, h.supportPoints);
     h.geometric = (1.0 - h.skew / h.skewLimit) * (1.0 - branchGap / h.gapLimit);
     h.confidence = 0.5 * h.geometric + 0.5 * h.support;
+    if (h.mainSeenOneSide) h.confidence *= 0.5;
     h.axis = {h.corner, h.a.point};
     h.valid = true;
   }
