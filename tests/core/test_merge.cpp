@@ -98,6 +98,19 @@ std::vector<std::uint32_t> addPipePoints(PointCloud& cloud, double r, double x0,
   return added;
 }
 
+/// A pipe found from x = 0 to 2 (its inliers, 12 points every 1 cm) whose sparse tail carries
+/// on from 2.04 to `tailTo` (3 points every 4 cm): the found segment, confident enough to extend.
+PipeSegment foundWithTail(PointCloud& cloud, double r, double tailTo) {
+  const auto inliers = addPipePoints(cloud, r, 0.0, 2.0, 0.01, 12, 0.0);
+  addPipePoints(cloud, r, 2.04, tailTo, 0.04, 3, 0.0);
+  PipeSegment found = segment({0, 0, 0}, {2, 0, 0}, r, inliers);
+  found.confidence = 1.0;
+  return found;
+}
+
+/// How far along +x a pipe reaches.
+double farEnd(const PipeSegment& pipe) { return std::max(pipe.start.x(), pipe.end.x()); }
+
 TEST(Merge, AnEndCarriesOnOverItsSparseTail) {
   // A pipe found up to x = 2 (its inliers); past it the scan thins out to one ring of 3 points
   // every 6 cm, whose normals stray 40° from radial (placement's 30° test left them out), up to
@@ -135,13 +148,9 @@ TEST(Merge, AnEndCarriesOnAcrossAnOcclusionToALongerRunBeyond) {
   const double r = 0.05;
   const auto tailEnd = [&](double beyondTo) {
     PointCloud cloud;
-    const auto inliers = addPipePoints(cloud, r, 0.0, 2.0, 0.01, 12, 0.0);
-    addPipePoints(cloud, r, 2.04, 2.2, 0.04, 3, 0.0);
+    const PipeSegment found = foundWithTail(cloud, r, 2.2);
     addPipePoints(cloud, r, 2.6, beyondTo, 0.04, 3, 0.0);
-    PipeSegment found = segment({0, 0, 0}, {2, 0, 0}, r, inliers);
-    found.confidence = 1.0;
-    const auto result = mergeAndExtend(cloud, {found}, {});
-    return std::max(result.segments[0].start.x(), result.segments[0].end.x());
+    return farEnd(mergeAndExtend(cloud, {found}, {}).segments[0]);
   };
   EXPECT_NEAR(tailEnd(3.2), 3.2, 1e-6);
   EXPECT_NEAR(tailEnd(2.8), 2.2, 1e-6);
@@ -154,16 +163,13 @@ TEST(Merge, AnEndStopsAtTheCapOfAPipeOnItsLineAndTheyBecomeOnePipe) {
   // on inside it, and the two, now meeting, are merged.
   const double r = 0.05;
   PointCloud cloud;
-  const auto inliers = addPipePoints(cloud, r, 0.0, 2.0, 0.01, 12, 0.0);
-  addPipePoints(cloud, r, 2.04, 2.88, 0.04, 3, 0.0);
+  const PipeSegment found = foundWithTail(cloud, r, 2.88);
   const auto pieceInliers = addPipePoints(cloud, r, 2.9, 3.5, 0.01, 12, 0.0);
-  PipeSegment found = segment({0, 0, 0}, {2, 0, 0}, r, inliers);
-  found.confidence = 1.0;
   PipeSegment piece = segment({2.5, 0, 0}, {3.5, 0, 0}, r, pieceInliers);
   const auto result = mergeAndExtend(cloud, {found, piece}, {});
   ASSERT_EQ(result.segments.size(), 1u);
   EXPECT_NEAR(std::min(result.segments[0].start.x(), result.segments[0].end.x()), 0.0, 1e-6);
-  EXPECT_NEAR(std::max(result.segments[0].start.x(), result.segments[0].end.x()), 3.5, 1e-6);
+  EXPECT_NEAR(farEnd(result.segments[0]), 3.5, 1e-6);
 }
 
 TEST(Merge, AnEndCarriesOnBesideARackNeighbour) {
@@ -172,16 +178,13 @@ TEST(Merge, AnEndCarriesOnBesideARackNeighbour) {
   // clutter on it: the shell counted reaches a radius out but at most 5 cm.
   const double r = 0.07;
   PointCloud cloud;
-  const auto inliers = addPipePoints(cloud, r, 0.0, 2.0, 0.01, 12, 0.0);
-  addPipePoints(cloud, r, 2.04, 2.8, 0.04, 3, 0.0);
+  const PipeSegment found = foundWithTail(cloud, r, 2.8);
   const std::size_t neighbourFirst = cloud.size();
   addPipePoints(cloud, 0.05, 1.5, 3.0, 0.01, 12, 0.0);
   for (std::size_t i = neighbourFirst; i < cloud.size(); ++i) cloud.positions[i].y() += 0.19f;
-  PipeSegment found = segment({0, 0, 0}, {2, 0, 0}, r, inliers);
-  found.confidence = 1.0;
   const auto result = mergeAndExtend(cloud, {found}, {});
   ASSERT_EQ(result.segments.size(), 1u);
-  EXPECT_NEAR(std::max(result.segments[0].start.x(), result.segments[0].end.x()), 2.8, 1e-6);
+  EXPECT_NEAR(farEnd(result.segments[0]), 2.8, 1e-6);
 }
 
 TEST(Merge, AnEndStopsAtClutterAndAtAnotherPipe) {
@@ -189,32 +192,26 @@ TEST(Merge, AnEndStopsAtClutterAndAtAnotherPipe) {
   // A wall across the pipe's extension 30 cm past its end (points in the shell around the tube
   // and inside it): the tail before it is kept, not the one behind.
   PointCloud walled;
-  const auto inliers = addPipePoints(walled, r, 0.0, 2.0, 0.01, 12, 0.0);
-  addPipePoints(walled, r, 2.04, 2.8, 0.04, 3, 0.0);
+  const PipeSegment found = foundWithTail(walled, r, 2.8);
   for (double y = -0.3; y <= 0.3; y += 0.01) {
     for (double z = -0.3; z <= 0.3; z += 0.01) {
       walled.positions.emplace_back(2.3f, static_cast<float>(y), static_cast<float>(z));
       walled.normals.emplace_back(1.0f, 0.0f, 0.0f);
     }
   }
-  PipeSegment found = segment({0, 0, 0}, {2, 0, 0}, r, inliers);
-  found.confidence = 1.0;
   const auto stopped = mergeAndExtend(walled, {found}, {});
-  EXPECT_NEAR(std::max(stopped.segments[0].start.x(), stopped.segments[0].end.x()), 2.28, 0.005);
+  EXPECT_NEAR(farEnd(stopped.segments[0]), 2.28, 0.005);
 
   // A branch whose tail runs into a main pipe crossing its line at x = 2.5: it stops at the main
   // pipe's surface, not past it (where it would no longer make a tee).
   PointCloud crossing;
-  const auto branchInliers = addPipePoints(crossing, r, 0.0, 2.0, 0.01, 12, 0.0);
-  addPipePoints(crossing, r, 2.04, 2.8, 0.04, 3, 0.0);
-  PipeSegment branch = segment({0, 0, 0}, {2, 0, 0}, r, branchInliers);
-  branch.confidence = 1.0;
+  const PipeSegment branch = foundWithTail(crossing, r, 2.8);
   PipeSegment main = segment({2.5, -1, 0}, {2.5, 1, 0}, 0.1);
   main.confidence = 0.8;
   const auto result = mergeAndExtend(crossing, {branch, main}, {});
   ASSERT_EQ(result.segments.size(), 2u);
   const PipeSegment& extended = result.segments[0].radius < 0.07 ? result.segments[0] : result.segments[1];
-  const double reached = std::max(extended.start.x(), extended.end.x());
+  const double reached = farEnd(extended);
   EXPECT_GT(reached, 2.3);
   EXPECT_LE(reached, 2.4 + 1e-9);
 }

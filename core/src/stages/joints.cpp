@@ -83,6 +83,14 @@ bool middleInsideTube(const PipeSegment& piece, const PipeSegment& pipe) {
   return along >= 0.0 && along <= 1.0 && (middle - pipe.start - along * axis).norm() < pipe.radius;
 }
 
+/// Whether the middle of `piece` lies inside the tube of one of `pipes` other than itself; a
+/// fragment's tube does not count (its points are a bit of what lies around it).
+bool insideAnotherPipe(const PipeSegment& piece, const std::vector<PipeSegment>& pipes, const JointsParams& params) {
+  return std::any_of(pipes.begin(), pipes.end(), [&](const PipeSegment& pipe) {
+    return &pipe != &piece && !isFragment(pipe, params) && middleInsideTube(piece, pipe);
+  });
+}
+
 /// Votes for values in [low, high], each split linearly between its two nearest bins; the peak is
 /// the bin with the most votes once smoothed by a triangular (1, 2, 1) kernel.
 class VoteHistogram {
@@ -237,11 +245,11 @@ class JointBuilder {
   void tryEndPair(const PipeEnd& a, const PipeEnd& b, std::vector<Hypothesis>& out) const {
     const double smaller = std::min(a.radius, b.radius);
     const double larger = std::max(a.radius, b.radius);
-    const double bendAngle = std::acos(std::clamp(-a.outward.dot(b.outward), -1.0, 1.0));
     if (smaller < params_.minRadiusRatio * larger) {
       tryTeeBeyondEnd(a.radius < b.radius ? a : b, a.radius < b.radius ? b : a, out);
       return;
     }
+    const double bendAngle = std::acos(std::clamp(-a.outward.dot(b.outward), -1.0, 1.0));
 
     if (bendAngle <= radians(params_.maxBoundaryAngleDeg)) {
       if (auto h = boundaryBetween(a, b)) out.push_back(std::move(*h));
@@ -294,10 +302,7 @@ class JointBuilder {
     const double hidden = searchDistance(branch.radius);
     const double pastEnd = (h->corner - mainEnd.point).dot(mainEnd.outward);
     if (pastEnd <= 0.0 || pastEnd > hidden || (h->corner - branch.point).norm() > hidden) return;
-    const PipeSegment& branchPipe = input_.pipes[static_cast<std::size_t>(branch.pipe)];
-    for (const PipeSegment& pipe : input_.pipes) {
-      if (&pipe != &branchPipe && middleInsideTube(branchPipe, pipe)) return;
-    }
+    if (insideAnotherPipe(input_.pipes[static_cast<std::size_t>(branch.pipe)], input_.pipes, params_)) return;
     h->mainSeenOneSide = true;
     out.push_back(std::move(*h));
   }
@@ -1314,15 +1319,10 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
   // A completion whose middle lies inside a pipe's tube is that pipe again, over points its inliers
   // left out: the end it grew from belongs with that pipe (whose joint it is, proposed or not). A
   // fragment's tube does not count: its points are the completion's to take.
-  const auto insideAPipe = [&](const PipeSegment& completed) {
-    return std::any_of(input.pipes.begin(), input.pipes.end(), [&](const PipeSegment& pipe) {
-      return !isFragment(pipe, params) && middleInsideTube(completed, pipe);
-    });
-  };
   std::vector<char> used(input.cloud.size(), 0);
   std::vector<Completion> completions;
   for (std::size_t e : order) {
-    if (insideAPipe(found[e]->pipe)) continue;
+    if (insideAnotherPipe(found[e]->pipe, input.pipes, params)) continue;
     const auto& inliers = found[e]->pipe.inliers;
     const auto shared = static_cast<std::size_t>(
         std::count_if(inliers.begin(), inliers.end(), [&](std::uint32_t i) { return used[i] != 0; }));
