@@ -120,6 +120,7 @@ const std::vector<Field>& fields() {
       PIPERUN_FIELD("joints", "min_completion_points", "", Stage::Joints, joints.minCompletionPoints, "A completed pipe needs this many points on its surface..."),
       PIPERUN_FIELD("joints", "min_completion_coverage", "", Stage::Joints, joints.minCompletionCoverage, "...in at least this share of its sections"),
       PIPERUN_FIELD("joints", "min_completion_bend_deg", "deg", Stage::Joints, joints.minCompletionBendDeg, "...and turns at least this far from the end's axis"),
+      PIPERUN_FIELD("joints", "min_branch_radius", "m", Stage::Joints, joints.minBranchRadius, "Pipes look along their body for a missed branch (checked as a completed pipe) from this radius up to their own (0: off)"),
   };
   return table;
 }

@@ -9,7 +9,10 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -83,6 +86,36 @@ std::vector<std::vector<std::uint32_t>> pointsInSpheres(const PointCloud& cloud,
     }
   }
   return inside;
+}
+
+/// The points of `cloud` filed in `grid` (by position) within `reach` of the segment from a to b,
+/// in index order.
+inline std::vector<std::uint32_t> pointsNearSegment(const HashGrid& grid, double cellSize, const PointCloud& cloud,
+                                                    const Eigen::Vector3d& a, const Eigen::Vector3d& b, double reach) {
+  const Eigen::Vector3d axis = b - a;
+  const double length = axis.norm();
+  const int steps = std::max(1, static_cast<int>(std::ceil(length / cellSize)));
+  // Cubes around samples of the segment cover the capsule; a cell is read once.
+  std::vector<std::tuple<int, int, int>> cells;
+  for (int k = 0; k <= steps; ++k) {
+    const Eigen::Vector3d sample = a + axis * (static_cast<double>(k) / steps);
+    grid.forEachCellInCube(sample, reach + 0.5 * length / steps,
+                           [&](const Eigen::Vector3i& cell) { cells.emplace_back(cell.x(), cell.y(), cell.z()); });
+  }
+  std::sort(cells.begin(), cells.end());
+  cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
+  std::vector<std::uint32_t> near;
+  for (const auto& [x, y, z] : cells) {
+    const auto* bucket = grid.find(Eigen::Vector3i(x, y, z));
+    if (!bucket) continue;
+    for (std::uint32_t i : *bucket) {
+      const Eigen::Vector3d p = cloud.positions[i].cast<double>();
+      const double t = length > 0.0 ? std::clamp((p - a).dot(axis) / (length * length), 0.0, 1.0) : 0.0;
+      if ((p - a - t * axis).squaredNorm() <= reach * reach) near.push_back(i);
+    }
+  }
+  std::sort(near.begin(), near.end());
+  return near;
 }
 
 }  // namespace piperun

@@ -970,6 +970,59 @@ TEST(Joints, APostSeenFromAfarIsNotCompletedAsAPipe) {
   EXPECT_TRUE(result.joints.empty());
 }
 
+/// A 4" main along x from -1 to 1 at the origin; a pipe far off along z makes z one of the
+/// network's directions. A test adds what hangs below the main at x = 0.3.
+ConstructedScene mainPipeScene(double noise) {
+  ConstructedScene scene(noise);
+  scene.addPipe({-1, 0, 0}, {1, 0, 0}, 0.05715);
+  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, 0.05715);
+  return scene;
+}
+
+TEST(Joints, AThinBranchSeenInAFewScanColumnsIsFoundOffItsMain) {
+  // A 1.25" branch leaves the main downwards at x = 0.3 and runs 80 cm, seen from far off along -y
+  // in three scan columns 28° apart (their sagitta is 2.5 mm), with normals leaning 20° off the
+  // radial: too little arc for the placement. It is found, with its radius, and takes the tee.
+  const double r = 0.0211, mainRadius = 0.05715;
+  ConstructedScene scene = mainPipeScene(0.001);
+  scene.addScanColumns({0.3, 0, -mainRadius}, {0.3, 0, -0.8}, r, -Eigen::Vector3d::UnitY(), {-28.0, 0.0, 28.0}, 20.0,
+                       0.01);
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.completedPipes, 0u);
+  EXPECT_EQ(result.diagnostics.branchPipes, 1u);
+  ASSERT_EQ(result.pipes.size(), 3u);
+  const PipeSegment& branch = result.pipes[2];
+  EXPECT_GT(std::fabs((branch.end - branch.start).normalized().z()), 0.999);
+  EXPECT_NEAR(branch.start.x(), 0.3, 0.005);
+  EXPECT_NEAR(branch.start.y(), 0.0, 0.005);
+  EXPECT_NEAR(branch.start.z(), -mainRadius, 0.005);  // From the main's wall...
+  EXPECT_NEAR(branch.end.z(), -0.8, 0.05);             // ...to its last points.
+  EXPECT_NEAR(branch.radius, r, 0.15 * r);
+  ASSERT_EQ(result.joints.size(), 1u);
+  const Joint& tee = result.joints[0];
+  EXPECT_EQ(tee.type, JointType::Tee);
+  EXPECT_EQ(tee.pipeIds, (std::vector<int>{1, 3}));
+  EXPECT_LT((tee.axis.front() - Eigen::Vector3d(0.3, 0, 0)).norm(), 0.005);
+  EXPECT_EQ(tee.status, JointStatus::Accepted);
+
+  JointsParams noBranches;
+  noBranches.minBranchRadius = 0.0;
+  const JointsResult without = scene.connect(noBranches);
+  EXPECT_EQ(without.diagnostics.branchPipes, 0u);
+  EXPECT_TRUE(without.joints.empty());
+}
+
+TEST(Joints, ASquarePostUnderAPipeIsNoBranch) {
+  // A 5 cm square post carries the main at x = 0.3: upright and against the main's wall, but its
+  // faces lie inside any circle through its edges.
+  ConstructedScene scene = mainPipeScene(0.001);
+  scene.addPost(0.3, 0.0, 0.05, -1.0, -0.05715);
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.branchPipes, 0u);
+  EXPECT_EQ(result.pipes.size(), 2u);
+  EXPECT_TRUE(result.joints.empty());
+}
+
 TEST(Joints, RunsAreConnectedComponentsOverAcceptedJoints) {
   ConstructedScene scene;
   scene.addPipe({0, 0, 0}, {1, 0, 0}, 0.05);        // 1 ─ boundary ─ 2

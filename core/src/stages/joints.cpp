@@ -837,13 +837,14 @@ std::vector<Eigen::Vector3d> networkDirections(const std::vector<PipeSegment>& p
 /// into equipment hold too few points for the Gaussian sphere, but knowing the radius, the end and
 /// the network's directions leaves only the corner's place to find.
 struct Completion {
-  PipeEnd from;
-  PipeSegment pipe;  // From the corner beyond `from` to its last supported section.
+  PipeEnd from;   // The end it continues beyond an elbow...
+  int main = -1;  // ...or, when not negative, the pipe it branches from at a tee.
+  PipeSegment pipe;  // From the corner beyond `from` (the main's wall) to its last supported section.
 };
 
-class EndCompletion {
+class Completer {
  public:
-  EndCompletion(const JointsInput& input, const JointsParams& params, const JointBuilder& builder)
+  Completer(const JointsInput& input, const JointsParams& params, const JointBuilder& builder)
       : input_(input), params_(params), builder_(builder) {}
 
   /// The radius of the sphere around an end that holds every point a completion may use.
@@ -876,9 +877,158 @@ class EndCompletion {
     return best;
   }
 
+  /// The radius around pipe `main`'s axis that holds every point branchesOf() looks at.
+  double branchReach(int main) const {
+    const double radius = input_.pipes[static_cast<std::size_t>(main)].radius;
+    return radius / std::sin(radians(params_.minTeeAngleDeg)) + params_.maxCompletionLength +
+           2.0 * (radius + params_.supportDistance);
+  }
+
+  /// Branches the earlier stages missed leaving the body of pipe `main` along one of `directions`:
+  /// a thin branch seen in a few scan columns has too few points, and too little arc, for the
+  /// Gaussian sphere and the placement. Its axis meets the main's, so only where along the main (s)
+  /// and how thick (r) are unknown: seen along the branch, with the main's axis across at angle φ
+  /// and h the offset from the plane of the two axes, a point with its normal across the branch
+  /// votes for the (s, r) that put it on the surface, (q − s sin φ)² + h² = r². Columns on
+  /// different sides of the arc meet in one (s, r); the few best peaks are refined by least squares
+  /// and each is checked as a completion is (completeAt). `nearby`: the points not explained by
+  /// any pipe within branchReach(main).
+  std::vector<Completion> branchesOf(int main, const std::vector<Eigen::Vector3d>& directions,
+                                     const std::vector<std::uint32_t>& nearby) const {
+    const PipeSegment& mainPipe = input_.pipes[static_cast<std::size_t>(main)];
+    const double maxRadius = mainPipe.radius;  // A branch is no thicker than its main.
+    std::vector<Completion> found;
+    if (params_.minBranchRadius <= 0.0 || maxRadius < params_.minBranchRadius) return found;
+    const Eigen::Vector3d u = unitAxis(mainPipe);
+    const double length = (mainPipe.end - mainPipe.start).norm();
+    const double band = params_.supportDistance;
+    const double positionBin = 0.5 * band;
+    const int radiusBins =
+        1 + static_cast<int>(std::floor(std::log(maxRadius / params_.minBranchRadius) / std::log(kBranchRadiusStep)));
+    const auto radiusOf = [&](int k) { return params_.minBranchRadius * std::pow(kBranchRadiusStep, k); };
+    const double maxLean = std::sin(radians(kCompletionNormalAngleDeg));
+    using Voter = BranchVoter;
+    for (const Eigen::Vector3d& direction : directions) {
+      const double cosine = direction.dot(u);
+      if (std::fabs(cosine) > std::cos(radians(params_.minTeeAngleDeg))) continue;
+      const double sine = std::sqrt(1.0 - cosine * cosine);
+      const Eigen::Vector3d inPlane = (u - cosine * direction) / sine;
+      const double wall = mainPipe.radius / sine;  // From the main's axis to its wall, along the branch.
+      for (const double sign : {1.0, -1.0}) {
+        const Eigen::Vector3d along = sign * direction;
+        const Eigen::Vector3d aside = along.cross(inPlane);
+        std::vector<Voter> voters;
+        for (std::uint32_t i : nearby) {
+          const Eigen::Vector3d w = input_.cloud.positions[i].cast<double>() - mainPipe.start;
+          const double distanceAlong = w.dot(along);
+          const double h = w.dot(aside);
+          if (distanceAlong < wall + band || distanceAlong > wall + params_.maxCompletionLength ||
+              std::fabs(h) >= maxRadius) {
+            continue;
+          }
+          if (!input_.cloud.normals.empty() &&
+              std::fabs(input_.cloud.normals[i].cast<double>().dot(along)) > maxLean) {
+            continue;
+          }
+          voters.push_back({w.dot(inPlane), h});
+        }
+        if (voters.size() < params_.minCompletionPoints) continue;
+        const auto positions = static_cast<int>(std::ceil(length / positionBin)) + 1;
+        std::vector<float> votes(static_cast<std::size_t>(positions) * static_cast<std::size_t>(radiusBins), 0.0F);
+        const auto bin = [&](int position, int k) {
+          return static_cast<std::size_t>(position) * static_cast<std::size_t>(radiusBins) + static_cast<std::size_t>(k);
+        };
+        for (const Voter& voter : voters) {
+          for (int k = 0; k < radiusBins; ++k) {
+            const double r = radiusOf(k);
+            if (r <= std::fabs(voter.h)) continue;
+            const double half = std::sqrt(r * r - voter.h * voter.h);
+            for (const double root : {voter.q - half, voter.q + half}) {
+              // Well inside the main's body (see teeAt): nearer an end, the branch is an elbow's.
+              const double s = root / sine;
+              if (s < 2.0 * r || s > length - 2.0 * r) continue;
+              votes[bin(static_cast<int>(std::lround(s / positionBin)), k)] += 1.0F;
+            }
+          }
+        }
+        // Peaks of the votes summed over 3 × 3 bins.
+        const auto smoothed = [&](int position, int k) {
+          float sum = 0.0F;
+          for (int dp = -1; dp <= 1; ++dp) {
+            for (int dk = -1; dk <= 1; ++dk) {
+              const int p = position + dp;
+              const int kk = k + dk;
+              if (p >= 0 && p < positions && kk >= 0 && kk < radiusBins) sum += votes[bin(p, kk)];
+            }
+          }
+          return sum;
+        };
+        struct Peak {
+          float votes;
+          int position;
+          int k;
+        };
+        std::vector<Peak> peaks;
+        for (int position = 0; position < positions; ++position) {
+          for (int k = 0; k < radiusBins; ++k) {
+            if (votes[bin(position, k)] == 0.0F) continue;
+            const float here = smoothed(position, k);
+            if (here < static_cast<float>(params_.minCompletionPoints)) continue;
+            bool highest = true;
+            for (int dp = -1; dp <= 1 && highest; ++dp) {
+              for (int dk = -1; dk <= 1 && highest; ++dk) {
+                const int p = position + dp;
+                const int kk = k + dk;
+                if ((dp != 0 || dk != 0) && p >= 0 && p < positions && kk >= 0 && kk < radiusBins) {
+                  const float there = smoothed(p, kk);
+                  // Of equal neighbours, the first is the peak.
+                  highest = there < here || (there == here && bin(p, kk) > bin(position, k));
+                }
+              }
+            }
+            if (highest) peaks.push_back({here, position, k});
+          }
+        }
+        std::stable_sort(peaks.begin(), peaks.end(), [](const Peak& a, const Peak& b) { return a.votes > b.votes; });
+        std::vector<std::pair<double, double>> tried;  // (s, r) of the peaks looked at.
+        for (const Peak& peak : peaks) {
+          if (tried.size() == kBranchPeaks) break;
+          double s = peak.position * positionBin;
+          double r = radiusOf(peak.k);
+          // One branch makes peaks at several radii around one place.
+          if (std::any_of(tried.begin(), tried.end(), [&](const std::pair<double, double>& other) {
+                return std::fabs(other.first - s) < other.second + r;
+              })) {
+            continue;
+          }
+          tried.emplace_back(s, r);
+          refineBranch(voters, sine, s, r);
+          if (r < params_.minBranchRadius || r > maxRadius || s < 2.0 * r || s > length - 2.0 * r) continue;
+          Straight straight;
+          straight.corner = mainPipe.start + s * u;
+          straight.along = along;
+          straight.across = inPlane;
+          straight.aside = aside;
+          straight.radius = r;
+          straight.firstAlong = wall;
+          straight.clutterFrom = wall;
+          straight.behindStart = wall + 2.0 * band;
+          auto pipe = completeAt(straight, nearby);
+          if (!pipe) continue;
+          pipe->start = straight.corner + wall * along;  // The branch meets the main at its wall.
+          found.push_back(Completion{PipeEnd{}, main, std::move(*pipe)});
+        }
+      }
+    }
+    return found;
+  }
+
  private:
   static constexpr double kLocalDirectionSnapDeg = 5.0;  // See complete().
   static constexpr std::size_t kCornerPeaks = 3;  // Corners tried per direction (see completeAlong).
+  static constexpr std::size_t kBranchPeaks = 3;  // Branches tried per direction and side (see branchesOf)...
+  static constexpr double kBranchRadiusStep = 1.03;  // ...over radii 3 % apart.
+  static constexpr int kBranchRefinements = 5;  // Gauss–Newton steps of refineBranch.
   // A missed pipe is sparse: a normal fitted over a few of its scan columns leans up to about 45°
   // off the radial direction, where one fitted over a dense surface keeps within 30°.
   static constexpr double kCompletionNormalAngleDeg = 40.0;
@@ -899,6 +1049,27 @@ class EndCompletion {
   static constexpr double kMinOutOfRound = 0.0025;      // ...or this (m): a placed axis is a little off.
   static constexpr double kMinRadiusTolerance = 0.0015;  // The mean offset of the points from the radius (m)...
   static constexpr double kRadiusToleranceRadii = 0.03;  // ...may be this share of the radius, or the above.
+
+  /// A point voting for a branch (see branchesOf), seen along the branch: its offsets across it
+  /// along the main's axis (q) and off the plane of the two axes (h).
+  struct BranchVoter {
+    double q;
+    double h;
+  };
+
+  /// A straight a completion is looked for along: its axis leaves `corner` along `along` (`across`
+  /// × `aside` = `along`); its surface is looked at from `firstAlong` on, the clutter around it
+  /// counted from `clutterFrom` on, and its surface behind the corner from `behindStart` back.
+  struct Straight {
+    Eigen::Vector3d corner = Eigen::Vector3d::Zero();
+    Eigen::Vector3d along = Eigen::Vector3d::Zero();
+    Eigen::Vector3d across = Eigen::Vector3d::Zero();
+    Eigen::Vector3d aside = Eigen::Vector3d::Zero();
+    double radius = 0.0;
+    double firstAlong = 0.0;
+    double clutterFrom = 0.0;
+    double behindStart = 0.0;
+  };
 
   /// How far behind a free end (radius r) the corner of an elbow bending by `bend` may lie: the
   /// found end may pass the corner by a radius, and on slight bends by the length over which the
@@ -1151,24 +1322,62 @@ class EndCompletion {
     // 2r from the true one as much as for that; other surfaces nearby, and the elbow short of its
     // tangent point, vote as well. The most voted corner may leave the leg's points inside the
     // tube: the best-supported completion from the highest few peaks wins.
+    Straight straight;
+    straight.along = along;
+    straight.across = across;
+    straight.aside = aside;
+    straight.radius = r;
+    straight.firstAlong = firstAlong;
+    // Up to a short-radius elbow's tangent point (R = 2r, the tightest fitting) the bend may still
+    // run, its torus inside the tube's start and outside it: no clutter is counted there.
+    straight.clutterFrom = kShortElbowRadii * r * sine / (1.0 + cosine);
+    // Behind the corner, past where the end's own pipe meets the surface.
+    straight.behindStart = r + 2.0 * r * std::max(0.0, cosine) / sine + 2.0 * band;
     std::optional<Completion> best;
     for (const double cornerDistance : histogram.peaks(kCornerPeaks)) {
-      const Eigen::Vector3d corner = end.point + cornerDistance * end.outward;
-      auto candidate = completeAt(end, corner, along, across, aside, firstAlong, nearby);
-      if (candidate && (!best || candidate->pipe.inliers.size() > best->pipe.inliers.size())) {
-        best = std::move(candidate);
+      straight.corner = end.point + cornerDistance * end.outward;
+      auto candidate = completeAt(straight, nearby);
+      if (candidate && (!best || candidate->inliers.size() > best->pipe.inliers.size())) {
+        best = Completion{end, -1, std::move(*candidate)};
       }
     }
     return best;
   }
 
-  /// The completion of `end` by a pipe from `corner` along `along` (see completeAlong), if the
-  /// points support it.
-  std::optional<Completion> completeAt(const PipeEnd& end, const Eigen::Vector3d& corner, const Eigen::Vector3d& along,
-                                       const Eigen::Vector3d& across, const Eigen::Vector3d& aside, double firstAlong,
-                                       const std::vector<std::uint32_t>& nearby) const {
-    const double r = end.radius;
+  /// Least-squares (s, r) of a branch (see branchesOf) over the voters within the support band of
+  /// its surface, from the peak's (s, r).
+  void refineBranch(const std::vector<BranchVoter>& voters, double sine, double& s, double& r) const {
+    for (int step = 0; step < kBranchRefinements; ++step) {
+      // The band narrows to the scan noise as the fit settles: clutter at its edge pulls r out.
+      const double band = (step < kBranchRefinements / 2 ? 1.0 : 0.5) * params_.supportDistance;
+      Eigen::Matrix2d normal = Eigen::Matrix2d::Zero();
+      Eigen::Vector2d gradient = Eigen::Vector2d::Zero();
+      for (const BranchVoter& voter : voters) {
+        const double dq = voter.q - s * sine;
+        const double distance = std::hypot(dq, voter.h);
+        const double residual = distance - r;
+        if (std::fabs(residual) > band || distance < 1e-9) continue;
+        const Eigen::Vector2d jacobian(-dq * sine / distance, -1.0);
+        normal += jacobian * jacobian.transpose();
+        gradient += jacobian * residual;
+      }
+      if (normal.determinant() <= 1e-12 * normal.squaredNorm()) return;
+      const Eigen::Vector2d change = -normal.ldlt().solve(gradient);
+      s += change(0);
+      r += change(1);
+    }
+  }
+
+  /// The pipe along `straight`, if the points support it (see completeAlong), with its coverage
+  /// as its confidence.
+  std::optional<PipeSegment> completeAt(const Straight& straight, const std::vector<std::uint32_t>& nearby) const {
+    const Eigen::Vector3d& corner = straight.corner;
+    const Eigen::Vector3d& along = straight.along;
+    const Eigen::Vector3d& across = straight.across;
+    const Eigen::Vector3d& aside = straight.aside;
+    const double r = straight.radius;
     const double band = params_.supportDistance;
+    const double firstAlong = straight.firstAlong;
     const double lastAlong = firstAlong + params_.maxCompletionLength;
 
     // Sections along the new pipe holding a point on its surface.
@@ -1179,14 +1388,9 @@ class EndCompletion {
     std::vector<std::size_t> clutterBySection(sections, 0);
     // Every point within the band, whatever its normal: the whole arc the scanner saw.
     std::vector<std::vector<std::uint32_t>> bandBySection(sections);
-    const double cosine = end.outward.dot(along);
-    const double sine = std::sqrt(1.0 - cosine * cosine);
-    // Up to a short-radius elbow's tangent point (R = 2r, the tightest fitting) the bend may still
-    // run, its torus inside the tube's start and outside it: no clutter is counted there.
-    const double shortElbowTangent = kShortElbowRadii * r * sine / (1.0 + cosine);
-    // Sections behind the corner, past where the end's own pipe meets the surface, holding a point
-    // on it: a post the pipe ends at, or the main of a tee, carries on through the corner.
-    const double behindStart = r + 2.0 * r * std::max(0.0, cosine) / sine + 2.0 * band;
+    // Sections behind the corner holding a point on the surface: a post the pipe ends at, or the
+    // main of a tee, carries on through the corner.
+    const double behindStart = straight.behindStart;
     std::array<char, kBehindSections> behind{};
     for (std::uint32_t i : nearby) {
       const Eigen::Vector3d d = input_.cloud.positions[i].cast<double>() - corner;
@@ -1205,7 +1409,7 @@ class EndCompletion {
       }
       const auto section =
           std::min(sections - 1, static_cast<std::size_t>((distanceAlong - firstAlong) / kSectionLength));
-      if (isClutter(distance, r, band, /*unexplained=*/true) && distanceAlong >= shortElbowTangent) {
+      if (isClutter(distance, r, band, /*unexplained=*/true) && distanceAlong >= straight.clutterFrom) {
         ++clutterBySection[section];
       }
       if (withinBand) bandBySection[section].push_back(i);
@@ -1224,25 +1428,25 @@ class EndCompletion {
     last = bridgedEnd(last, sections, maxGap, kMaxBridgeSections, occupied);
     std::size_t covered = 0;
     std::size_t clutter = 0;
-    Completion completion;
+    PipeSegment pipe;
     std::vector<std::uint32_t> inBand;
     for (std::size_t k = 0; k <= last; ++k) {
       covered += bySection[k].empty() ? 0 : 1;
       clutter += clutterBySection[k];
-      completion.pipe.inliers.insert(completion.pipe.inliers.end(), bySection[k].begin(), bySection[k].end());
+      pipe.inliers.insert(pipe.inliers.end(), bySection[k].begin(), bySection[k].end());
       inBand.insert(inBand.end(), bandBySection[k].begin(), bandBySection[k].end());
     }
     const double coverage = static_cast<double>(covered) / static_cast<double>(last + 1);
     const double length = firstAlong + static_cast<double>(last + 1) * kSectionLength;
     const auto behindCovered = std::count(behind.begin(), behind.end(), 1);
     if (static_cast<double>(behindCovered) >= params_.minCompletionCoverage * kBehindSections) return std::nullopt;
-    if (completion.pipe.inliers.size() < params_.minCompletionPoints || coverage < params_.minCompletionCoverage ||
-        static_cast<double>(clutter) > kMaxClutterShare * static_cast<double>(completion.pipe.inliers.size()) ||
+    if (pipe.inliers.size() < params_.minCompletionPoints || coverage < params_.minCompletionCoverage ||
+        static_cast<double>(clutter) > kMaxClutterShare * static_cast<double>(pipe.inliers.size()) ||
         length - firstAlong < 2.0 * r * params_.minPipeDiameters) {
       return std::nullopt;
     }
-    std::sort(completion.pipe.inliers.begin(), completion.pipe.inliers.end());
-    const RadialOffsets onSurface = radialOffsets(completion.pipe.inliers, corner, along, r);
+    std::sort(pipe.inliers.begin(), pipe.inliers.end());
+    const RadialOffsets onSurface = radialOffsets(pipe.inliers, corner, along, r);
     const RadialOffsets overBand = radialOffsets(inBand, corner, along, r);
     // The points must sit on the radius of the pipe being continued, not merely within the band: a
     // square post or a flange face next to a pipe end fits the band but not the radius. So must all
@@ -1250,7 +1454,7 @@ class EndCompletion {
     // the surface are the rays down its front, which the face of a post matches as well.
     if (!onRadius(onSurface, r) || !onRadius(overBand, r)) return std::nullopt;
     // ...and around it: a square post's faces sit inside the circle and its corners outside.
-    if (outOfRoundness(completion.pipe.inliers, corner, along, across, aside, r) >
+    if (outOfRoundness(pipe.inliers, corner, along, across, aside, r) >
         std::max(kMinOutOfRound, kMaxOutOfRoundRadii * r)) {
       return std::nullopt;
     }
@@ -1260,19 +1464,18 @@ class EndCompletion {
     // are the front of the arc, flat on any thin pipe.)
     const bool hasNormals = !input_.cloud.normals.empty();
     const std::array<double, 180> windows =
-        hasNormals ? normalWindows(completion.pipe.inliers, across, aside) : std::array<double, 180>{};
+        hasNormals ? normalWindows(pipe.inliers, across, aside) : std::array<double, 180>{};
     if (hasNormals && flatShare(windows) > kMaxFlatShare &&
         lineRms(inBand, corner, across, aside) < kLineToCircle * overBand.rms) {
       return std::nullopt;
     }
     if (hasNormals && squareEdge(windows)) return std::nullopt;
-    completion.from = end;
-    completion.pipe.start = corner;
-    completion.pipe.end = corner + length * along;
-    completion.pipe.radius = r;
-    completion.pipe.rms = onSurface.rms;
-    completion.pipe.confidence = coverage;
-    return completion;
+    pipe.start = corner;
+    pipe.end = corner + length * along;
+    pipe.radius = r;
+    pipe.rms = onSurface.rms;
+    pipe.confidence = coverage;
+    return pipe;
   }
 
   const JointsInput& input_;
@@ -1285,7 +1488,7 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
                                          const std::vector<char>& explained, const Resolution& resolution,
                                          double cellSize) {
   const JointBuilder builder(input, params, explained);
-  const EndCompletion completer(input, params, builder);
+  const Completer completer(input, params, builder);
   // An end that only a proposed joint took is completed too: resolved again with the completion,
   // the better-supported joint takes it.
   const auto takenByAccepted = [&](int key) {
@@ -1305,16 +1508,41 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
   }
   const auto nearby = pointsInSpheres(input.cloud, spheres, cellSize, [&](std::size_t i) { return !explained[i]; });
   const auto directions = networkDirections(input.pipes);
-  std::vector<std::optional<Completion>> found(ends.size());
+  std::vector<std::optional<Completion>> completed(ends.size());
   tbb::parallel_for(std::size_t{0}, ends.size(),
-                    [&](std::size_t e) { found[e] = completer.complete(ends[e], directions, nearby[e]); });
+                    [&](std::size_t e) { completed[e] = completer.complete(ends[e], directions, nearby[e]); });
 
-  std::vector<std::size_t> order;
-  for (std::size_t e = 0; e < ends.size(); ++e) {
-    if (found[e]) order.push_back(e);
+  // Branches off every pipe's body, from the unexplained points filed by position.
+  std::vector<int> mains;
+  for (int p = 0; p < static_cast<int>(input.pipes.size()); ++p) {
+    const auto pipe = static_cast<std::size_t>(p);
+    if (!isFragment(input.pipes[pipe], params) && !resolution.arcPieces[pipe]) mains.push_back(p);
   }
+  std::vector<std::vector<Completion>> branches(mains.size());
+  if (params.minBranchRadius > 0.0) {
+    HashGrid pointGrid(cellSize);
+    for (std::size_t i = 0; i < input.cloud.size(); ++i) {
+      if (!explained[i]) pointGrid.insert(pointGrid.cellOf(input.cloud.positions[i].cast<double>()), static_cast<std::uint32_t>(i));
+    }
+    tbb::parallel_for(std::size_t{0}, mains.size(), [&](std::size_t m) {
+      const PipeSegment& main = input.pipes[static_cast<std::size_t>(mains[m])];
+      const auto near = pointsNearSegment(pointGrid, cellSize, input.cloud, main.start, main.end, completer.branchReach(mains[m]));
+      branches[m] = completer.branchesOf(mains[m], directions, near);
+    });
+  }
+
+  // Ends first, then branches by main, each in order: the best-supported first.
+  std::vector<Completion> found;
+  for (auto& completion : completed) {
+    if (completion) found.push_back(std::move(*completion));
+  }
+  for (auto& ofMain : branches) {
+    for (auto& branch : ofMain) found.push_back(std::move(branch));
+  }
+  std::vector<std::size_t> order(found.size());
+  for (std::size_t c = 0; c < found.size(); ++c) order[c] = c;
   std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
-    return found[x]->pipe.inliers.size() > found[y]->pipe.inliers.size();
+    return found[x].pipe.inliers.size() > found[y].pipe.inliers.size();
   });
   // A completion whose middle lies inside a pipe's tube is that pipe again, over points its inliers
   // left out: the end it grew from belongs with that pipe (whose joint it is, proposed or not). A
@@ -1322,15 +1550,15 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
   std::vector<char> used(input.cloud.size(), 0);
   std::vector<Completion> completions;
   for (std::size_t e : order) {
-    if (insideAnotherPipe(found[e]->pipe, input.pipes, params)) continue;
-    const auto& inliers = found[e]->pipe.inliers;
+    if (insideAnotherPipe(found[e].pipe, input.pipes, params)) continue;
+    const auto& inliers = found[e].pipe.inliers;
     const auto shared = static_cast<std::size_t>(
         std::count_if(inliers.begin(), inliers.end(), [&](std::uint32_t i) { return used[i] != 0; }));
     // The same pipe, completed from its other side: over the same points, or (a sparse or partly
     // hidden leg, whose two completions take different points) one inside the other's tube or the
     // two ends a boundary joint could join. The elbow at the other end extends the one kept.
     const auto sameLeg = [&](const Completion& kept) {
-      const std::vector<PipeSegment> pair{found[e]->pipe, kept.pipe};
+      const std::vector<PipeSegment> pair{found[e].pipe, kept.pipe};
       if (middleInsideTube(pair[0], pair[1]) || middleInsideTube(pair[1], pair[0])) return true;
       for (int side = 0; side < 4; ++side) {
         if (builder.boundaryBetween(endOf(pair, 0, side / 2), endOf(pair, 1, side % 2))) return true;
@@ -1339,7 +1567,7 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
     };
     if (2 * shared > inliers.size() || std::any_of(completions.begin(), completions.end(), sameLeg)) continue;
     for (std::uint32_t i : inliers) used[i] = 1;
-    completions.push_back(std::move(*found[e]));
+    completions.push_back(std::move(found[e]));
   }
   return completions;
 }
@@ -1360,6 +1588,7 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   // Free ends completed by the pipes the earlier stages missed; a completion is kept when it takes
   // an elbow with the end it grew from (the others go and the rest are resolved again).
   std::size_t completed = 0;
+  std::size_t branches = 0;
   if (params.maxCompletionLength > 0.0) {
     // A fragment's points may be a missed leg's only ones (a short stretch seen between elbows):
     // the completion may take them, and the fragment goes with the completed pipe (below).
@@ -1379,22 +1608,29 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
       Resolution again =
           resolveJoints({input.cloud, augmented}, params, augmentedExplained, input.pipes.size(), cellSize, progress);
       std::vector<char> joined(completions.size(), 0);
+      // An end's completion takes the elbow with that end, a branch the tee with its main.
+      const auto takes = [&](const Hypothesis& hypothesis, std::size_t c) {
+        const int startKey = 2 * static_cast<int>(input.pipes.size() + c);
+        if (completions[c].main >= 0) {
+          return hypothesis.type == JointType::Tee && hypothesis.a.key() == startKey &&
+                 hypothesis.mainPipe == completions[c].main;
+        }
+        const int fromKey = completions[c].from.key();
+        return hypothesis.type == JointType::Elbow &&
+               ((hypothesis.a.key() == fromKey && hypothesis.b.key() == startKey) ||
+                (hypothesis.b.key() == fromKey && hypothesis.a.key() == startKey));
+      };
       for (std::size_t h : again.chosen) {
-        const Hypothesis& hypothesis = again.hypotheses[h];
-        if (hypothesis.type != JointType::Elbow) continue;
         for (std::size_t c = 0; c < completions.size(); ++c) {
-          const int startKey = 2 * static_cast<int>(input.pipes.size() + c);
-          const int fromKey = completions[c].from.key();
-          if ((hypothesis.a.key() == fromKey && hypothesis.b.key() == startKey) ||
-              (hypothesis.b.key() == fromKey && hypothesis.a.key() == startKey)) {
-            joined[c] = 1;
-          }
+          if (takes(again.hypotheses[h], c)) joined[c] = 1;
         }
       }
       if (std::count(joined.begin(), joined.end(), 1) == static_cast<std::ptrdiff_t>(completions.size())) {
         pipes = std::move(augmented);
         resolution = std::move(again);
         completed = completions.size();
+        branches = static_cast<std::size_t>(std::count_if(completions.begin(), completions.end(),
+                                                          [](const Completion& c) { return c.main >= 0; }));
         break;
       }
       std::vector<Completion> kept;
@@ -1408,7 +1644,8 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
 
   JointsResult result;
   result.diagnostics = resolution.diagnostics;
-  result.diagnostics.completedPipes = completed;
+  result.diagnostics.completedPipes = completed - branches;
+  result.diagnostics.branchPipes = branches;
   auto& hypotheses = resolution.hypotheses;
   const auto& chosen = resolution.chosen;
   const int pipeCount = static_cast<int>(pipes.size());

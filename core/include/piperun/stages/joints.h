@@ -54,6 +54,10 @@ struct JointsParams {
   double minCompletionCoverage = 0.5;  ///< ...in this share of its sections at least, and must take the elbow.
   double minCompletionBendDeg = 8.0;   ///< Such a pipe turns at least this far from the end's axis: normals scatter a
                                        ///< few degrees, so gentler directions are the end's own pipe carrying on.
+  double minBranchRadius = 0.012;      ///< Every pipe also looks along its body for a branch the earlier stages missed
+                                       ///< (a thin one seen in a few scan columns), of this radius (m) up to its own,
+                                       ///< along one of the network's directions, checked as a completed pipe is and
+                                       ///< kept when it takes the tee (0: off).
 };
 
 struct JointsInput {
@@ -62,8 +66,9 @@ struct JointsInput {
 };
 
 /// The joined network in the cloud's frame. The pipes keep their input order, less the fragments
-/// an elbow absorbed, followed by the pipes completed beyond free ends, with ids from 1 in that
-/// order (elbows move their ends to the tangent points); joint ids continue after the last pipe id.
+/// an elbow absorbed, followed by the pipes completed beyond free ends or found as branches, with
+/// ids from 1 in that order (elbows move their ends to the tangent points); joint ids continue
+/// after the last pipe id.
 /// Runs are the connected components of the pipes over accepted joints, every pipe in exactly one
 /// run, numbered from 1 in the order of their first pipe.
 struct JointsResult {
@@ -77,7 +82,8 @@ struct JointsResult {
     std::array<std::size_t, 3> hypotheses{};  ///< Valid hypotheses by JointType (elbow, tee, boundary).
     std::size_t conflicts = 0;             ///< Hypotheses dropped: an end already taken, or a pipe left too short.
     std::size_t absorbedFragments = 0;     ///< Fragments removed because they lie on an elbow, and pieces of arcs.
-    std::size_t completedPipes = 0;        ///< Pipes found beyond free ends (appended after the input pipes).
+    std::size_t completedPipes = 0;        ///< Pipes found beyond free ends (appended after the input pipes)...
+    std::size_t branchPipes = 0;           ///< ...and branches found off pipes' bodies (appended with them).
     double seconds = 0.0;
   } diagnostics;
 };
