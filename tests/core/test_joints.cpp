@@ -1023,6 +1023,20 @@ TEST(Joints, ASquarePostUnderAPipeIsNoBranch) {
   EXPECT_TRUE(result.joints.empty());
 }
 
+TEST(Joints, ABranchWhoseTubeWouldCutAnotherPipeIsNoBranch) {
+  // The branch of AThinBranchSeenInAFewScanColumnsIsFoundOffItsMain, with a found 2" pipe crossing
+  // its tube: pipes do not pass through each other. (On small seed 1 without noise, scan columns
+  // left over on the walls of two branches 28 cm apart fitted a 9 cm tube between them.)
+  const double r = 0.0211, mainRadius = 0.05715;
+  ConstructedScene scene = mainPipeScene(0.001);
+  scene.addScanColumns({0.3, 0, -mainRadius}, {0.3, 0, -0.8}, r, -Eigen::Vector3d::UnitY(), {-28.0, 0.0, 28.0}, 20.0,
+                       0.01);
+  scene.addPipe({0.3, -1, -0.5}, {0.3, 1, -0.5}, 0.03015);
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.branchPipes, 0u);
+  EXPECT_EQ(result.pipes.size(), 3u);
+}
+
 TEST(Joints, RunsAreConnectedComponentsOverAcceptedJoints) {
   ConstructedScene scene;
   scene.addPipe({0, 0, 0}, {1, 0, 0}, 0.05);        // 1 ─ boundary ─ 2

@@ -25,7 +25,9 @@
 //    continued radius all around (a square post's faces and corners do not) and be neither a flat
 //    face (normals of one direction on points in a line) nor the edge of a post (normals on two
 //    directions at right angles); it is kept when it takes the elbow with the end it grew from
-//    (steps 1–3 run again with it).
+//    (steps 1–3 run again with it). Likewise every pipe looks along its body for a thin branch seen
+//    in a few scan columns: its axis meets the main's, so each unexplained point votes for where
+//    along the main and how thick; a peak's branch passes the same tests and must take the tee.
 // 5. Runs: connected components of the pipes over accepted joints.
 
 #include "piperun/stages/joints.h"
@@ -35,6 +37,7 @@
 #include "angles.h"
 #include "points_near.h"
 #include "sector_offsets.h"
+#include "segment_distance.h"
 #include "stages/section_runs.h"
 #include "stages/segment_axis.h"
 
@@ -89,6 +92,21 @@ bool insideAnotherPipe(const PipeSegment& piece, const std::vector<PipeSegment>&
   return std::any_of(pipes.begin(), pipes.end(), [&](const PipeSegment& pipe) {
     return &pipe != &piece && !isFragment(pipe, params) && middleInsideTube(piece, pipe);
   });
+}
+
+/// Whether the tube of `piece` cuts the tube of one of `pipes` other than `except` (a fragment's
+/// does not count): pipes do not pass through each other.
+bool cutsAnotherPipe(const PipeSegment& piece, int except, const std::vector<PipeSegment>& pipes,
+                     const JointsParams& params) {
+  for (std::size_t p = 0; p < pipes.size(); ++p) {
+    const PipeSegment& pipe = pipes[p];
+    if (static_cast<int>(p) == except || isFragment(pipe, params)) continue;
+    if (segmentDistance(piece.start, piece.end, pipe.start, pipe.end) <
+        piece.radius + pipe.radius - params.supportDistance) {
+      return true;
+    }
+  }
+  return false;
 }
 
 /// Votes for values in [low, high], each split linearly between its two nearest bins; the peak is
@@ -1551,6 +1569,9 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
   std::vector<Completion> completions;
   for (std::size_t e : order) {
     if (insideAnotherPipe(found[e].pipe, input.pipes, params)) continue;
+    // A branch is found from votes alone, and two neighbouring branches' facing walls fit a wide one
+    // between them.
+    if (found[e].main >= 0 && cutsAnotherPipe(found[e].pipe, found[e].main, input.pipes, params)) continue;
     const auto& inliers = found[e].pipe.inliers;
     const auto shared = static_cast<std::size_t>(
         std::count_if(inliers.begin(), inliers.end(), [&](std::uint32_t i) { return used[i] != 0; }));
