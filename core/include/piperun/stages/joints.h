@@ -48,8 +48,9 @@ struct JointsParams {
   double acceptConfidence = 0.5;       ///< Joints with at least this confidence are accepted, others proposed.
   double maxCompletionLength = 1.0;    ///< An end no accepted joint took looks for a pipe the earlier stages missed
                                        ///< beyond an elbow, along one of the network's directions, up to this long
-                                       ///< (m; 0: off): short legs between elbows and tails into equipment have too
-                                       ///< few points to stand out on the Gaussian sphere.
+                                       ///< (m; 0: off, and so is the branch search): short legs between elbows and
+                                       ///< tails into equipment have too few points to stand out on the Gaussian
+                                       ///< sphere. Branches found off a pipe's body are at most this long too.
   std::size_t minCompletionPoints = 12;  ///< Such a pipe needs this many points on its surface...
   double minCompletionCoverage = 0.5;  ///< ...in this share of its sections at least, and must take the elbow.
   double minCompletionBendDeg = 8.0;   ///< Such a pipe turns at least this far from the end's axis: normals scatter a
@@ -57,7 +58,7 @@ struct JointsParams {
   double minBranchRadius = 0.012;      ///< Every pipe also looks along its body for a branch the earlier stages missed
                                        ///< (a thin one seen in a few scan columns), of this radius (m) up to its own,
                                        ///< along one of the network's directions, checked as a completed pipe is and
-                                       ///< kept when it takes the tee (0: off).
+                                       ///< kept when it takes the tee (0: off; see maxCompletionLength).
 };
 
 struct JointsInput {
