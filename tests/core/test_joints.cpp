@@ -979,14 +979,21 @@ ConstructedScene mainPipeScene(double noise) {
   return scene;
 }
 
-TEST(Joints, AThinBranchSeenInAFewScanColumnsIsFoundOffItsMain) {
-  // A 1.25" branch leaves the main downwards at x = 0.3 and runs 80 cm, seen from far off along -y
-  // in three scan columns 28° apart (their sagitta is 2.5 mm), with normals leaning 20° off the
-  // radial: too little arc for the placement. It is found, with its radius, and takes the tee.
-  const double r = 0.0211, mainRadius = 0.05715;
+/// mainPipeScene with the points of a missed 1.25" branch (r = 21.1 mm) leaving the main
+/// downwards at x = 0.3 and running 80 cm, seen from far off along -y in three scan columns 28°
+/// apart (their sagitta is 2.5 mm), with normals leaning 20° off the radial: too little arc for
+/// the placement.
+ConstructedScene thinBranchScene() {
   ConstructedScene scene = mainPipeScene(0.001);
-  scene.addScanColumns({0.3, 0, -mainRadius}, {0.3, 0, -0.8}, r, -Eigen::Vector3d::UnitY(), {-28.0, 0.0, 28.0}, 20.0,
-                       0.01);
+  scene.addScanColumns({0.3, 0, -0.05715}, {0.3, 0, -0.8}, 0.0211, -Eigen::Vector3d::UnitY(), {-28.0, 0.0, 28.0},
+                       20.0, 0.01);
+  return scene;
+}
+
+TEST(Joints, AThinBranchSeenInAFewScanColumnsIsFoundOffItsMain) {
+  // The branch is found, with its radius, and takes the tee.
+  const double r = 0.0211, mainRadius = 0.05715;
+  const ConstructedScene scene = thinBranchScene();
   const JointsResult result = scene.connect();
   EXPECT_EQ(result.diagnostics.completedPipes, 0u);
   EXPECT_EQ(result.diagnostics.branchPipes, 1u);
@@ -1024,13 +1031,10 @@ TEST(Joints, ASquarePostUnderAPipeIsNoBranch) {
 }
 
 TEST(Joints, ABranchWhoseTubeWouldCutAnotherPipeIsNoBranch) {
-  // The branch of AThinBranchSeenInAFewScanColumnsIsFoundOffItsMain, with a found 2" pipe crossing
-  // its tube: pipes do not pass through each other. (On small seed 1 without noise, scan columns
-  // left over on the walls of two branches 28 cm apart fitted a 9 cm tube between them.)
-  const double r = 0.0211, mainRadius = 0.05715;
-  ConstructedScene scene = mainPipeScene(0.001);
-  scene.addScanColumns({0.3, 0, -mainRadius}, {0.3, 0, -0.8}, r, -Eigen::Vector3d::UnitY(), {-28.0, 0.0, 28.0}, 20.0,
-                       0.01);
+  // The thin branch, with a found 2" pipe crossing its tube: pipes do not pass through each other.
+  // (On small seed 1 without noise, scan columns left over on the walls of two branches 28 cm
+  // apart fitted a 9 cm tube between them.)
+  ConstructedScene scene = thinBranchScene();
   scene.addPipe({0.3, -1, -0.5}, {0.3, 1, -0.5}, 0.03015);
   const JointsResult result = scene.connect();
   EXPECT_EQ(result.diagnostics.branchPipes, 0u);
