@@ -925,7 +925,6 @@ class Completer {
         1 + static_cast<int>(std::floor(std::log(maxRadius / params_.minBranchRadius) / std::log(kBranchRadiusStep)));
     const auto radiusOf = [&](int k) { return params_.minBranchRadius * std::pow(kBranchRadiusStep, k); };
     const double maxLean = std::sin(radians(kCompletionNormalAngleDeg));
-    using Voter = BranchVoter;
     for (const Eigen::Vector3d& direction : directions) {
       const double cosine = direction.dot(u);
       if (std::fabs(cosine) > std::cos(radians(params_.minTeeAngleDeg))) continue;
@@ -935,7 +934,7 @@ class Completer {
       for (const double sign : {1.0, -1.0}) {
         const Eigen::Vector3d along = sign * direction;
         const Eigen::Vector3d aside = along.cross(inPlane);
-        std::vector<Voter> voters;
+        std::vector<BranchVoter> voters;
         for (std::uint32_t i : nearby) {
           const Eigen::Vector3d w = input_.cloud.positions[i].cast<double>() - mainPipe.start;
           const double distanceAlong = w.dot(along);
@@ -956,7 +955,7 @@ class Completer {
         const auto bin = [&](int position, int k) {
           return static_cast<std::size_t>(position) * static_cast<std::size_t>(radiusBins) + static_cast<std::size_t>(k);
         };
-        for (const Voter& voter : voters) {
+        for (const BranchVoter& voter : voters) {
           for (int k = 0; k < radiusBins; ++k) {
             const double r = radiusOf(k);
             if (r <= std::fabs(voter.h)) continue;
@@ -970,17 +969,20 @@ class Completer {
           }
         }
         // Peaks of the votes summed over 3 × 3 bins.
-        const auto smoothed = [&](int position, int k) {
-          float sum = 0.0F;
-          for (int dp = -1; dp <= 1; ++dp) {
-            for (int dk = -1; dk <= 1; ++dk) {
-              const int p = position + dp;
-              const int kk = k + dk;
-              if (p >= 0 && p < positions && kk >= 0 && kk < radiusBins) sum += votes[bin(p, kk)];
+        std::vector<float> smoothed(votes.size(), 0.0F);
+        for (int position = 0; position < positions; ++position) {
+          for (int k = 0; k < radiusBins; ++k) {
+            float sum = 0.0F;
+            for (int dp = -1; dp <= 1; ++dp) {
+              for (int dk = -1; dk <= 1; ++dk) {
+                const int p = position + dp;
+                const int kk = k + dk;
+                if (p >= 0 && p < positions && kk >= 0 && kk < radiusBins) sum += votes[bin(p, kk)];
+              }
             }
+            smoothed[bin(position, k)] = sum;
           }
-          return sum;
-        };
+        }
         struct Peak {
           float votes;
           int position;
@@ -990,7 +992,7 @@ class Completer {
         for (int position = 0; position < positions; ++position) {
           for (int k = 0; k < radiusBins; ++k) {
             if (votes[bin(position, k)] == 0.0F) continue;
-            const float here = smoothed(position, k);
+            const float here = smoothed[bin(position, k)];
             if (here < static_cast<float>(params_.minCompletionPoints)) continue;
             bool highest = true;
             for (int dp = -1; dp <= 1 && highest; ++dp) {
@@ -998,7 +1000,7 @@ class Completer {
                 const int p = position + dp;
                 const int kk = k + dk;
                 if ((dp != 0 || dk != 0) && p >= 0 && p < positions && kk >= 0 && kk < radiusBins) {
-                  const float there = smoothed(p, kk);
+                  const float there = smoothed[bin(p, kk)];
                   // Of equal neighbours, the first is the peak.
                   highest = there < here || (there == here && bin(p, kk) > bin(position, k));
                 }
@@ -1513,11 +1515,15 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
     const int h = resolution.takenBy[static_cast<std::size_t>(key)];
     return h >= 0 && resolution.hypotheses[static_cast<std::size_t>(h)].confidence >= params.acceptConfidence;
   };
-  std::vector<PipeEnd> ends;
-  std::vector<std::pair<Eigen::Vector3d, double>> spheres;
+  // The pipes that look for what was missed: no fragment, no piece of an elbow's arc.
+  std::vector<int> mains;
   for (int p = 0; p < static_cast<int>(input.pipes.size()); ++p) {
     const auto pipe = static_cast<std::size_t>(p);
-    if (isFragment(input.pipes[pipe], params) || resolution.arcPieces[pipe]) continue;
+    if (!isFragment(input.pipes[pipe], params) && !resolution.arcPieces[pipe]) mains.push_back(p);
+  }
+  std::vector<PipeEnd> ends;
+  std::vector<std::pair<Eigen::Vector3d, double>> spheres;
+  for (const int p : mains) {
     for (int side = 0; side < 2; ++side) {
       if (takenByAccepted(2 * p + side)) continue;
       ends.push_back(endOf(input.pipes, p, side));
@@ -1530,12 +1536,7 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
   tbb::parallel_for(std::size_t{0}, ends.size(),
                     [&](std::size_t e) { completed[e] = completer.complete(ends[e], directions, nearby[e]); });
 
-  // Branches off every pipe's body, from the unexplained points filed by position.
-  std::vector<int> mains;
-  for (int p = 0; p < static_cast<int>(input.pipes.size()); ++p) {
-    const auto pipe = static_cast<std::size_t>(p);
-    if (!isFragment(input.pipes[pipe], params) && !resolution.arcPieces[pipe]) mains.push_back(p);
-  }
+  // Branches off those pipes' bodies, from the unexplained points filed by position.
   std::vector<std::vector<Completion>> branches(mains.size());
   if (params.minBranchRadius > 0.0) {
     HashGrid pointGrid(cellSize);
