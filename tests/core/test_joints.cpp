@@ -682,6 +682,39 @@ TEST(Joints, ALegBetweenTwoElbowsThatNoPipeCoversIsCompleted) {
   EXPECT_TRUE(without.joints.empty());
 }
 
+TEST(Joints, ALegBeyondACompletedLegIsCompletedInTheNextRound) {
+  // Pipe 1 comes along +x to a corner at the origin and turns up (R = 3r, r = 5 cm) into a 60 cm
+  // leg, which turns along +y into a 60 cm tail ending freely: both are points only, as legs too
+  // short for the Gaussian sphere. The tail's corner lies beyond the first leg, out of pipe 1's
+  // reach; the completed leg's free end finds it. Pipes 2 and 3, far off, run along y and z.
+  const double r = 0.05, R = 0.15, rise = 0.6;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  scene.addElbow({-R, 0, R}, {-R, 0, 0}, -Eigen::Vector3d::UnitY(), kPi / 2, r);
+  scene.addPipe({0, 0, R}, {0, 0, rise - R}, r, false);
+  scene.addElbow({0, R, rise - R}, {0, 0, rise - R}, -Eigen::Vector3d::UnitX(), kPi / 2, r);
+  scene.addPipe({0, R, rise}, {0, 0.6, rise}, r, false);
+  scene.addPipe({3, 0, 0}, {3, 1.2, 0}, r);
+  scene.addPipe({6, 0, 0}, {6, 0, 1.2}, r);
+
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.completedPipes, 2u);
+  ASSERT_EQ(result.pipes.size(), 5u);
+  const PipeSegment& leg = result.pipes[3];  // Completed pipes come after the input pipes, round by round.
+  const PipeSegment& tail = result.pipes[4];
+  EXPECT_GT(std::fabs((leg.end - leg.start).normalized().z()), 0.999);
+  EXPECT_GT(std::fabs((tail.end - tail.start).normalized().y()), 0.999);
+  EXPECT_NEAR(tail.start.z(), rise, 0.01);
+  ASSERT_EQ(result.joints.size(), 2u);
+  for (const Joint& joint : result.joints) {
+    EXPECT_EQ(joint.type, JointType::Elbow);
+    EXPECT_EQ(joint.status, JointStatus::Accepted);
+    EXPECT_NEAR(joint.bendRadius, R, 0.1 * R);
+  }
+  ASSERT_EQ(result.runs.size(), 3u);
+  EXPECT_EQ(result.runs[0].pipeIds, (std::vector<int>{1, 4, 5}));
+}
+
 TEST(Joints, ALegSeenOnlyAsAFragmentIsCompletedAndTheFragmentGoes) {
   // Only 8 cm of the 30 cm leg were scanned, and placement fitted them as a pipe shorter than its
   // diameter: a fragment, which takes no joint. Its points are the leg's only ones; the completion

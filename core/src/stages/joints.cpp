@@ -28,6 +28,7 @@
 //    (steps 1–3 run again with it). Likewise every pipe looks along its body for a thin branch seen
 //    in a few scan columns: its axis meets the main's, so each unexplained point votes for where
 //    along the main and how thick; a peak's branch passes the same tests and must take the tee.
+//    The pipes so found look on in turn, round by round, until a round finds none.
 // 5. Runs: connected components of the pipes over accepted joints.
 
 #include "piperun/stages/joints.h"
@@ -65,6 +66,9 @@ constexpr double kMaxBendlessSupport = 0.2;
 // Missing points say the torus is not there only where it would hold this many: a thin pipe seen
 // from afar leaves a few on an elbow, which the overshooting pipes take as their inliers.
 constexpr double kMinBendlessEvidence = 10.0;
+// Rounds of completion at most: the pipes one round finds look for what lies beyond them in the
+// next, until a round finds none (medium scenes need two).
+constexpr int kMaxCompletionRounds = 4;
 
 /// Whether point i's normal is within the support angle of the unit `radial` (normals are unoriented).
 bool normalAgrees(const PointCloud& cloud, std::uint32_t i, const Eigen::Vector3d& radial,
@@ -1503,10 +1507,11 @@ class Completer {
   const JointBuilder& builder_;
 };
 
-/// Completions of the ends no accepted joint took, best-supported first; a point supports one completion.
+/// Completions of the ends no accepted joint took, and branches off the pipes' bodies, of the pipes
+/// from `lookingFrom` on; best-supported first, a point supports one completion.
 std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsParams& params,
                                          const std::vector<char>& explained, const Resolution& resolution,
-                                         double cellSize) {
+                                         std::size_t lookingFrom, double cellSize) {
   const JointBuilder builder(input, params, explained);
   const Completer completer(input, params, builder);
   // An end that only a proposed joint took is completed too: resolved again with the completion,
@@ -1517,7 +1522,7 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
   };
   // The pipes that look for what was missed: no fragment, no piece of an elbow's arc.
   std::vector<int> mains;
-  for (int p = 0; p < static_cast<int>(input.pipes.size()); ++p) {
+  for (int p = static_cast<int>(lookingFrom); p < static_cast<int>(input.pipes.size()); ++p) {
     const auto pipe = static_cast<std::size_t>(p);
     if (!isFragment(input.pipes[pipe], params) && !resolution.arcPieces[pipe]) mains.push_back(p);
   }
@@ -1594,6 +1599,58 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
   return completions;
 }
 
+/// Completions that each take their joint: an end's completion the elbow with that end, a branch the
+/// tee with its main.
+struct Adoption {
+  std::vector<Completion> completions;
+  Resolution resolution;  // Of the pipes followed by the completions.
+};
+
+/// The completions adopted among `completions` of `input.pipes`: resolved again with them, those that
+/// take no joint go and the rest are resolved again, until all take theirs; nullopt when none does.
+/// Pipes from `completionsFrom` on are completions already.
+std::optional<Adoption> adoptCompletions(const JointsInput& input, const JointsParams& params,
+                                         const std::vector<char>& explained, std::vector<Completion> completions,
+                                         std::size_t completionsFrom, double cellSize, Progress& progress) {
+  const std::size_t pipeCount = input.pipes.size();
+  while (!completions.empty()) {
+    std::vector<PipeSegment> augmented = input.pipes;
+    std::vector<char> augmentedExplained = explained;
+    for (const Completion& completion : completions) {
+      augmented.push_back(completion.pipe);
+      for (std::uint32_t i : completion.pipe.inliers) augmentedExplained[i] = 1;
+    }
+    Resolution again =
+        resolveJoints({input.cloud, augmented}, params, augmentedExplained, completionsFrom, cellSize, progress);
+    std::vector<char> joined(completions.size(), 0);
+    const auto takes = [&](const Hypothesis& hypothesis, std::size_t c) {
+      const int startKey = 2 * static_cast<int>(pipeCount + c);
+      if (completions[c].main >= 0) {
+        return hypothesis.type == JointType::Tee && hypothesis.a.key() == startKey &&
+               hypothesis.mainPipe == completions[c].main;
+      }
+      const int fromKey = completions[c].from.key();
+      return hypothesis.type == JointType::Elbow &&
+             ((hypothesis.a.key() == fromKey && hypothesis.b.key() == startKey) ||
+              (hypothesis.b.key() == fromKey && hypothesis.a.key() == startKey));
+    };
+    for (std::size_t h : again.chosen) {
+      for (std::size_t c = 0; c < completions.size(); ++c) {
+        if (takes(again.hypotheses[h], c)) joined[c] = 1;
+      }
+    }
+    if (std::count(joined.begin(), joined.end(), 1) == static_cast<std::ptrdiff_t>(completions.size())) {
+      return Adoption{std::move(completions), std::move(again)};
+    }
+    std::vector<Completion> kept;
+    for (std::size_t c = 0; c < completions.size(); ++c) {
+      if (joined[c]) kept.push_back(std::move(completions[c]));
+    }
+    completions = std::move(kept);
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 JointsResult connectPipes(const JointsInput& input, const JointsParams& params, Progress& progress) {
@@ -1608,7 +1665,8 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   progress.report("joints", 0.4);
 
   // Free ends completed by the pipes the earlier stages missed; a completion is kept when it takes
-  // an elbow with the end it grew from (the others go and the rest are resolved again).
+  // an elbow with the end it grew from (the others go and the rest are resolved again). The pipes
+  // found so look on in turn: a leg completed between two elbows, or a branch, ends freely too.
   std::size_t completed = 0;
   std::size_t branches = 0;
   if (params.maxCompletionLength > 0.0) {
@@ -1619,54 +1677,28 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
       if (isFragment(pipe, params)) continue;
       for (std::uint32_t i : pipe.inliers) explainedByPipes[i] = 1;
     }
-    std::vector<Completion> completions = completeFreeEnds(input, params, explainedByPipes, resolution, cellSize);
-    while (!completions.empty()) {
-      std::vector<PipeSegment> augmented = input.pipes;
-      std::vector<char> augmentedExplained = explained;
-      for (const Completion& completion : completions) {
-        augmented.push_back(completion.pipe);
-        for (std::uint32_t i : completion.pipe.inliers) augmentedExplained[i] = 1;
+    std::size_t lookingFrom = 0;
+    for (int round = 0; round < kMaxCompletionRounds; ++round) {
+      const JointsInput current{input.cloud, pipes};
+      std::vector<Completion> completions =
+          completeFreeEnds(current, params, explainedByPipes, resolution, lookingFrom, cellSize);
+      auto adopted = adoptCompletions(current, params, explained, std::move(completions), input.pipes.size(),
+                                      cellSize, progress);
+      if (!adopted) break;
+      lookingFrom = pipes.size();
+      for (const Completion& completion : adopted->completions) {
+        pipes.push_back(completion.pipe);
+        for (std::uint32_t i : completion.pipe.inliers) explained[i] = explainedByPipes[i] = 1;
+        ++(completion.main >= 0 ? branches : completed);
       }
-      Resolution again =
-          resolveJoints({input.cloud, augmented}, params, augmentedExplained, input.pipes.size(), cellSize, progress);
-      std::vector<char> joined(completions.size(), 0);
-      // An end's completion takes the elbow with that end, a branch the tee with its main.
-      const auto takes = [&](const Hypothesis& hypothesis, std::size_t c) {
-        const int startKey = 2 * static_cast<int>(input.pipes.size() + c);
-        if (completions[c].main >= 0) {
-          return hypothesis.type == JointType::Tee && hypothesis.a.key() == startKey &&
-                 hypothesis.mainPipe == completions[c].main;
-        }
-        const int fromKey = completions[c].from.key();
-        return hypothesis.type == JointType::Elbow &&
-               ((hypothesis.a.key() == fromKey && hypothesis.b.key() == startKey) ||
-                (hypothesis.b.key() == fromKey && hypothesis.a.key() == startKey));
-      };
-      for (std::size_t h : again.chosen) {
-        for (std::size_t c = 0; c < completions.size(); ++c) {
-          if (takes(again.hypotheses[h], c)) joined[c] = 1;
-        }
-      }
-      if (std::count(joined.begin(), joined.end(), 1) == static_cast<std::ptrdiff_t>(completions.size())) {
-        pipes = std::move(augmented);
-        resolution = std::move(again);
-        completed = completions.size();
-        branches = static_cast<std::size_t>(std::count_if(completions.begin(), completions.end(),
-                                                          [](const Completion& c) { return c.main >= 0; }));
-        break;
-      }
-      std::vector<Completion> kept;
-      for (std::size_t c = 0; c < completions.size(); ++c) {
-        if (joined[c]) kept.push_back(std::move(completions[c]));
-      }
-      completions = std::move(kept);
+      resolution = std::move(adopted->resolution);
     }
   }
   progress.report("joints", 0.8);
 
   JointsResult result;
   result.diagnostics = resolution.diagnostics;
-  result.diagnostics.completedPipes = completed - branches;
+  result.diagnostics.completedPipes = completed;
   result.diagnostics.branchPipes = branches;
   auto& hypotheses = resolution.hypotheses;
   const auto& chosen = resolution.chosen;

@@ -67,9 +67,9 @@ struct JointsInput {
 };
 
 /// The joined network in the cloud's frame. The pipes keep their input order, less the fragments
-/// an elbow absorbed, followed by the pipes completed beyond free ends or found as branches, with
-/// ids from 1 in that order (elbows move their ends to the tangent points); joint ids continue
-/// after the last pipe id.
+/// an elbow absorbed, followed by the pipes completed beyond free ends or found as branches (round
+/// by round), with ids from 1 in that order (elbows move their ends to the tangent points); joint
+/// ids continue after the last pipe id.
 /// Runs are the connected components of the pipes over accepted joints, every pipe in exactly one
 /// run, numbered from 1 in the order of their first pipe.
 struct JointsResult {
