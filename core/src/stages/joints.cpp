@@ -169,6 +169,69 @@ class VoteHistogram {
   }
 };
 
+/// Votes over a grid of bins (rows × columns, e.g. place along a pipe × radius); peaks are the local
+/// maxima of the votes summed over 3 × 3 bins.
+class GridVotes {
+ public:
+  struct Peak {
+    float votes;  // Summed over the 3 × 3 bins around it.
+    int row;
+    int column;
+  };
+
+  GridVotes(int rows, int columns)
+      : rows_(rows), columns_(columns), votes_(static_cast<std::size_t>(rows) * static_cast<std::size_t>(columns), 0.0F) {}
+
+  void vote(int row, int column) { votes_[bin(row, column)] += 1.0F; }
+
+  /// The peaks of at least `minimum` summed votes at bins that were voted for, highest first (of
+  /// equal neighbours the first bin is the peak; equal peaks in bin order).
+  std::vector<Peak> peaks(float minimum) const {
+    std::vector<float> summed(votes_.size(), 0.0F);
+    for (int row = 0; row < rows_; ++row) {
+      for (int column = 0; column < columns_; ++column) {
+        float sum = 0.0F;
+        forNeighbours(row, column, [&](int r, int c) { sum += votes_[bin(r, c)]; });
+        summed[bin(row, column)] = sum;
+      }
+    }
+    std::vector<Peak> found;
+    for (int row = 0; row < rows_; ++row) {
+      for (int column = 0; column < columns_; ++column) {
+        const float here = summed[bin(row, column)];
+        if (votes_[bin(row, column)] == 0.0F || here < minimum) continue;
+        bool highest = true;
+        forNeighbours(row, column, [&](int r, int c) {
+          const float there = summed[bin(r, c)];
+          if ((r != row || c != column) && (there > here || (there == here && bin(r, c) < bin(row, column)))) {
+            highest = false;
+          }
+        });
+        if (highest) found.push_back({here, row, column});
+      }
+    }
+    std::stable_sort(found.begin(), found.end(), [](const Peak& a, const Peak& b) { return a.votes > b.votes; });
+    return found;
+  }
+
+ private:
+  int rows_;
+  int columns_;
+  std::vector<float> votes_;
+
+  std::size_t bin(int row, int column) const {
+    return static_cast<std::size_t>(row) * static_cast<std::size_t>(columns_) + static_cast<std::size_t>(column);
+  }
+
+  /// Calls `visit(row, column)` for each bin of the 3 × 3 block around one, inside the grid.
+  template <typename Visit>
+  void forNeighbours(int row, int column, Visit visit) const {
+    for (int r = std::max(0, row - 1); r <= std::min(rows_ - 1, row + 1); ++r) {
+      for (int c = std::max(0, column - 1); c <= std::min(columns_ - 1, column + 1); ++c) visit(r, c);
+    }
+  }
+};
+
 struct PipeEnd {
   int pipe = 0;
   int side = 0;  // 0: start, 1: end
@@ -954,11 +1017,7 @@ class Completer {
           voters.push_back({w.dot(inPlane), h});
         }
         if (voters.size() < params_.minCompletionPoints) continue;
-        const auto positions = static_cast<int>(std::ceil(length / positionBin)) + 1;
-        std::vector<float> votes(static_cast<std::size_t>(positions) * static_cast<std::size_t>(radiusBins), 0.0F);
-        const auto bin = [&](int position, int k) {
-          return static_cast<std::size_t>(position) * static_cast<std::size_t>(radiusBins) + static_cast<std::size_t>(k);
-        };
+        GridVotes votes(static_cast<int>(std::ceil(length / positionBin)) + 1, radiusBins);
         for (const BranchVoter& voter : voters) {
           for (int k = 0; k < radiusBins; ++k) {
             const double r = radiusOf(k);
@@ -968,57 +1027,15 @@ class Completer {
               // Well inside the main's body (see teeAt): nearer an end, the branch is an elbow's.
               const double s = root / sine;
               if (s < 2.0 * r || s > length - 2.0 * r) continue;
-              votes[bin(static_cast<int>(std::lround(s / positionBin)), k)] += 1.0F;
+              votes.vote(static_cast<int>(std::lround(s / positionBin)), k);
             }
           }
         }
-        // Peaks of the votes summed over 3 × 3 bins.
-        std::vector<float> smoothed(votes.size(), 0.0F);
-        for (int position = 0; position < positions; ++position) {
-          for (int k = 0; k < radiusBins; ++k) {
-            float sum = 0.0F;
-            for (int dp = -1; dp <= 1; ++dp) {
-              for (int dk = -1; dk <= 1; ++dk) {
-                const int p = position + dp;
-                const int kk = k + dk;
-                if (p >= 0 && p < positions && kk >= 0 && kk < radiusBins) sum += votes[bin(p, kk)];
-              }
-            }
-            smoothed[bin(position, k)] = sum;
-          }
-        }
-        struct Peak {
-          float votes;
-          int position;
-          int k;
-        };
-        std::vector<Peak> peaks;
-        for (int position = 0; position < positions; ++position) {
-          for (int k = 0; k < radiusBins; ++k) {
-            if (votes[bin(position, k)] == 0.0F) continue;
-            const float here = smoothed[bin(position, k)];
-            if (here < static_cast<float>(params_.minCompletionPoints)) continue;
-            bool highest = true;
-            for (int dp = -1; dp <= 1 && highest; ++dp) {
-              for (int dk = -1; dk <= 1 && highest; ++dk) {
-                const int p = position + dp;
-                const int kk = k + dk;
-                if ((dp != 0 || dk != 0) && p >= 0 && p < positions && kk >= 0 && kk < radiusBins) {
-                  const float there = smoothed[bin(p, kk)];
-                  // Of equal neighbours, the first is the peak.
-                  highest = there < here || (there == here && bin(p, kk) > bin(position, k));
-                }
-              }
-            }
-            if (highest) peaks.push_back({here, position, k});
-          }
-        }
-        std::stable_sort(peaks.begin(), peaks.end(), [](const Peak& a, const Peak& b) { return a.votes > b.votes; });
         std::vector<std::pair<double, double>> tried;  // (s, r) of the peaks looked at.
-        for (const Peak& peak : peaks) {
+        for (const GridVotes::Peak& peak : votes.peaks(static_cast<float>(params_.minCompletionPoints))) {
           if (tried.size() == kBranchPeaks) break;
-          double s = peak.position * positionBin;
-          double r = radiusOf(peak.k);
+          double s = peak.row * positionBin;
+          double r = radiusOf(peak.column);
           // One branch makes peaks at several radii around one place.
           if (std::any_of(tried.begin(), tried.end(), [&](const std::pair<double, double>& other) {
                 return std::fabs(other.first - s) < other.second + r;
