@@ -1620,7 +1620,9 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
 /// tee with its main.
 struct Adoption {
   std::vector<Completion> completions;
-  Resolution resolution;  // Of the pipes followed by the completions.
+  std::vector<PipeSegment> pipes;  // The input pipes followed by the completions...
+  std::vector<char> explained;     // ...the points their inliers explain...
+  Resolution resolution;           // ...and their joints.
 };
 
 /// The completions adopted among `completions` of `input.pipes`: resolved again with them, those that
@@ -1657,7 +1659,7 @@ std::optional<Adoption> adoptCompletions(const JointsInput& input, const JointsP
       }
     }
     if (std::count(joined.begin(), joined.end(), 1) == static_cast<std::ptrdiff_t>(completions.size())) {
-      return Adoption{std::move(completions), std::move(again)};
+      return Adoption{std::move(completions), std::move(augmented), std::move(augmentedExplained), std::move(again)};
     }
     std::vector<Completion> kept;
     for (std::size_t c = 0; c < completions.size(); ++c) {
@@ -1704,10 +1706,11 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
       if (!adopted) break;
       lookingFrom = pipes.size();
       for (const Completion& completion : adopted->completions) {
-        pipes.push_back(completion.pipe);
-        for (std::uint32_t i : completion.pipe.inliers) explained[i] = explainedByPipes[i] = 1;
+        for (std::uint32_t i : completion.pipe.inliers) explainedByPipes[i] = 1;
         ++(completion.main >= 0 ? branches : completed);
       }
+      pipes = std::move(adopted->pipes);
+      explained = std::move(adopted->explained);
       resolution = std::move(adopted->resolution);
     }
   }
