@@ -1,5 +1,7 @@
 #include "piperun/stages/joints.h"
 
+#include "stages/segment_axis.h"
+
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
@@ -329,6 +331,41 @@ TEST(Joints, AGentleBendBetweenALevelAndASlopedPipeIsAnElbow) {
   // Both pipes are trimmed back to the elbow, which is only a centimetre long.
   EXPECT_LT(result.pipes[0].end.norm(), 0.02);
   EXPECT_LT(result.pipes[1].start.norm(), 0.02);
+  EXPECT_EQ(result.runs.size(), 1u);
+}
+
+TEST(Joints, APipeFittedAcrossAGentleBendIsSplitAtItsCorner) {
+  // A level pipe turns onto a 6° slope at the origin. The level pipe was fitted across the bend,
+  // its axis tilted between the two legs and its end 0.45 m up the slope; the sloped leg was found
+  // from 0.3 m on. The tilted axis turns by less than 5° from the slope, and the corner lies
+  // behind both ends: without the split, no joint joins them.
+  const double angle = 6.0 * kPi / 180.0, r = 0.05, R = 0.15;
+  const Eigen::Vector3d in = Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d out(std::cos(angle), std::sin(angle), 0.0);
+  const double tangent = R * std::tan(0.5 * angle);
+  ConstructedScene scene;
+  scene.addPipe(-0.6 * in, -tangent * in, r, /*listed=*/false);
+  scene.addPipe(tangent * out, 0.3 * out, r, /*listed=*/false);
+  scene.addBend(Eigen::Vector3d::Zero(), in, out, R, r);
+  const int slope = scene.addPipe(0.3 * out, 1.2 * out, r);
+  const int level = scene.addFittedPipe(Eigen::Vector3d(-0.6, -0.004, 0.0), Eigen::Vector3d(0.45, 0.022, 0.0), r);
+  const double tilted = std::acos(unitAxis(scene.pipes()[static_cast<std::size_t>(level)]).dot(out));
+  ASSERT_LT(tilted, 5.0 * kPi / 180.0);
+
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.splitKinks, 1u);
+  ASSERT_EQ(result.joints.size(), 1u);
+  const Joint& elbow = result.joints[0];
+  EXPECT_EQ(elbow.type, JointType::Elbow);
+  EXPECT_EQ(elbow.pipeIds, (std::vector<int>{slope + 1, level + 1}));
+  EXPECT_LT(elbow.position().norm(), 0.02);
+  // Each pipe keeps its own leg, its axis refitted on it: the level one ends at the corner.
+  const PipeSegment& levelPipe = result.pipes[static_cast<std::size_t>(level)];
+  const PipeSegment& slopePipe = result.pipes[static_cast<std::size_t>(slope)];
+  EXPECT_LT(levelPipe.end.norm(), 0.02);
+  EXPECT_LT(slopePipe.start.norm(), 0.02);
+  EXPECT_GT(unitAxis(levelPipe).dot(in), std::cos(0.2 * kPi / 180.0));
+  EXPECT_GT(unitAxis(slopePipe).dot(out), std::cos(0.2 * kPi / 180.0));
   EXPECT_EQ(result.runs.size(), 1u);
 }
 

@@ -1,5 +1,7 @@
 // Joints and pipe-runs (paper §6).
 //
+// 0. Pipes that overlap at a gentle bend, one fitted across it, are split at its corner first
+//    (gentle_kinks.h): no hypothesis below would join them.
 // 1. Hypotheses. A hash grid over the pipes' axis samples gives, for each pipe end, the pipes
 //    near it. Each end–end pair whose axes continue each other is a boundary-joint hypothesis;
 //    each end–end pair whose axes meet ahead of both ends at a bend angle is an elbow hypothesis;
@@ -39,6 +41,7 @@
 #include "points_near.h"
 #include "sector_offsets.h"
 #include "segment_distance.h"
+#include "stages/gentle_kinks.h"
 #include "stages/section_runs.h"
 #include "stages/segment_axis.h"
 
@@ -245,19 +248,6 @@ PipeEnd endOf(const std::vector<PipeSegment>& pipes, int pipe, int side) {
   const PipeSegment& segment = pipes[static_cast<std::size_t>(pipe)];
   const Eigen::Vector3d axis = unitAxis(segment);
   return {pipe, side, side == 0 ? segment.start : segment.end, side == 0 ? Eigen::Vector3d(-axis) : axis, segment.radius};
-}
-
-/// Parameters (along each line) of the closest points of two lines p + s·u and q + t·v (unit
-/// directions); nullopt when they are parallel.
-std::optional<std::pair<double, double>> closestLineParameters(const Eigen::Vector3d& p, const Eigen::Vector3d& u,
-                                                               const Eigen::Vector3d& q, const Eigen::Vector3d& v) {
-  const double b = u.dot(v);
-  const double denominator = 1.0 - b * b;
-  if (denominator < 1e-9) return std::nullopt;
-  const Eigen::Vector3d w = p - q;
-  const double d = u.dot(w);
-  const double e = v.dot(w);
-  return std::make_pair((b * e - d) / denominator, (e - b * d) / denominator);
 }
 
 /// A joint hypothesis: geometry fixed from the pipes alone, then completed with the points.
@@ -1675,12 +1665,14 @@ std::optional<Adoption> adoptCompletions(const JointsInput& input, const JointsP
 JointsResult connectPipes(const JointsInput& input, const JointsParams& params, Progress& progress) {
   const auto started = std::chrono::steady_clock::now();
   const double cellSize = std::max(params.minSearchDistance, 0.25);
+  std::vector<PipeSegment> pipes = input.pipes;
+  const std::size_t kinks = splitAtGentleKinks(input.cloud, pipes, params);
+  const JointsInput split{input.cloud, pipes};
   std::vector<char> explained(input.cloud.size(), 0);
-  for (const auto& pipe : input.pipes) {
+  for (const auto& pipe : pipes) {
     for (std::uint32_t i : pipe.inliers) explained[i] = 1;
   }
-  std::vector<PipeSegment> pipes = input.pipes;
-  Resolution resolution = resolveJoints(input, params, explained, input.pipes.size(), cellSize, progress);
+  Resolution resolution = resolveJoints(split, params, explained, pipes.size(), cellSize, progress);
   progress.report("joints", 0.4);
 
   // Free ends completed by the pipes the earlier stages missed; a completion is kept when it takes
@@ -1692,7 +1684,7 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
     // A fragment's points may be a missed leg's only ones (a short stretch seen between elbows):
     // the completion may take them, and the fragment goes with the completed pipe (below).
     std::vector<char> explainedByPipes(input.cloud.size(), 0);
-    for (const auto& pipe : input.pipes) {
+    for (const auto& pipe : pipes) {
       if (isFragment(pipe, params)) continue;
       for (std::uint32_t i : pipe.inliers) explainedByPipes[i] = 1;
     }
@@ -1720,6 +1712,7 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   result.diagnostics = resolution.diagnostics;
   result.diagnostics.completedPipes = completed;
   result.diagnostics.branchPipes = branches;
+  result.diagnostics.splitKinks = kinks;
   auto& hypotheses = resolution.hypotheses;
   const auto& chosen = resolution.chosen;
   const int pipeCount = static_cast<int>(pipes.size());

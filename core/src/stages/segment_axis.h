@@ -1,7 +1,11 @@
 #pragma once
-// The axis of a found pipe segment and distances from a line, shared by the merge and joints stages.
+// The axis of a found pipe segment, distances from a line and the closest points of two lines,
+// shared by the merge and joints stages.
 
 #include <Eigen/Core>
+
+#include <optional>
+#include <utility>
 
 #include "piperun/stages/extents.h"
 
@@ -18,6 +22,19 @@ inline Eigen::Vector3d unitAxis(const PipeSegment& segment) {
 inline double distanceToLine(const Eigen::Vector3d& p, const Eigen::Vector3d& origin, const Eigen::Vector3d& axis) {
   const Eigen::Vector3d offset = p - origin;
   return (offset - offset.dot(axis) * axis).norm();
+}
+
+/// Parameters (along each line) of the closest points of two lines p + s·u and q + t·v (unit
+/// directions); nullopt when they are parallel.
+inline std::optional<std::pair<double, double>> closestLineParameters(const Eigen::Vector3d& p, const Eigen::Vector3d& u,
+                                                                      const Eigen::Vector3d& q, const Eigen::Vector3d& v) {
+  const double b = u.dot(v);
+  const double denominator = 1.0 - b * b;
+  if (denominator < 1e-9) return std::nullopt;
+  const Eigen::Vector3d w = p - q;
+  const double d = u.dot(w);
+  const double e = v.dot(w);
+  return std::make_pair((b * e - d) / denominator, (e - b * d) / denominator);
 }
 
 }  // namespace piperun

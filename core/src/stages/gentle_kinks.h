@@ -1,0 +1,24 @@
+#pragma once
+// Pipes that overlap at a gentle bend, split at its corner before the joints stage joins them.
+
+#include "piperun/point_cloud.h"
+#include "piperun/stages/extents.h"
+#include "piperun/stages/joints.h"
+
+#include <cstddef>
+#include <vector>
+
+namespace piperun {
+
+/// A level pipe turning onto a slope by a few degrees stays within a cylinder's support band for a
+/// long way past the bend, so the extents carry one pipe across it, its axis fitted through both
+/// legs, and the leg beyond is found overlapping it (or the two legs overlap each other). No joint
+/// joins such a pair: the corner lies behind an end, and the blended axis turns by less than the
+/// bend. Each pair of pipes of alike radii whose axes meet (within the skew limit) at 2–25°, one
+/// of them passing the corner, is split there: each keeps its inliers on its own side of the
+/// corner, its axis refitted on them at its radius, and ends at the corner of the refitted axes;
+/// the inliers it gives up go to the other pipe where they lie on its surface. Returns how many
+/// pairs were split.
+std::size_t splitAtGentleKinks(const PointCloud& cloud, std::vector<PipeSegment>& pipes, const JointsParams& params);
+
+}  // namespace piperun
