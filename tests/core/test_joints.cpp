@@ -334,39 +334,71 @@ TEST(Joints, AGentleBendBetweenALevelAndASlopedPipeIsAnElbow) {
   EXPECT_EQ(result.runs.size(), 1u);
 }
 
-TEST(Joints, APipeFittedAcrossAGentleBendIsSplitAtItsCorner) {
-  // A level pipe turns onto a 6° slope at the origin. The level pipe was fitted across the bend,
-  // its axis tilted between the two legs and its end 0.45 m up the slope; the sloped leg was found
-  // from 0.3 m on. The tilted axis turns by less than 5° from the slope, and the corner lies
-  // behind both ends: without the split, no joint joins them.
-  const double angle = 6.0 * kPi / 180.0, r = 0.05, R = 0.15;
+constexpr double kSixDegrees = 6.0 * kPi / 180.0;
+
+/// A level pipe along +x turning at the origin onto a 6° slope (r 5 cm, R 15 cm) that runs on to
+/// `slopeEnd`, found from `slopeFoundFrom` on (not at all when that is past `slopeEnd`), and the
+/// level pipe as the extents fit it across the bend: its axis tilted between the two legs, less
+/// than 5° from the slope, and its end 0.45 m up the slope. The level pipe is the last listed.
+ConstructedScene levelPipeFittedAcrossAGentleBend(double slopeFoundFrom, double slopeEnd) {
+  const double r = 0.05, R = 0.15;
   const Eigen::Vector3d in = Eigen::Vector3d::UnitX();
-  const Eigen::Vector3d out(std::cos(angle), std::sin(angle), 0.0);
-  const double tangent = R * std::tan(0.5 * angle);
+  const Eigen::Vector3d out(std::cos(kSixDegrees), std::sin(kSixDegrees), 0.0);
+  const double tangent = R * std::tan(0.5 * kSixDegrees);
   ConstructedScene scene;
   scene.addPipe(-0.6 * in, -tangent * in, r, /*listed=*/false);
-  scene.addPipe(tangent * out, 0.3 * out, r, /*listed=*/false);
+  scene.addPipe(tangent * out, std::min(slopeFoundFrom, slopeEnd) * out, r, /*listed=*/false);
+  if (slopeFoundFrom < slopeEnd) scene.addPipe(slopeFoundFrom * out, slopeEnd * out, r);
   scene.addBend(Eigen::Vector3d::Zero(), in, out, R, r);
-  const int slope = scene.addPipe(0.3 * out, 1.2 * out, r);
   const int level = scene.addFittedPipe(Eigen::Vector3d(-0.6, -0.004, 0.0), Eigen::Vector3d(0.45, 0.022, 0.0), r);
-  const double tilted = std::acos(unitAxis(scene.pipes()[static_cast<std::size_t>(level)]).dot(out));
-  ASSERT_LT(tilted, 5.0 * kPi / 180.0);
+  EXPECT_LT(std::acos(unitAxis(scene.pipes()[static_cast<std::size_t>(level)]).dot(out)), 5.0 * kPi / 180.0);
+  return scene;
+}
 
+TEST(Joints, APipeFittedAcrossAGentleBendIsSplitAtItsCorner) {
+  // The sloped leg was found from 0.3 m on. The level pipe's tilted axis turns by less than 5°
+  // from it, and the corner lies behind both ends: without the split, no joint joins them.
+  auto scene = levelPipeFittedAcrossAGentleBend(0.3, 1.2);
   const JointsResult result = scene.connect();
   EXPECT_EQ(result.diagnostics.splitKinks, 1u);
   ASSERT_EQ(result.joints.size(), 1u);
   const Joint& elbow = result.joints[0];
   EXPECT_EQ(elbow.type, JointType::Elbow);
-  EXPECT_EQ(elbow.pipeIds, (std::vector<int>{slope + 1, level + 1}));
+  EXPECT_EQ(elbow.pipeIds, (std::vector<int>{1, 2}));
   EXPECT_LT(elbow.position().norm(), 0.02);
   // Each pipe keeps its own leg, its axis refitted on it: the level one ends at the corner.
-  const PipeSegment& levelPipe = result.pipes[static_cast<std::size_t>(level)];
-  const PipeSegment& slopePipe = result.pipes[static_cast<std::size_t>(slope)];
+  const PipeSegment& slopePipe = result.pipes[0];
+  const PipeSegment& levelPipe = result.pipes[1];
   EXPECT_LT(levelPipe.end.norm(), 0.02);
   EXPECT_LT(slopePipe.start.norm(), 0.02);
-  EXPECT_GT(unitAxis(levelPipe).dot(in), std::cos(0.2 * kPi / 180.0));
-  EXPECT_GT(unitAxis(slopePipe).dot(out), std::cos(0.2 * kPi / 180.0));
+  EXPECT_GT(unitAxis(levelPipe).dot(Eigen::Vector3d::UnitX()), std::cos(0.2 * kPi / 180.0));
+  EXPECT_GT(unitAxis(slopePipe).dot(Eigen::Vector3d(std::cos(kSixDegrees), std::sin(kSixDegrees), 0.0)),
+            std::cos(0.2 * kPi / 180.0));
   EXPECT_EQ(result.runs.size(), 1u);
+}
+
+TEST(Joints, TheLegBeyondAGentleBendThatOnePipeWasFittedAcrossIsFound) {
+  // No stage found the sloped leg: the pipe fitted across the bend is the only one there. A pipe
+  // elsewhere runs along the slope, so it is one of the network's directions.
+  auto scene = levelPipeFittedAcrossAGentleBend(2.0, 1.0);
+  const Eigen::Vector3d out(std::cos(kSixDegrees), std::sin(kSixDegrees), 0.0);
+  const Eigen::Vector3d elsewhere(0.0, 2.0, 0.0);
+  scene.addPipe(elsewhere, elsewhere + 1.0 * out, 0.05);
+
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.kinkLegs, 1u);
+  ASSERT_EQ(result.pipes.size(), 3u);
+  ASSERT_EQ(result.joints.size(), 1u);
+  const Joint& elbow = result.joints[0];
+  EXPECT_EQ(elbow.type, JointType::Elbow);
+  EXPECT_EQ(elbow.pipeIds, (std::vector<int>{1, 3}));
+  EXPECT_LT(elbow.position().norm(), 0.02);
+  // The leg (appended after the input pipes) runs up the slope to its last point.
+  const PipeSegment& leg = result.pipes[2];
+  EXPECT_GT(unitAxis(leg).dot(out), std::cos(0.3 * kPi / 180.0));
+  EXPECT_LT(leg.start.norm(), 0.02);
+  EXPECT_NEAR(leg.end.dot(out), 1.0, 0.02);
+  EXPECT_LT(result.pipes[0].end.norm(), 0.02);
 }
 
 /// The joints of `scene` from the resolution alone (no free-end completion).

@@ -1,6 +1,8 @@
 #pragma once
 // Pipes that overlap at a gentle bend, split at its corner before the joints stage joins them.
 
+#include <Eigen/Core>
+
 #include "piperun/point_cloud.h"
 #include "piperun/stages/extents.h"
 #include "piperun/stages/joints.h"
@@ -10,6 +12,12 @@
 
 namespace piperun {
 
+/// What splitAtGentleKinks did.
+struct GentleKinks {
+  std::size_t splitPairs = 0;  ///< Pairs of found pipes split at a gentle bend.
+  std::size_t legsFound = 0;   ///< Legs found beyond a bend that one pipe was fitted across.
+};
+
 /// A level pipe turning onto a slope by a few degrees stays within a cylinder's support band for a
 /// long way past the bend, so the extents carry one pipe across it, its axis fitted through both
 /// legs, and the leg beyond is found overlapping it (or the two legs overlap each other). No joint
@@ -17,8 +25,12 @@ namespace piperun {
 /// bend. Each pair of pipes of alike radii whose axes meet (within the skew limit) at 2–25°, one
 /// of them passing the corner, is split there: each keeps its inliers on its own side of the
 /// corner, its axis refitted on them at its radius, and ends at the corner of the refitted axes;
-/// the inliers it gives up go to the other pipe where they lie on its surface. Returns how many
-/// pairs were split.
-std::size_t splitAtGentleKinks(const PointCloud& cloud, std::vector<PipeSegment>& pipes, const JointsParams& params);
+/// the inliers it gives up go to the other pipe where they lie on its surface. Then each end of a
+/// pipe looks for the leg beyond such a bend that no stage found, along one of `directions` (the
+/// network's), from its own inliers and the points no pipe explains; a leg found is split from the
+/// pipe in the same way and appended to `pipes`. `cellSize`: of the grid gathering points near ends.
+GentleKinks splitAtGentleKinks(const PointCloud& cloud, std::vector<PipeSegment>& pipes,
+                               const std::vector<Eigen::Vector3d>& directions, double cellSize,
+                               const JointsParams& params);
 
 }  // namespace piperun

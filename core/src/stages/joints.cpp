@@ -1,6 +1,7 @@
 // Joints and pipe-runs (paper §6).
 //
-// 0. Pipes that overlap at a gentle bend, one fitted across it, are split at its corner first
+// 0. Pipes that overlap at a gentle bend, one fitted across it, are split at its corner first,
+//    and a pipe fitted across such a bend with no pipe found beyond it yields the leg beyond
 //    (gentle_kinks.h): no hypothesis below would join them.
 // 1. Hypotheses. A hash grid over the pipes' axis samples gives, for each pipe end, the pipes
 //    near it. Each end–end pair whose axes continue each other is a boundary-joint hypothesis;
@@ -1666,13 +1667,14 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   const auto started = std::chrono::steady_clock::now();
   const double cellSize = std::max(params.minSearchDistance, 0.25);
   std::vector<PipeSegment> pipes = input.pipes;
-  const std::size_t kinks = splitAtGentleKinks(input.cloud, pipes, params);
+  const GentleKinks kinks = splitAtGentleKinks(input.cloud, pipes, networkDirections(input.pipes), cellSize, params);
+  const std::size_t foundCount = pipes.size();  // The input pipes and the legs found beyond gentle bends.
   const JointsInput split{input.cloud, pipes};
   std::vector<char> explained(input.cloud.size(), 0);
   for (const auto& pipe : pipes) {
     for (std::uint32_t i : pipe.inliers) explained[i] = 1;
   }
-  Resolution resolution = resolveJoints(split, params, explained, pipes.size(), cellSize, progress);
+  Resolution resolution = resolveJoints(split, params, explained, foundCount, cellSize, progress);
   progress.report("joints", 0.4);
 
   // Free ends completed by the pipes the earlier stages missed; a completion is kept when it takes
@@ -1693,8 +1695,8 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
       const JointsInput current{input.cloud, pipes};
       std::vector<Completion> completions =
           completeFreeEnds(current, params, explainedByPipes, resolution, lookingFrom, cellSize);
-      auto adopted = adoptCompletions(current, params, explained, std::move(completions), input.pipes.size(),
-                                      cellSize, progress);
+      auto adopted =
+          adoptCompletions(current, params, explained, std::move(completions), foundCount, cellSize, progress);
       if (!adopted) break;
       lookingFrom = pipes.size();
       for (const Completion& completion : adopted->completions) {
@@ -1712,7 +1714,8 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   result.diagnostics = resolution.diagnostics;
   result.diagnostics.completedPipes = completed;
   result.diagnostics.branchPipes = branches;
-  result.diagnostics.splitKinks = kinks;
+  result.diagnostics.splitKinks = kinks.splitPairs;
+  result.diagnostics.kinkLegs = kinks.legsFound;
   auto& hypotheses = resolution.hypotheses;
   const auto& chosen = resolution.chosen;
   const int pipeCount = static_cast<int>(pipes.size());
@@ -1729,7 +1732,7 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
       }
     }
     // So do fragments inside a completed pipe's tube: bits of the leg it completed.
-    for (std::size_t c = input.pipes.size(); c < pipes.size(); ++c) {
+    for (std::size_t c = foundCount; c < pipes.size(); ++c) {
       if (middleInsideTube(pipes[static_cast<std::size_t>(p)], pipes[c])) absorbed[static_cast<std::size_t>(p)] = 1;
     }
   }

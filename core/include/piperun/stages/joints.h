@@ -67,10 +67,11 @@ struct JointsInput {
 };
 
 /// The joined network in the cloud's frame. The pipes keep their input order, less the fragments
-/// an elbow absorbed, followed by the pipes completed beyond free ends or found as branches (round
-/// by round), with ids from 1 in that order (elbows move their ends to the tangent points, and two
-/// pipes overlapping at a gentle bend end at its corner, each axis refitted on its side); joint
-/// ids continue after the last pipe id.
+/// an elbow absorbed, followed by the legs found beyond gentle bends that one pipe was fitted
+/// across, then the pipes completed beyond free ends or found as branches (round by round), with
+/// ids from 1 in that order (elbows move their ends to the tangent points, and two pipes
+/// overlapping at a gentle bend end at its corner, each axis refitted on its side); joint ids
+/// continue after the last pipe id.
 /// Runs are the connected components of the pipes over accepted joints, every pipe in exactly one
 /// run, numbered from 1 in the order of their first pipe.
 struct JointsResult {
@@ -86,7 +87,9 @@ struct JointsResult {
     std::size_t absorbedFragments = 0;     ///< Fragments removed because they lie on an elbow, and pieces of arcs.
     std::size_t completedPipes = 0;        ///< Pipes found beyond free ends (appended after the input pipes)...
     std::size_t branchPipes = 0;           ///< ...and branches found off pipes' bodies (appended with them).
-    std::size_t splitKinks = 0;            ///< Pairs of pipes overlapping at a gentle bend, split at its corner.
+    std::size_t splitKinks = 0;            ///< Pairs of pipes overlapping at a gentle bend, split at its corner...
+    std::size_t kinkLegs = 0;              ///< ...and legs found beyond a bend one pipe was fitted across (appended
+                                           ///< after the input pipes, before the completed ones).
     double seconds = 0.0;
   } diagnostics;
 };
