@@ -116,7 +116,7 @@ const std::vector<Field>& fields() {
       PIPERUN_FIELD("joints", "min_pipe_diameters", "", Stage::Joints, joints.minPipeDiameters, "Shorter pipes are fragments: no joints, absorbed when they lie on an elbow (a longer pipe on a confident elbow's arc waits for it and goes too)"),
       PIPERUN_FIELD("joints", "support_distance", "m", Stage::Joints, joints.supportDistance, "Points within this of a joint's surface support it"),
       PIPERUN_FIELD("joints", "accept_confidence", "", Stage::Joints, joints.acceptConfidence, "Joints with at least this confidence are accepted, the others proposed"),
-      PIPERUN_FIELD("joints", "max_completion_length", "m", Stage::Joints, joints.maxCompletionLength, "Ends no accepted joint took look for a missed pipe beyond an elbow, and pipes for a missed branch, up to this long (0: both off)"),
+      PIPERUN_FIELD("joints", "max_completion_length", "m", Stage::Joints, joints.maxCompletionLength, "Ends no accepted joint took look for a missed pipe beyond an elbow, and pipes for a missed branch, up to this long (0: both off, and so is the search for the leg beyond a gentle bend that one pipe was fitted across)"),
       PIPERUN_FIELD("joints", "min_completion_points", "", Stage::Joints, joints.minCompletionPoints, "A completed pipe needs this many points on its surface..."),
       PIPERUN_FIELD("joints", "min_completion_coverage", "", Stage::Joints, joints.minCompletionCoverage, "...in at least this share of its sections"),
       PIPERUN_FIELD("joints", "min_completion_bend_deg", "deg", Stage::Joints, joints.minCompletionBendDeg, "...and turns at least this far from the end's axis"),

@@ -1,4 +1,4 @@
-// Splitting pipes that overlap at a gentle bend (see gentle_kinks.h).
+// Splitting pipes at gentle bends, and the legs beyond them no stage found (see gentle_kinks.h).
 
 #include "stages/gentle_kinks.h"
 
@@ -395,7 +395,8 @@ GentleKinks splitAtGentleKinks(const PointCloud& cloud, std::vector<PipeSegment>
     }
   }
   // Pipes fitted across a bend whose leg beyond no stage found: from their own inliers and the
-  // points no pipe explains around their ends.
+  // points no pipe explains around their ends. A search for missed pipes, off with the completion.
+  if (params.maxCompletionLength <= 0.0) return kinks;
   std::vector<char> explained(cloud.size(), 0);
   for (const PipeSegment& pipe : pipes) {
     for (std::uint32_t i : pipe.inliers) explained[i] = 1;

@@ -1,5 +1,5 @@
 #pragma once
-// Pipes that overlap at a gentle bend, split at its corner before the joints stage joins them.
+// Pipes that overlap at a gentle bend, or run across one, split at its corner before the joints stage.
 
 #include <Eigen/Core>
 
@@ -28,7 +28,8 @@ struct GentleKinks {
 /// the inliers it gives up go to the other pipe where they lie on its surface. Then each end of a
 /// pipe looks for the leg beyond such a bend that no stage found, along one of `directions` (the
 /// network's), from its own inliers and the points no pipe explains; a leg found is split from the
-/// pipe in the same way and appended to `pipes`. `cellSize`: of the grid gathering points near ends.
+/// pipe in the same way and appended to `pipes` (not when `params.maxCompletionLength` is 0, which
+/// turns the searches for missed pipes off). `cellSize`: of the grid gathering points near ends.
 GentleKinks splitAtGentleKinks(const PointCloud& cloud, std::vector<PipeSegment>& pipes,
                                const std::vector<Eigen::Vector3d>& directions, double cellSize,
                                const JointsParams& params);

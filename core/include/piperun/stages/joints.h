@@ -48,7 +48,8 @@ struct JointsParams {
   double acceptConfidence = 0.5;       ///< Joints with at least this confidence are accepted, others proposed.
   double maxCompletionLength = 1.0;    ///< An end no accepted joint took looks for a pipe the earlier stages missed
                                        ///< beyond an elbow, along one of the network's directions, up to this long
-                                       ///< (m; 0: off, and so is the branch search): short legs between elbows and
+                                       ///< (m; 0: off, and so are the branch search and the search for the leg beyond
+                                       ///< a gentle bend one pipe was fitted across): short legs between elbows and
                                        ///< tails into equipment have too few points to stand out on the Gaussian
                                        ///< sphere. Branches found off a pipe's body are at most this long too.
   std::size_t minCompletionPoints = 12;  ///< Such a pipe needs this many points on its surface...
