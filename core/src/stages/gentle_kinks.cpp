@@ -370,15 +370,8 @@ std::optional<PipeSegment> legBeyondKink(const PointCloud& cloud, const PipeSegm
 /// Whether the middle of `piece` lies inside the tube of one of `pipes` other than `except`: the
 /// leg beyond a bend was found already.
 bool insideAnotherTube(const PipeSegment& piece, const std::vector<PipeSegment>& pipes, std::size_t except) {
-  const Eigen::Vector3d middle = 0.5 * (piece.start + piece.end);
   for (std::size_t q = 0; q < pipes.size(); ++q) {
-    if (q == except) continue;
-    const Eigen::Vector3d axis = unitAxis(pipes[q]);
-    const double t = (middle - pipes[q].start).dot(axis);
-    if (t >= 0.0 && t <= (pipes[q].end - pipes[q].start).norm() &&
-        distanceToLine(middle, pipes[q].start, axis) < pipes[q].radius) {
-      return true;
-    }
+    if (q != except && middleInsideTube(piece, pipes[q])) return true;
   }
   return false;
 }

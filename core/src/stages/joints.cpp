@@ -85,15 +85,6 @@ bool isFragment(const PipeSegment& pipe, const JointsParams& params) {
   return (pipe.end - pipe.start).norm() < params.minPipeDiameters * 2.0 * pipe.radius;
 }
 
-/// Whether the middle of `piece` lies inside the tube of `pipe` (within its radius of the axis,
-/// between its ends).
-bool middleInsideTube(const PipeSegment& piece, const PipeSegment& pipe) {
-  const Eigen::Vector3d middle = 0.5 * (piece.start + piece.end);
-  const Eigen::Vector3d axis = pipe.end - pipe.start;
-  const double along = (middle - pipe.start).dot(axis) / axis.squaredNorm();
-  return along >= 0.0 && along <= 1.0 && (middle - pipe.start - along * axis).norm() < pipe.radius;
-}
-
 /// Whether the middle of `piece` lies inside the tube of one of `pipes` other than itself; a
 /// fragment's tube does not count (its points are a bit of what lies around it).
 bool insideAnotherPipe(const PipeSegment& piece, const std::vector<PipeSegment>& pipes, const JointsParams& params) {

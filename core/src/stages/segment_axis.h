@@ -1,6 +1,6 @@
 #pragma once
-// The axis of a found pipe segment, distances from a line and the closest points of two lines,
-// shared by the merge and joints stages.
+// The axis of a found pipe segment, distances from a line, whether a segment lies inside a pipe's
+// tube and the closest points of two lines, shared by the merge and joints stages.
 
 #include <Eigen/Core>
 
@@ -22,6 +22,15 @@ inline Eigen::Vector3d unitAxis(const PipeSegment& segment) {
 inline double distanceToLine(const Eigen::Vector3d& p, const Eigen::Vector3d& origin, const Eigen::Vector3d& axis) {
   const Eigen::Vector3d offset = p - origin;
   return (offset - offset.dot(axis) * axis).norm();
+}
+
+/// Whether the middle of `piece` lies inside the tube of `pipe` (within its radius of the axis,
+/// between its ends).
+inline bool middleInsideTube(const PipeSegment& piece, const PipeSegment& pipe) {
+  const Eigen::Vector3d middle = 0.5 * (piece.start + piece.end);
+  const Eigen::Vector3d axis = pipe.end - pipe.start;
+  const double along = (middle - pipe.start).dot(axis) / axis.squaredNorm();
+  return along >= 0.0 && along <= 1.0 && (middle - pipe.start - along * axis).norm() < pipe.radius;
 }
 
 /// Parameters (along each line) of the closest points of two lines p + s·u and q + t·v (unit
