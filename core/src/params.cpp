@@ -118,7 +118,7 @@ const std::vector<Field>& fields() {
       PIPERUN_FIELD("joints", "accept_confidence", "", Stage::Joints, joints.acceptConfidence, "Joints with at least this confidence are accepted, the others proposed"),
       PIPERUN_FIELD("joints", "max_completion_length", "m", Stage::Joints, joints.maxCompletionLength, "Ends no accepted joint took look for a missed pipe beyond an elbow, and pipes for a missed branch, up to this long (0: both off, and so is the search for the leg beyond a gentle bend that one pipe was fitted across)"),
       PIPERUN_FIELD("joints", "min_completion_points", "", Stage::Joints, joints.minCompletionPoints, "A completed pipe needs this many points on its surface..."),
-      PIPERUN_FIELD("joints", "min_completion_coverage", "", Stage::Joints, joints.minCompletionCoverage, "...in at least this share of its sections"),
+      PIPERUN_FIELD("joints", "min_completion_coverage", "", Stage::Joints, joints.minCompletionCoverage, "...in at least this share of its sections (a short leg between two parallel pipes, half of each)"),
       PIPERUN_FIELD("joints", "min_completion_bend_deg", "deg", Stage::Joints, joints.minCompletionBendDeg, "...and turns at least this far from the end's axis"),
       PIPERUN_FIELD("joints", "min_branch_radius", "m", Stage::Joints, joints.minBranchRadius, "Pipes look along their body for a missed branch (checked as a completed pipe) from this radius up to their own (0: off)"),
   };

@@ -815,7 +815,7 @@ TEST(Joints, ALegCompletedFromBothEndsIsOnePipe) {
   EXPECT_NEAR(std::min(leg.start.y(), leg.end.y()), R, 0.02);
   EXPECT_NEAR(std::max(leg.start.y(), leg.end.y()), corner - R, 0.02);
   ASSERT_EQ(result.joints.size(), 2u);
-  for (const Joint& joint : result.joints) EXPECT_EQ(joint.type, JointType::Elbow);
+  for (const Joint& joint : result.joints) { EXPECT_EQ(joint.type, JointType::Elbow); EXPECT_EQ(joint.status, JointStatus::Accepted); EXPECT_NEAR(joint.bendRadius, R, 0.1 * R); }
 }
 
 TEST(Joints, ALegInARackIsCompletedBesideAPipeNoStageFound) {
@@ -964,6 +964,51 @@ TEST(Joints, ALegSeenFromAfarCompletesFromItsCornerNotFromTheMirrorOne) {
   expectUprightLegCompletedAtTheOrigin(scene.connect());
 }
 
+TEST(Joints, AShortLegBetweenTwoParallelPipesIsFoundFromBoth) {
+  // A 2.5" riser rises 1 m and turns (R = 2r) into a 27 cm leg along +x, which turns (R = 2r) into
+  // a second riser 42 cm away, axis to axis: down again (a U-turn) or on up (an offset). The
+  // scanner, far off along -y, saw the leg in three scan columns with a point every 9 cm: 9 points
+  // between the elbows, too few for a leg beyond one elbow. Together the risers fix the leg's
+  // direction and length.
+  const double r = 0.0365, R = 2.0 * r, span = 0.42, top = 1.0;
+  const Eigen::Vector3d y = Eigen::Vector3d::UnitY();
+  for (const bool uTurn : {true, false}) {
+    SCOPED_TRACE(uTurn ? "U-turn" : "offset");
+    ConstructedScene scene;
+    // The risers and elbows in three columns, a point every 2 cm.
+    scene.addPipeSeenFromAfar({0, 0, 0}, {0, 0, top}, r, -y, 0.0, /*listed=*/true, 0.02);
+    scene.addElbow({R, 0, top}, {0, 0, top}, y, kPi / 2, r, {-150.0, -90.0, -30.0}, 0.02);
+    scene.addScanColumns({R, 0, top + R}, {span - R, 0, top + R}, r, -y, {-40.0, 0.0, 40.0}, 0.0, 0.09);
+    if (uTurn) {
+      scene.addElbow({span - R, 0, top}, {span - R, 0, top + R}, y, kPi / 2, r, {-150.0, -90.0, -30.0}, 0.02);
+      scene.addPipeSeenFromAfar({span, 0, 0}, {span, 0, top}, r, -y, 0.0, /*listed=*/true, 0.02);
+    } else {
+      scene.addElbow({span - R, 0, top + 2.0 * R}, {span - R, 0, top + R}, -y, kPi / 2, r, {30.0, 90.0, 150.0}, 0.02);
+      scene.addPipeSeenFromAfar({span, 0, top + 2.0 * R}, {span, 0, 2.0 * top}, r, -y, 0.0, /*listed=*/true, 0.02);
+    }
+
+    const JointsResult result = scene.connect();
+    EXPECT_EQ(result.diagnostics.completedPipes, 1u);
+    EXPECT_EQ(result.diagnostics.legsBetweenEnds, 1u);
+    ASSERT_EQ(result.pipes.size(), 3u);
+    const PipeSegment& leg = result.pipes[2];  // Completed pipes come after the input pipes.
+    EXPECT_GT(std::fabs((leg.end - leg.start).normalized().x()), 0.999);
+    EXPECT_NEAR(leg.start.z(), top + R, 0.005);
+    EXPECT_NEAR(leg.start.y(), 0.0, 0.005);
+    // Elbows at both corners; the leg is trimmed to their tangent points.
+    ASSERT_EQ(result.joints.size(), 2u);
+    for (const Joint& joint : result.joints) {
+      EXPECT_EQ(joint.type, JointType::Elbow);
+      EXPECT_EQ(joint.status, JointStatus::Accepted);
+      EXPECT_NEAR(joint.bendRadius, R, 0.1 * R);
+    }
+    EXPECT_NEAR(std::min(leg.start.x(), leg.end.x()), R, 0.01);
+    EXPECT_NEAR(std::max(leg.start.x(), leg.end.x()), span - R, 0.01);
+    ASSERT_EQ(result.runs.size(), 1u);
+    EXPECT_EQ(result.runs[0].pipeIds, (std::vector<int>{1, 2, 3}));
+  }
+}
+
 TEST(Joints, ALegIsCompletedAcrossAnOcclusionToTheLongerRunBeyond) {
   // A 4" pipe comes along +x to a corner at the origin and rises (R = 2r) into a leg that something
   // in front hides from 12 cm to 45 cm past its start; 50 cm of it show beyond.
@@ -1010,6 +1055,23 @@ TEST(Joints, AnEndAtAPoleThatRunsOnBothWaysIsNotCompletedAsAnElbowLeg) {
   EXPECT_EQ(result.diagnostics.completedPipes, 0u);
   EXPECT_EQ(result.pipes.size(), 2u);
   EXPECT_TRUE(result.joints.empty());
+}
+
+TEST(Joints, TwoRailsEndingAtASquarePostAreNoUTurn) {
+  // A handrail's 1.5" top and mid rails, 55 cm apart, end at a 5 cm square post: two parallel
+  // pipes of one radius whose extensions a leg along the post could join. The post's faces are no
+  // pipe's, whether their normals are the faces' or turn round the post.
+  const double r = 0.0211;
+  for (const auto normals : {ConstructedScene::PostNormals::OfFaces, ConstructedScene::PostNormals::Rounded}) {
+    ConstructedScene scene;
+    scene.addPipe({-1.5, 0, 1.1}, {-0.025, 0, 1.1}, r);
+    scene.addPipe({-1.5, 0, 0.55}, {-0.025, 0, 0.55}, r);
+    scene.addPostFaces(0.0, 0.0, 0.05, 0.0, 1.1 + r, {Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, -1, 0)}, normals);
+    const JointsResult result = scene.connect();
+    EXPECT_EQ(result.diagnostics.completedPipes, 0u);
+    EXPECT_EQ(result.pipes.size(), 2u);
+    EXPECT_TRUE(result.joints.empty());
+  }
 }
 
 TEST(Joints, APostWithRoundedNormalsIsNotCompletedAsAPipe) {

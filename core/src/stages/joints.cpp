@@ -907,6 +907,7 @@ struct Completion {
   PipeEnd from;   // The end it continues beyond an elbow...
   int main = -1;  // ...or, when not negative, the pipe it branches from at a tee.
   PipeSegment pipe;  // From the corner beyond `from` (the main's wall) to its last supported section.
+  bool between = false;  // A leg up to the corner beyond a second end (see Completer::legBetween).
 };
 
 class Completer {
@@ -939,6 +940,97 @@ class Completer {
         if (candidate && (!best || candidate->pipe.inliers.size() > best->pipe.inliers.size())) {
           best = std::move(candidate);
         }
+      }
+    }
+    return best;
+  }
+
+  /// The leg square to the parallel pipes of ends `a` and `b` that joins their extensions, an elbow
+  /// at each: a U-turn (the two ends face one way) or an offset (they face opposite ways). Seen by a
+  /// few scan lines between two elbows, such a leg holds too few points for complete(); but the two
+  /// pipes fix its direction and length, so it needs only half the points, over its whole length.
+  /// Where along the pipes it runs is voted for as in completeAlong. `nearby` and `nearbyB`: the
+  /// points not explained by any pipe within reach(a) and reach(b).
+  std::optional<Completion> legBetween(const PipeEnd& a, const PipeEnd& b, const std::vector<std::uint32_t>& nearby,
+                                       const std::vector<std::uint32_t>& nearbyB) const {
+    if (std::min(a.radius, b.radius) < params_.minRadiusRatio * std::max(a.radius, b.radius)) return std::nullopt;
+    const Eigen::Vector3d& outward = a.outward;
+    const double parallel = outward.dot(b.outward);
+    if (std::fabs(parallel) < std::cos(radians(kMaxLegTiltDeg))) return std::nullopt;
+    const Eigen::Vector3d offset = b.point - a.point;
+    const double axial = offset.dot(outward);  // b's end along a's axis.
+    const Eigen::Vector3d lateral = offset - axial * outward;
+    const double span = lateral.norm();  // Axis to axis: the leg's length, corner to corner.
+    const double r = 0.5 * (a.radius + b.radius);
+    const double band = params_.supportDistance;
+    // The straight runs between the tightest elbows' tangent points.
+    const double firstAlong = params_.minBendRadii * r;
+    const double length = span - firstAlong - kShortElbowRadii * r;
+    if (length < 2.0 * r * params_.minPipeDiameters || length > params_.maxCompletionLength) return std::nullopt;
+    // Corners (along a's axis from its end) past both ends, within the search distance of each.
+    const double behindA = cornerBehindEnd(a.radius, 0.5 * kPi);
+    const double behindB = cornerBehindEnd(b.radius, 0.5 * kPi);
+    const double searchA = builder_.searchDistance(a.radius);
+    const double searchB = builder_.searchDistance(b.radius);
+    const bool uTurn = parallel > 0.0;
+    const double minCorner = uTurn ? std::max(-behindA, axial - behindB) : std::max(-behindA, axial - searchB);
+    const double maxCorner = uTurn ? std::min(searchA, axial + searchB) : std::min(searchA, axial + behindB);
+    if (minCorner >= maxCorner) return std::nullopt;
+
+    const Eigen::Vector3d along = lateral / span;
+    const Eigen::Vector3d aside = along.cross(outward);
+    // A point on the leg's surface: (x − corner)² + y² = r², x along a's axis, y off the plane.
+    const double cornerBin = 0.5 * band;
+    VoteHistogram histogram(minCorner, maxCorner, cornerBin);
+    for (std::uint32_t i : nearby) {
+      const Eigen::Vector3d w = input_.cloud.positions[i].cast<double>() - a.point;
+      const double distanceAlong = w.dot(along);
+      const double y = w.dot(aside);
+      if (distanceAlong < firstAlong || distanceAlong > firstAlong + length || std::fabs(y) >= r) continue;
+      const double x = w.dot(outward);
+      const double half = std::sqrt(r * r - y * y);
+      for (const double corner : {x - half, x + half}) {
+        if (corner < minCorner || corner > maxCorner) continue;
+        const Eigen::Vector3d radial = (x - corner) * outward + y * aside;
+        if (normalAgrees(input_.cloud, i, radial / r, kCompletionNormalAngleDeg)) histogram.vote(corner);
+      }
+    }
+    Straight straight;
+    straight.radius = r;
+    straight.firstAlong = firstAlong;
+    straight.clutterFrom = kShortElbowRadii * r;  // As completeAlong's, for a square bend.
+    straight.behindStart = r + 2.0 * band;
+    straight.minPoints = static_cast<std::size_t>(std::ceil(kLegSupportShare * static_cast<double>(params_.minCompletionPoints)));
+    straight.minCoverage = kLegSupportShare * params_.minCompletionCoverage;
+    straight.between = true;
+    std::optional<Completion> best;
+    for (const double peak : histogram.peaks(kCornerPeaks)) {
+      // A few scan lines on one side of a thin leg put it a few millimetres off, which the radius
+      // test notices: least squares places the corner within the peak's bin.
+      const double cornerDistance = refinedCorner(a.point, outward, along, aside, r, firstAlong, firstAlong + length, peak,
+                                                 0.5 * cornerBin, nearby);
+      // The leg runs to b's axis where it crosses the plane square to a's through the corner: the
+      // two axes are not quite parallel, and a degree matters over a thin leg's few points.
+      straight.corner = a.point + cornerDistance * outward;
+      const Eigen::Vector3d farCorner =
+          b.point - ((b.point - straight.corner).dot(outward) / b.outward.dot(outward)) * b.outward;
+      const double legSpan = (farCorner - straight.corner).norm();
+      straight.along = (farCorner - straight.corner) / legSpan;
+      straight.across = (outward - outward.dot(straight.along) * straight.along).normalized();
+      straight.aside = straight.along.cross(straight.across);
+      straight.length = legSpan - firstAlong - kShortElbowRadii * r;
+      if (straight.length < 2.0 * r * params_.minPipeDiameters) continue;
+      auto candidate = completeAt(straight, nearby);
+      if (!candidate || (best && candidate->inliers.size() <= best->pipe.inliers.size())) continue;
+      // The same leg seen from b's end must pass too: a handrail post that two rails end at runs on
+      // past one of them, which only that rail's corner sees behind it.
+      Straight fromB = straight;
+      fromB.corner = farCorner;
+      fromB.along = -straight.along;
+      fromB.aside = -straight.aside;
+      if (completeAt(fromB, nearbyB)) {
+        candidate->end = farCorner;
+        best = Completion{a, -1, std::move(*candidate), true};
       }
     }
     return best;
@@ -1034,6 +1126,9 @@ class Completer {
           straight.aside = aside;
           straight.radius = r;
           straight.firstAlong = wall;
+          straight.length = params_.maxCompletionLength;
+          straight.minPoints = params_.minCompletionPoints;
+          straight.minCoverage = params_.minCompletionCoverage;
           straight.clutterFrom = wall;
           straight.behindStart = wall + 2.0 * band;
           auto pipe = completeAt(straight, nearby);
@@ -1049,9 +1144,13 @@ class Completer {
  private:
   static constexpr double kLocalDirectionSnapDeg = 5.0;  // See complete().
   static constexpr std::size_t kCornerPeaks = 3;  // Corners tried per direction (see completeAlong).
+  static constexpr double kMaxLegTiltDeg = 3.0;    // Pipes this close to parallel may hold a leg between
+  static constexpr double kLegSupportShare = 0.5;  // them (see legBetween), with this share of a completion's
+                                                   // points and coverage.
   static constexpr std::size_t kBranchPeaks = 3;  // Branches tried per direction and side (see branchesOf)...
   static constexpr double kBranchRadiusStep = 1.03;  // ...over radii 3 % apart.
-  static constexpr int kBranchRefinements = 5;  // Gauss–Newton steps of refineBranch.
+  static constexpr int kBranchRefinements = 5;  // Gauss–Newton steps of refineBranch...
+  static constexpr int kCornerRefinements = 5;  // ...and of refinedCorner.
   // A missed pipe is sparse: a normal fitted over a few of its scan columns leans up to about 45°
   // off the radial direction, where one fitted over a dense surface keeps within 30°.
   static constexpr double kCompletionNormalAngleDeg = 40.0;
@@ -1081,8 +1180,10 @@ class Completer {
   };
 
   /// A straight a completion is looked for along: its axis leaves `corner` along `along` (`across`
-  /// × `aside` = `along`); its surface is looked at from `firstAlong` on, the clutter around it
-  /// counted from `clutterFrom` on, and its surface behind the corner from `behindStart` back.
+  /// × `aside` = `along`); its surface is looked at over `length` from `firstAlong` on, the clutter
+  /// around it counted from `clutterFrom` on, and its surface behind the corner from `behindStart`
+  /// back. It needs `minPoints` on its surface over `minCoverage` of its sections: a run of them from
+  /// near the corner, or (`between`) the whole window, a leg whose far end is known.
   struct Straight {
     Eigen::Vector3d corner = Eigen::Vector3d::Zero();
     Eigen::Vector3d along = Eigen::Vector3d::Zero();
@@ -1090,8 +1191,12 @@ class Completer {
     Eigen::Vector3d aside = Eigen::Vector3d::Zero();
     double radius = 0.0;
     double firstAlong = 0.0;
+    double length = 0.0;
     double clutterFrom = 0.0;
     double behindStart = 0.0;
+    std::size_t minPoints = 0;
+    double minCoverage = 0.0;
+    bool between = false;
   };
 
   /// How far behind a free end (radius r) the corner of an elbow bending by `bend` may lie: the
@@ -1351,6 +1456,9 @@ class Completer {
     straight.aside = aside;
     straight.radius = r;
     straight.firstAlong = firstAlong;
+    straight.length = params_.maxCompletionLength;
+    straight.minPoints = params_.minCompletionPoints;
+    straight.minCoverage = params_.minCompletionCoverage;
     // Up to a short-radius elbow's tangent point (R = 2r, the tightest fitting) the bend may still
     // run, its torus inside the tube's start and outside it: no clutter is counted there.
     straight.clutterFrom = kShortElbowRadii * r * sine / (1.0 + cosine);
@@ -1365,6 +1473,36 @@ class Completer {
       }
     }
     return best;
+  }
+
+  /// The corner (along `outward` from `origin`) of a leg along `along` (`aside` = `along` × `outward`)
+  /// that minimises the squared distances from its surface of the points within the support band,
+  /// with their normals near radial, from `firstAlong` to `lastAlong` along it (Gauss–Newton from
+  /// `corner`), moved by at most `maxShift`.
+  double refinedCorner(const Eigen::Vector3d& origin, const Eigen::Vector3d& outward, const Eigen::Vector3d& along,
+                       const Eigen::Vector3d& aside, double r, double firstAlong, double lastAlong, double corner,
+                       double maxShift, const std::vector<std::uint32_t>& nearby) const {
+    const double start = corner;
+    for (int step = 0; step < kCornerRefinements; ++step) {
+      double normal = 0.0;
+      double gradient = 0.0;
+      for (std::uint32_t i : nearby) {
+        const Eigen::Vector3d w = input_.cloud.positions[i].cast<double>() - origin;
+        const double x = w.dot(outward) - corner;
+        const double y = w.dot(aside);
+        const double distance = std::hypot(x, y);
+        if (std::fabs(distance - r) > params_.supportDistance || distance < 1e-9) continue;
+        const double distanceAlong = w.dot(along);
+        if (distanceAlong < firstAlong || distanceAlong > lastAlong) continue;
+        if (!normalAgrees(input_.cloud, i, (x * outward + y * aside) / distance, kCompletionNormalAngleDeg)) continue;
+        const double jacobian = -x / distance;
+        normal += jacobian * jacobian;
+        gradient += jacobian * (distance - r);
+      }
+      if (normal <= 1e-12) break;
+      corner = std::clamp(corner - gradient / normal, start - maxShift, start + maxShift);
+    }
+    return corner;
   }
 
   /// Least-squares (s, r) of a branch (see branchesOf) over the voters within the support band of
@@ -1401,10 +1539,11 @@ class Completer {
     const double r = straight.radius;
     const double band = params_.supportDistance;
     const double firstAlong = straight.firstAlong;
-    const double lastAlong = firstAlong + params_.maxCompletionLength;
+    const double lastAlong = firstAlong + straight.length;
 
     // Sections along the new pipe holding a point on its surface.
-    const auto sections = static_cast<std::size_t>(std::ceil(params_.maxCompletionLength / kSectionLength));
+    const auto sections =
+        std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(straight.length / kSectionLength)));
     std::vector<std::vector<std::uint32_t>> bySection(sections);
     // Points well inside the tube or in a shell around it, per section: a wall, a box face or a
     // steel flange that grazes the surface carries on past it, a pipe leaves empty space.
@@ -1443,12 +1582,15 @@ class Completer {
     while (first < sections && !occupied(first)) ++first;
     if (first == sections) return std::nullopt;
     const auto maxGap = static_cast<std::size_t>(kMaxGapSections);
-    std::size_t last = runEnd(first, sections, maxGap, occupied);
-    // The straight starts next to the elbow, or past an occlusion no longer than the run beyond it.
-    // An occlusion between runs is bridged in the same way (as the extents do).
-    const bool nextToElbow = first < static_cast<std::size_t>(kMaxLeadSections);
-    if (!nextToElbow && (first > kMaxBridgeSections || last - first + 1 < first)) return std::nullopt;
-    last = bridgedEnd(last, sections, maxGap, kMaxBridgeSections, occupied);
+    std::size_t last = sections - 1;
+    if (!straight.between) {
+      last = runEnd(first, sections, maxGap, occupied);
+      // The straight starts next to the elbow, or past an occlusion no longer than the run beyond
+      // it. An occlusion between runs is bridged in the same way (as the extents do).
+      const bool nextToElbow = first < static_cast<std::size_t>(kMaxLeadSections);
+      if (!nextToElbow && (first > kMaxBridgeSections || last - first + 1 < first)) return std::nullopt;
+      last = bridgedEnd(last, sections, maxGap, kMaxBridgeSections, occupied);
+    }
     std::size_t covered = 0;
     std::size_t clutter = 0;
     PipeSegment pipe;
@@ -1463,7 +1605,7 @@ class Completer {
     const double length = firstAlong + static_cast<double>(last + 1) * kSectionLength;
     const auto behindCovered = std::count(behind.begin(), behind.end(), 1);
     if (static_cast<double>(behindCovered) >= params_.minCompletionCoverage * kBehindSections) return std::nullopt;
-    if (pipe.inliers.size() < params_.minCompletionPoints || coverage < params_.minCompletionCoverage ||
+    if (pipe.inliers.size() < straight.minPoints || coverage < straight.minCoverage ||
         static_cast<double>(clutter) > kMaxClutterShare * static_cast<double>(pipe.inliers.size()) ||
         length - firstAlong < 2.0 * r * params_.minPipeDiameters) {
       return std::nullopt;
@@ -1539,6 +1681,28 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
   std::vector<std::optional<Completion>> completed(ends.size());
   tbb::parallel_for(std::size_t{0}, ends.size(),
                     [&](std::size_t e) { completed[e] = completer.complete(ends[e], directions, nearby[e]); });
+  // Legs between two ends of parallel pipes, from the pairs of ends within reach of each other
+  // (filed by position).
+  double largestReach = cellSize;
+  for (const auto& sphere : spheres) largestReach = std::max(largestReach, sphere.second);
+  HashGrid endGrid(largestReach);
+  for (std::size_t e = 0; e < ends.size(); ++e) endGrid.insert(endGrid.cellOf(ends[e].point), static_cast<std::uint32_t>(e));
+  std::vector<std::pair<std::size_t, std::size_t>> pairs;
+  for (std::size_t e = 0; e < ends.size(); ++e) {
+    std::vector<std::size_t> partners;
+    endGrid.forEachInCube(ends[e].point, spheres[e].second, [&](std::uint32_t f) {
+      if (f > e && ends[f].pipe != ends[e].pipe && (ends[f].point - ends[e].point).norm() <= spheres[e].second) {
+        partners.push_back(f);
+      }
+    });
+    std::sort(partners.begin(), partners.end());
+    for (const std::size_t f : partners) pairs.emplace_back(e, f);
+  }
+  std::vector<std::optional<Completion>> legs(pairs.size());
+  tbb::parallel_for(std::size_t{0}, pairs.size(), [&](std::size_t k) {
+    const auto [e, f] = pairs[k];
+    legs[k] = completer.legBetween(ends[e], ends[f], nearby[e], nearby[f]);
+  });
 
   // Branches off those pipes' bodies, from the unexplained points filed by position.
   std::vector<std::vector<Completion>> branches(mains.size());
@@ -1554,10 +1718,15 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
     });
   }
 
-  // Ends first, then branches by main, each in order: the best-supported first.
+  // Ends first, then legs between ends, then branches by main, each in order: legs between ends
+  // first (two pipes fix them, where one end's completion may have taken an elbow's points as
+  // well), then the best-supported first.
   std::vector<Completion> found;
   for (auto& completion : completed) {
     if (completion) found.push_back(std::move(*completion));
+  }
+  for (auto& leg : legs) {
+    if (leg) found.push_back(std::move(*leg));
   }
   for (auto& ofMain : branches) {
     for (auto& branch : ofMain) found.push_back(std::move(branch));
@@ -1565,6 +1734,7 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
   std::vector<std::size_t> order(found.size());
   for (std::size_t c = 0; c < found.size(); ++c) order[c] = c;
   std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
+    if (found[x].between != found[y].between) return found[x].between;
     return found[x].pipe.inliers.size() > found[y].pipe.inliers.size();
   });
   // A completion whose middle lies inside a pipe's tube is that pipe again, over points its inliers
@@ -1672,6 +1842,7 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   // an elbow with the end it grew from (the others go and the rest are resolved again). The pipes
   // found so look on in turn: a leg completed between two elbows, or a branch, ends freely too.
   std::size_t completed = 0;
+  std::size_t legsBetween = 0;
   std::size_t branches = 0;
   if (params.maxCompletionLength > 0.0) {
     // A fragment's points may be a missed leg's only ones (a short stretch seen between elbows):
@@ -1693,6 +1864,7 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
       for (const Completion& completion : adopted->completions) {
         for (std::uint32_t i : completion.pipe.inliers) explainedByPipes[i] = 1;
         ++(completion.main >= 0 ? branches : completed);
+        if (completion.between) ++legsBetween;
       }
       pipes = std::move(adopted->pipes);
       explained = std::move(adopted->explained);
@@ -1704,6 +1876,7 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   JointsResult result;
   result.diagnostics = resolution.diagnostics;
   result.diagnostics.completedPipes = completed;
+  result.diagnostics.legsBetweenEnds = legsBetween;
   result.diagnostics.branchPipes = branches;
   result.diagnostics.splitKinks = kinks.splitPairs;
   result.diagnostics.kinkLegs = kinks.legsFound;
