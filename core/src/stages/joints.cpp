@@ -1119,16 +1119,13 @@ class Completer {
           tried.emplace_back(s, r);
           refineBranch(voters, sine, s, r);
           if (r < params_.minBranchRadius || r > maxRadius || s < 2.0 * r || s > length - 2.0 * r) continue;
-          Straight straight;
+          Straight straight = completionStraight();
           straight.corner = mainPipe.start + s * u;
           straight.along = along;
           straight.across = inPlane;
           straight.aside = aside;
           straight.radius = r;
           straight.firstAlong = wall;
-          straight.length = params_.maxCompletionLength;
-          straight.minPoints = params_.minCompletionPoints;
-          straight.minCoverage = params_.minCompletionCoverage;
           straight.clutterFrom = wall;
           straight.behindStart = wall + 2.0 * band;
           auto pipe = completeAt(straight, nearby);
@@ -1198,6 +1195,15 @@ class Completer {
     double minCoverage = 0.0;
     bool between = false;
   };
+
+  /// A straight with a completion's window and the support it needs; the caller places it.
+  Straight completionStraight() const {
+    Straight straight;
+    straight.length = params_.maxCompletionLength;
+    straight.minPoints = params_.minCompletionPoints;
+    straight.minCoverage = params_.minCompletionCoverage;
+    return straight;
+  }
 
   /// How far behind a free end (radius r) the corner of an elbow bending by `bend` may lie: the
   /// found end may pass the corner by a radius, and on slight bends by the length over which the
@@ -1450,15 +1456,12 @@ class Completer {
     // 2r from the true one as much as for that; other surfaces nearby, and the elbow short of its
     // tangent point, vote as well. The most voted corner may leave the leg's points inside the
     // tube: the best-supported completion from the highest few peaks wins.
-    Straight straight;
+    Straight straight = completionStraight();
     straight.along = along;
     straight.across = across;
     straight.aside = aside;
     straight.radius = r;
     straight.firstAlong = firstAlong;
-    straight.length = params_.maxCompletionLength;
-    straight.minPoints = params_.minCompletionPoints;
-    straight.minCoverage = params_.minCompletionCoverage;
     // Up to a short-radius elbow's tangent point (R = 2r, the tightest fitting) the bend may still
     // run, its torus inside the tube's start and outside it: no clutter is counted there.
     straight.clutterFrom = kShortElbowRadii * r * sine / (1.0 + cosine);
