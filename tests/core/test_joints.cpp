@@ -126,6 +126,19 @@ class ConstructedScene {
     }
   }
 
+  /// A square plate of side `width` centred on `center` across the unit `normal`, sampled every
+  /// `step`, with a hole of radius `hole` (a pipe running into it): the face of a flange or of the
+  /// equipment a nozzle leaves.
+  void addPlate(const Eigen::Vector3d& center, const Eigen::Vector3d& normal, double width, double hole, double step) {
+    const Eigen::Vector3d u = normal.unitOrthogonal();
+    const Eigen::Vector3d v = normal.cross(u);
+    for (double a = -0.5 * width; a <= 0.5 * width; a += step) {
+      for (double b = -0.5 * width; b <= 0.5 * width; b += step) {
+        if (std::hypot(a, b) > hole) addPoint(center + a * u + b * v, normal);
+      }
+    }
+  }
+
   /// The elbow of major radius `bendRadius` at `corner` between a pipe arriving along `in` and one
   /// leaving along `out` (unit directions).
   void addBend(const Eigen::Vector3d& corner, const Eigen::Vector3d& in, const Eigen::Vector3d& out, double bendRadius,
@@ -1043,6 +1056,22 @@ TEST(Joints, ALegIsNotClutteredByItsElbowsBend) {
   scene.addElbow({-R, 0, R}, {-R, 0, 0}, towardsScanner, kPi / 2, r, {170.0, 180.0}, 0.008);
   scene.addScanColumns({0, 0, R}, {0, 0, R + 0.3}, r, towardsScanner, {-45.0, 0.0, 45.0}, 0.0, 0.07);
   expectUprightLegCompletedAtTheOrigin(scene.connect());
+}
+
+TEST(Joints, ALegEndingAtAFaceAcrossItIsCompleted) {
+  // A 3" pipe comes along +x to a corner at the origin and turns up into a 25 cm leg, seen in three
+  // scan columns, that runs into a plate across it (a flange, the equipment a nozzle leaves). The
+  // plate's points round the leg's tube are where the leg ends, not a wall beside it: counted as
+  // clutter, they outnumber the sparse leg's.
+  const double r = 0.084, R = 2.0 * r, top = R + 0.25;
+  constexpr double kSectionLength = 0.04;  // The completion's sections.
+  ConstructedScene scene = cornerScene(r, R);
+  scene.addScanColumns({0, 0, R}, {0, 0, top}, r, -Eigen::Vector3d::UnitY(), {-45.0, 0.0, 45.0}, 0.0, 0.02);
+  scene.addPlate({0, 0, top}, Eigen::Vector3d::UnitZ(), 0.4, r + 0.005, 0.015);
+  const JointsResult result = scene.connect();
+  expectUprightLegCompletedAtTheOrigin(result);
+  ASSERT_EQ(result.pipes.size(), 3u);
+  EXPECT_NEAR(std::max(result.pipes[2].start.z(), result.pipes[2].end.z()), top, kSectionLength);
 }
 
 TEST(Joints, AnEndAtAPoleThatRunsOnBothWaysIsNotCompletedAsAnElbowLeg) {

@@ -1157,6 +1157,7 @@ class Completer {
   static constexpr std::size_t kBehindSections = 5;  // Sections looked at behind the corner (see completeAt).
   static constexpr double kShortElbowRadii = 2.0;    // A short-radius elbow's bend radius, in pipe radii.
   static constexpr double kMaxClutterShare = 0.5;  // Clutter (see isClutter), against points on the surface.
+  static constexpr double kFaceNormalAngleDeg = 30.0;  // Normals this close to the axis: a face across it.
   static constexpr double kMaxFlatShare = 0.4;          // Normals sharing one direction (see flatShare)...
   static constexpr double kLineToCircle = 0.9;          // ...with a line fit's RMS under this share of the
                                                         // circle's: a flat face.
@@ -1572,6 +1573,9 @@ class Completer {
         if (onSurface) behind[static_cast<std::size_t>(pastBehindStart / kSectionLength)] = 1;
         continue;
       }
+      // A face across the axis (a flange, a nozzle's plate, equipment the pipe runs into) is where
+      // the pipe ends, not something beside it.
+      if (normalAgrees(input_.cloud, i, along, kFaceNormalAngleDeg) && !input_.cloud.normals.empty()) continue;
       const auto section =
           std::min(sections - 1, static_cast<std::size_t>((distanceAlong - firstAlong) / kSectionLength));
       if (isClutter(distance, r, band, /*unexplained=*/true) && distanceAlong >= straight.clutterFrom) {
