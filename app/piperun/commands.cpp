@@ -327,8 +327,9 @@ int runReconstruct(const ReconstructOptions& options) {
   std::printf("placement: %zu cylinders  [%.2f s]\n", cylinders, pipeline.stageSeconds(Stage::Placement));
   std::printf("extents: %zu pipe pieces  [%.2f s]\n", segments, pipeline.stageSeconds(Stage::Extents));
   const auto& merged = *pipeline.mergeResult();
-  std::printf("merge: %zu pipes, %zu ends carried on over sparse points  [%.2f s]\n", merged.segments.size(),
-              merged.diagnostics.extendedEnds, pipeline.stageSeconds(Stage::Merge));
+  std::printf("merge: %zu pipes, %zu ends moved back off crossing pipes, %zu carried on over sparse points  [%.2f s]\n",
+              merged.segments.size(), merged.diagnostics.retractedEnds, merged.diagnostics.extendedEnds,
+              pipeline.stageSeconds(Stage::Merge));
   const auto countJoints = [&](JointType type) {
     return std::count_if(network.joints.begin(), network.joints.end(), [&](const Joint& j) { return j.type == type; });
   };

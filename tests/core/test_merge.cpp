@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace piperun {
@@ -214,6 +215,69 @@ TEST(Merge, AnEndStopsAtClutterAndAtAnotherPipe) {
   const double reached = farEnd(extended);
   EXPECT_GT(reached, 2.3);
   EXPECT_LE(reached, 2.4 + 1e-9);
+}
+
+/// A 21 mm pipe found along +x from 0 to 2 whose extents ran on to 2.3 over the flank of a 56 mm
+/// riser standing beside its line (axis at x = 2.35, y = 0.035, as on medium seed 6): past 2.0 its
+/// inliers are only the riser's points within its band, 12 cm further on. `riserListed`: whether
+/// the riser was found as a pipe.
+MergeResult endOnARisersFlank(bool riserListed) {
+  const double r = 0.021, riserRadius = 0.056;
+  const Eigen::Vector3d riserAxis(2.35, 0.035, 0.0);
+  PointCloud cloud;
+  auto inliers = addPipePoints(cloud, r, 0.0, 2.0, 0.01, 12, 0.0);
+  std::vector<std::uint32_t> riserInliers;
+  for (double z = -0.3; z <= 0.3; z += 0.005) {
+    for (int degrees = 0; degrees < 360; degrees += 3) {
+      const double angle = degrees * 3.14159265358979 / 180.0;
+      const Eigen::Vector3d radial(std::cos(angle), std::sin(angle), 0.0);
+      const Eigen::Vector3d p = riserAxis + riserRadius * radial + Eigen::Vector3d(0, 0, z);
+      const auto index = static_cast<std::uint32_t>(cloud.positions.size());
+      cloud.positions.push_back(p.cast<float>());
+      cloud.normals.push_back(radial.cast<float>());
+      // Within the pipe's band of its surface, with a normal near its radial: the pipe took it.
+      const Eigen::Vector3d fromLine(0.0, p.y(), p.z());
+      const bool onPipe = std::fabs(fromLine.norm() - r) <= 0.006 && std::fabs(radial.dot(fromLine.normalized())) >= 0.87;
+      (onPipe ? inliers : riserInliers).push_back(index);
+    }
+  }
+  std::sort(inliers.begin(), inliers.end());
+  PipeSegment found = segment({0, 0, 0}, {2.3, 0, 0}, r, inliers);
+  found.confidence = 1.0;
+  std::vector<PipeSegment> pipes{found};
+  if (riserListed) pipes.push_back(segment(riserAxis - Eigen::Vector3d(0, 0, 0.3), riserAxis + Eigen::Vector3d(0, 0, 0.3), riserRadius, riserInliers));
+  return mergeAndExtend(cloud, pipes, {});
+}
+
+TEST(Merge, AnEndOnACrossingPipesFlankMovesBackToItsOwnPoints) {
+  const MergeResult result = endOnARisersFlank(true);
+  EXPECT_EQ(result.diagnostics.retractedEnds, 1u);
+  ASSERT_EQ(result.segments.size(), 2u);
+  const PipeSegment& pipe = result.segments[0].radius < 0.03 ? result.segments[0] : result.segments[1];
+  EXPECT_NEAR(farEnd(pipe), 2.0, 1e-6);
+  EXPECT_NEAR(std::min(pipe.start.x(), pipe.end.x()), 0.0, 1e-6);
+  EXPECT_TRUE(std::all_of(pipe.inliers.begin(), pipe.inliers.end(),
+                          [&](std::uint32_t i) { return i < 201u * 12u; }));  // its own rings only
+
+  // Without the riser found, nothing says whose the points are.
+  const MergeResult alone = endOnARisersFlank(false);
+  EXPECT_EQ(alone.diagnostics.retractedEnds, 0u);
+  EXPECT_NEAR(farEnd(alone.segments[0]), 2.3, 1e-6);
+}
+
+TEST(Merge, ABranchWhoseOwnPointsReachItsMainKeepsItsEnd) {
+  // A branch along +x seen up to the wall of a 10 cm main crossing its line at x = 2.5: its points
+  // next to the wall lie on the main's surface too, but its own carry on to there.
+  const double r = 0.05;
+  PointCloud cloud;
+  const auto inliers = addPipePoints(cloud, r, 0.0, 2.41, 0.01, 12, 0.0);
+  PipeSegment branch = segment({0, 0, 0}, {2.41, 0, 0}, r, inliers);
+  branch.confidence = 1.0;
+  const PipeSegment main = segment({2.5, -1, 0}, {2.5, 1, 0}, 0.1);
+  const auto result = mergeAndExtend(cloud, {branch, main}, {});
+  EXPECT_EQ(result.diagnostics.retractedEnds, 0u);
+  const PipeSegment& kept = result.segments[0].radius < 0.07 ? result.segments[0] : result.segments[1];
+  EXPECT_NEAR(farEnd(kept), 2.41, 1e-6);
 }
 
 }  // namespace

@@ -7,7 +7,10 @@
 // midpoints, its extent the union of the members' projected ends, its radius the inlier-weighted
 // mean. Overlap duplicates collapse the same way.
 //
-// Then the merged pipes' ends are carried on along their axes over the scan (mergeAndExtend). A pipe
+// Then an end whose last stretch, a section or longer, holds no inlier of its own, only points on
+// the surface of a pipe crossing it, moves back to its own points: the extents bridged onto that
+// pipe's flank (retractEndsOnCrossingPipes). And the merged pipes' ends are carried on along their
+// axes over the scan (mergeAndExtend). A pipe
 // running away from the scanner thins out, and on its far end the normals, estimated over
 // neighbourhoods of a few scan columns, stray 30–45° from radial: placement leaves those points out
 // of its inliers, and the extents stop where too few remain. Past each end, 4 cm sections holding
@@ -28,6 +31,7 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -238,6 +242,74 @@ double reachBeforeOtherPipes(const std::vector<PipeSegment>& pipes, std::size_t 
   return reach;
 }
 
+/// Whether point i lies on the surface of `other`: within its band, between its caps, its normal
+/// near radial there.
+bool onSurfaceOf(const PointCloud& cloud, std::uint32_t i, const PipeSegment& other) {
+  constexpr double kMaxNormalDeg = 30.0;  // As placement's inliers' normals.
+  const Eigen::Vector3d axis = unitAxis(other);
+  const Eigen::Vector3d w = cloud.positions[i].cast<double>() - other.start;
+  const double along = w.dot(axis);
+  if (along < 0.0 || along > (other.end - other.start).norm()) return false;
+  const Eigen::Vector3d radial = w - along * axis;
+  const double distance = radial.norm();
+  if (std::fabs(distance - other.radius) > surfaceBand(other) || distance <= 0.0) return false;
+  return std::fabs(cloud.normals[i].cast<double>().dot(radial)) >= std::cos(radians(kMaxNormalDeg)) * distance;
+}
+
+/// Moves back each end of `pipes` whose last stretch, a section or longer, holds no inlier of its
+/// own, only points on the surface of a pipe crossing it, to its last point of its own, and drops
+/// those inliers; returns how many ends moved. A pipe passing another's flank takes points there
+/// that lie in its band with normals near its radial, and its extents bridge to them: an end carried
+/// past an elbow's corner onto a riser beside it meets the riser's body, a tee where the elbow is.
+std::size_t retractEndsOnCrossingPipes(const PointCloud& cloud, std::vector<PipeSegment>& pipes) {
+  if (!cloud.hasNormals()) return 0;
+  constexpr double kMinCrossingDeg = 30.0;  // Pipes closer to parallel are pieces of one line.
+  constexpr double kMaxRetraction = 0.5;    // Ends move back this far at most (m): the extents' closing.
+  const double maxCrossingCos = std::cos(radians(kMinCrossingDeg));
+  // Every pipe is judged against the pipes as they were, whatever their order.
+  const std::vector<PipeSegment> before = pipes;
+  std::size_t moved = 0;
+  for (std::size_t p = 0; p < pipes.size(); ++p) {
+    const PipeSegment& pipe = before[p];
+    const Eigen::Vector3d axis = unitAxis(pipe);
+    const double length = (pipe.end - pipe.start).norm();
+    std::array<double, 2> retraction{0.0, 0.0};
+    for (int side = 0; side < 2; ++side) {
+      const Eigen::Vector3d end = side == 0 ? pipe.start : pipe.end;
+      std::vector<const PipeSegment*> crossing;
+      for (std::size_t q = 0; q < before.size(); ++q) {
+        if (q != p && std::fabs(unitAxis(before[q]).dot(axis)) < maxCrossingCos &&
+            distanceToSegment(end, before[q]) <= before[q].radius + kMaxRetraction) {
+          crossing.push_back(&before[q]);
+        }
+      }
+      if (crossing.empty()) continue;
+      // How deep below the end the nearest own and foreign inliers lie.
+      double own = length, foreign = length;
+      for (std::uint32_t i : pipe.inliers) {
+        const double along = (cloud.positions[i].cast<double>() - pipe.start).dot(axis);
+        const double depth = side == 0 ? along : length - along;
+        if (depth >= std::min(own, kMaxRetraction)) continue;
+        const bool isForeign = std::any_of(crossing.begin(), crossing.end(),
+                                           [&](const PipeSegment* other) { return onSurfaceOf(cloud, i, *other); });
+        (isForeign ? foreign : own) = std::min(isForeign ? foreign : own, depth);
+      }
+      if (own >= kSection && own <= kMaxRetraction && foreign < own) retraction[static_cast<std::size_t>(side)] = own;
+    }
+    if (retraction[0] + retraction[1] == 0.0 || length - retraction[0] - retraction[1] < kSection) continue;
+    PipeSegment& retracted = pipes[p];
+    retracted.inliers.clear();
+    for (std::uint32_t i : pipe.inliers) {
+      const double along = (cloud.positions[i].cast<double>() - pipe.start).dot(axis);
+      if (along >= retraction[0] && length - along >= retraction[1]) retracted.inliers.push_back(i);
+    }
+    retracted.start = pipe.start + retraction[0] * axis;
+    retracted.end = pipe.start + (length - retraction[1]) * axis;
+    moved += (retraction[0] > 0.0 ? 1 : 0) + (retraction[1] > 0.0 ? 1 : 0);
+  }
+  return moved;
+}
+
 /// Extends the ends of `pipes` in place (see mergeAndExtend); returns how many moved. Only pipes
 /// whose sections nearly all passed the extents' coverage tests are extended: chance fits along a
 /// floor seam or through clutter (0.67–0.87 of their sections on generated scenes) would grow on
@@ -290,6 +362,7 @@ MergeResult mergeAndExtend(const PointCloud& cloud, const std::vector<PipeSegmen
                            Progress& progress) {
   MergeResult result = mergeSegments(segments, params, progress);
   const auto started = std::chrono::steady_clock::now();
+  result.diagnostics.retractedEnds = retractEndsOnCrossingPipes(cloud, result.segments);
   result.diagnostics.extendedEnds = extendEnds(cloud, result.segments, params);
   if (result.diagnostics.extendedEnds > 0) {
     // An end that carried on up to the cap of a pipe on its line now meets it, within the section

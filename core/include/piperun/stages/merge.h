@@ -28,7 +28,8 @@ struct MergeResult {
   struct Diagnostics {
     std::size_t inputSegments = 0;
     std::size_t mergedSegments = 0;
-    std::size_t extendedEnds = 0;     ///< Ends moved by mergeAndExtend.
+    std::size_t retractedEnds = 0;    ///< Ends mergeAndExtend moved back off a crossing pipe's points...
+    std::size_t extendedEnds = 0;     ///< ...and ends it carried on.
     double seconds = 0.0;
   } diagnostics;
 };
@@ -36,8 +37,10 @@ struct MergeResult {
 MergeResult mergeSegments(const std::vector<PipeSegment>& segments, const MergeParams& params,
                           Progress& progress = Progress::none());
 
-/// mergeSegments, then each merged pipe's ends extended over `cloud` (the points the segments'
-/// inliers index): 4 cm sections along the axis past the end that hold a point of the surface not
+/// mergeSegments, then each end whose last stretch (a section or more) holds only points on the
+/// surface of a pipe crossing it (30° or more off its axis) moved back to its last inlier of its
+/// own, then each merged pipe's ends extended over `cloud` (the points the segments' inliers
+/// index): 4 cm sections along the axis past the end that hold a point of the surface not
 /// explained by any pipe (within the band of its noise, normal near radial), with gaps of at most
 /// three sections (up to extensionBridgeSections when the run beyond is as long), and no more
 /// points inside the tube or in a shell around it than on its surface.
