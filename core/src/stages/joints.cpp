@@ -1575,7 +1575,7 @@ class Completer {
       }
       // A face across the axis (a flange, a nozzle's plate, equipment the pipe runs into) is where
       // the pipe ends, not something beside it.
-      if (normalAgrees(input_.cloud, i, along, kFaceNormalAngleDeg) && !input_.cloud.normals.empty()) continue;
+      if (!input_.cloud.normals.empty() && normalAgrees(input_.cloud, i, along, kFaceNormalAngleDeg)) continue;
       const auto section =
           std::min(sections - 1, static_cast<std::size_t>((distanceAlong - firstAlong) / kSectionLength));
       if (isClutter(distance, r, band, /*unexplained=*/true) && distanceAlong >= straight.clutterFrom) {

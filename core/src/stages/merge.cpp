@@ -264,7 +264,8 @@ bool onSurfaceOf(const PointCloud& cloud, std::uint32_t i, const PipeSegment& ot
 std::size_t retractEndsOnCrossingPipes(const PointCloud& cloud, std::vector<PipeSegment>& pipes) {
   if (!cloud.hasNormals()) return 0;
   constexpr double kMinCrossingDeg = 30.0;  // Pipes closer to parallel are pieces of one line.
-  constexpr double kMaxRetraction = 0.5;    // Ends move back this far at most (m): the extents' closing.
+  constexpr double kMaxRetraction = 0.5;    // Ends move back this far at most (m), past the gaps the
+                                            // extents close (40 cm).
   const double maxCrossingCos = std::cos(radians(kMinCrossingDeg));
   // Every pipe is judged against the pipes as they were, whatever their order.
   const std::vector<PipeSegment> before = pipes;
@@ -292,7 +293,8 @@ std::size_t retractEndsOnCrossingPipes(const PointCloud& cloud, std::vector<Pipe
         if (depth >= std::min(own, kMaxRetraction)) continue;
         const bool isForeign = std::any_of(crossing.begin(), crossing.end(),
                                            [&](const PipeSegment* other) { return onSurfaceOf(cloud, i, *other); });
-        (isForeign ? foreign : own) = std::min(isForeign ? foreign : own, depth);
+        double& nearest = isForeign ? foreign : own;
+        nearest = std::min(nearest, depth);
       }
       if (own >= kSection && own <= kMaxRetraction && foreign < own) retraction[static_cast<std::size_t>(side)] = own;
     }
