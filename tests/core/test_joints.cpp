@@ -368,17 +368,22 @@ ConstructedScene levelPipeFittedAcrossAGentleBend(double slopeFoundFrom, double 
   return scene;
 }
 
+/// Checks that the only joint of `result` is an elbow between `pipeIds` at the corner (the origin).
+void expectOnlyAnElbowAtTheOrigin(const JointsResult& result, const std::vector<int>& pipeIds) {
+  ASSERT_EQ(result.joints.size(), 1u);
+  const Joint& elbow = result.joints[0];
+  EXPECT_EQ(elbow.type, JointType::Elbow);
+  EXPECT_EQ(elbow.pipeIds, pipeIds);
+  EXPECT_LT(elbow.position().norm(), 0.02);
+}
+
 TEST(Joints, APipeFittedAcrossAGentleBendIsSplitAtItsCorner) {
   // The sloped leg was found from 0.3 m on. The level pipe's tilted axis turns by less than 5°
   // from it, and the corner lies behind both ends: without the split, no joint joins them.
   auto scene = levelPipeFittedAcrossAGentleBend(0.3, 1.2);
   const JointsResult result = scene.connect();
   EXPECT_EQ(result.diagnostics.splitKinks, 1u);
-  ASSERT_EQ(result.joints.size(), 1u);
-  const Joint& elbow = result.joints[0];
-  EXPECT_EQ(elbow.type, JointType::Elbow);
-  EXPECT_EQ(elbow.pipeIds, (std::vector<int>{1, 2}));
-  EXPECT_LT(elbow.position().norm(), 0.02);
+  expectOnlyAnElbowAtTheOrigin(result, {1, 2});
   // Each pipe keeps its own leg, its axis refitted on it: the level one ends at the corner.
   const PipeSegment& slopePipe = result.pipes[0];
   const PipeSegment& levelPipe = result.pipes[1];
@@ -401,11 +406,7 @@ TEST(Joints, TheLegBeyondAGentleBendThatOnePipeWasFittedAcrossIsFound) {
   const JointsResult result = scene.connect();
   EXPECT_EQ(result.diagnostics.kinkLegs, 1u);
   ASSERT_EQ(result.pipes.size(), 3u);
-  ASSERT_EQ(result.joints.size(), 1u);
-  const Joint& elbow = result.joints[0];
-  EXPECT_EQ(elbow.type, JointType::Elbow);
-  EXPECT_EQ(elbow.pipeIds, (std::vector<int>{1, 3}));
-  EXPECT_LT(elbow.position().norm(), 0.02);
+  expectOnlyAnElbowAtTheOrigin(result, {1, 3});
   // The leg (appended after the input pipes) runs up the slope to its last point.
   const PipeSegment& leg = result.pipes[2];
   EXPECT_GT(unitAxis(leg).dot(out), std::cos(0.3 * kPi / 180.0));

@@ -267,47 +267,55 @@ std::size_t retractEndsOnCrossingPipes(const PointCloud& cloud, std::vector<Pipe
   constexpr double kMaxRetraction = 0.5;    // Ends move back this far at most (m), past the gaps the
                                             // extents close (40 cm).
   const double maxCrossingCos = std::cos(radians(kMinCrossingDeg));
-  // Every pipe is judged against the pipes as they were, whatever their order.
-  const std::vector<PipeSegment> before = pipes;
-  std::size_t moved = 0;
+  // How far each end moves, judged against the pipes as they were, whatever their order.
+  std::vector<std::array<double, 2>> retractions(pipes.size(), {0.0, 0.0});
+  std::vector<std::vector<double>> alongs(pipes.size());
   for (std::size_t p = 0; p < pipes.size(); ++p) {
-    const PipeSegment& pipe = before[p];
+    const PipeSegment& pipe = pipes[p];
     const Eigen::Vector3d axis = unitAxis(pipe);
     const double length = (pipe.end - pipe.start).norm();
-    std::array<double, 2> retraction{0.0, 0.0};
+    std::vector<double>& along = alongs[p];
+    for (std::uint32_t i : pipe.inliers) along.push_back((cloud.positions[i].cast<double>() - pipe.start).dot(axis));
     for (int side = 0; side < 2; ++side) {
       const Eigen::Vector3d end = side == 0 ? pipe.start : pipe.end;
       std::vector<const PipeSegment*> crossing;
-      for (std::size_t q = 0; q < before.size(); ++q) {
-        if (q != p && std::fabs(unitAxis(before[q]).dot(axis)) < maxCrossingCos &&
-            distanceToSegment(end, before[q]) <= before[q].radius + kMaxRetraction) {
-          crossing.push_back(&before[q]);
+      for (std::size_t q = 0; q < pipes.size(); ++q) {
+        if (q != p && std::fabs(unitAxis(pipes[q]).dot(axis)) < maxCrossingCos &&
+            distanceToSegment(end, pipes[q]) <= pipes[q].radius + kMaxRetraction) {
+          crossing.push_back(&pipes[q]);
         }
       }
       if (crossing.empty()) continue;
       // How deep below the end the nearest own and foreign inliers lie.
       double own = length, foreign = length;
-      for (std::uint32_t i : pipe.inliers) {
-        const double along = (cloud.positions[i].cast<double>() - pipe.start).dot(axis);
-        const double depth = side == 0 ? along : length - along;
+      for (std::size_t k = 0; k < along.size(); ++k) {
+        const double depth = side == 0 ? along[k] : length - along[k];
         if (depth >= std::min(own, kMaxRetraction)) continue;
-        const bool isForeign = std::any_of(crossing.begin(), crossing.end(),
-                                           [&](const PipeSegment* other) { return onSurfaceOf(cloud, i, *other); });
+        const bool isForeign = std::any_of(crossing.begin(), crossing.end(), [&](const PipeSegment* other) {
+          return onSurfaceOf(cloud, pipe.inliers[k], *other);
+        });
         double& nearest = isForeign ? foreign : own;
         nearest = std::min(nearest, depth);
       }
-      if (own >= kSection && own <= kMaxRetraction && foreign < own) retraction[static_cast<std::size_t>(side)] = own;
+      if (own >= kSection && own <= kMaxRetraction && foreign < own) retractions[p][static_cast<std::size_t>(side)] = own;
     }
-    if (retraction[0] + retraction[1] == 0.0 || length - retraction[0] - retraction[1] < kSection) continue;
-    PipeSegment& retracted = pipes[p];
-    retracted.inliers.clear();
-    for (std::uint32_t i : pipe.inliers) {
-      const double along = (cloud.positions[i].cast<double>() - pipe.start).dot(axis);
-      if (along >= retraction[0] && length - along >= retraction[1]) retracted.inliers.push_back(i);
+  }
+  std::size_t moved = 0;
+  for (std::size_t p = 0; p < pipes.size(); ++p) {
+    PipeSegment& pipe = pipes[p];
+    const auto [fromStart, fromEnd] = retractions[p];
+    const double length = (pipe.end - pipe.start).norm();
+    if (fromStart + fromEnd == 0.0 || length - fromStart - fromEnd < kSection) continue;
+    std::vector<std::uint32_t> kept;
+    for (std::size_t k = 0; k < pipe.inliers.size(); ++k) {
+      if (alongs[p][k] >= fromStart && length - alongs[p][k] >= fromEnd) kept.push_back(pipe.inliers[k]);
     }
-    retracted.start = pipe.start + retraction[0] * axis;
-    retracted.end = pipe.start + (length - retraction[1]) * axis;
-    moved += (retraction[0] > 0.0 ? 1 : 0) + (retraction[1] > 0.0 ? 1 : 0);
+    pipe.inliers = std::move(kept);
+    const Eigen::Vector3d axis = unitAxis(pipe);
+    const Eigen::Vector3d start = pipe.start;
+    pipe.start = start + fromStart * axis;
+    pipe.end = start + (length - fromEnd) * axis;
+    moved += (fromStart > 0.0 ? 1 : 0) + (fromEnd > 0.0 ? 1 : 0);
   }
   return moved;
 }
