@@ -328,6 +328,22 @@ TEST(Joints, AnElbowIsFoundWhenOneEndStopsShortAndTheOtherReachesIt) {
   EXPECT_TRUE(far.connect().joints.empty());
 }
 
+TEST(Joints, AnEndASectionPastTheCornerOfAThinShortElbowStillMakesTheElbow) {
+  // A 1.7 cm pipe into a short-radius elbow (R = 2r): the extents end it on a 4 cm section
+  // boundary, here 1.4 radii past the corner, beyond the radius and a quarter a square bend's
+  // surface keeps within the first pipe's band.
+  const double r = 0.017, R = 2.0 * r;
+  ConstructedScene scene;
+  scene.addPipe({-1.2, 0, 0}, {1.4 * r, 0, 0}, r);
+  scene.addBend(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), R, r);
+  scene.addPipe({0, R, 0}, {0, 1.2, 0}, r);
+  const JointsResult result = scene.connect();
+  ASSERT_EQ(result.joints.size(), 1u);
+  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
+  EXPECT_NEAR(result.joints[0].bendRadius, R, 0.15 * R);
+  EXPECT_NEAR(result.pipes[0].end.x(), -R, 0.005);  // Trimmed back to the tangent point.
+}
+
 TEST(Joints, AGentleBendBetweenALevelAndASlopedPipeIsAnElbow) {
   // A pipe sloping off a level one by 6.5°: the elbow's surface stays within each cylinder's band
   // well past the corner, so both fitted pipes overshoot it, and their ends overlap.
