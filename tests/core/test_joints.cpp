@@ -240,6 +240,13 @@ ConstructedScene elbowScene(double bendAngle, double radius, double bendRadius, 
   return scene;
 }
 
+/// The result holds one joint, an elbow of major radius `bendRadius` within `tolerance`.
+void expectOnlyAnElbowOfBendRadius(const JointsResult& result, double bendRadius, double tolerance) {
+  ASSERT_EQ(result.joints.size(), 1u);
+  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
+  EXPECT_NEAR(result.joints[0].bendRadius, bendRadius, tolerance);
+}
+
 TEST(Joints, RadiusVotesPutAPointOnTheTorus) {
   // A 90° elbow with R = 0.2 at the corner (0,0,0): centre (−0.2, 0.2, 0); arms along −x and +y.
   const double R = 0.2, r = 0.05;
@@ -288,9 +295,7 @@ TEST(Joints, ElbowMajorRadiusRecoveredOnCleanPoints) {
 TEST(Joints, ElbowOnNoisyOneSidedScan) {
   const auto scene = elbowScene(kPi / 2, 0.05, 0.15, 0.002, true, 0.05);
   const JointsResult result = scene.connect();
-  ASSERT_EQ(result.joints.size(), 1u);
-  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
-  EXPECT_NEAR(result.joints[0].bendRadius, 0.15, 0.1 * 0.15);
+  ASSERT_NO_FATAL_FAILURE(expectOnlyAnElbowOfBendRadius(result, 0.15, 0.1 * 0.15));
 }
 
 TEST(Joints, OccludedElbowIsProposedWithTheLargestRadiusTheEndsAllow) {
@@ -299,9 +304,7 @@ TEST(Joints, OccludedElbowIsProposedWithTheLargestRadiusTheEndsAllow) {
   scene.addPipe({-1.5, 0, 0}, {-0.3, 0, 0}, 0.05);
   scene.addPipe({0, 0.3, 0}, {0, 1.5, 0}, 0.05);
   const JointsResult result = scene.connect();
-  ASSERT_EQ(result.joints.size(), 1u);
-  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
-  EXPECT_NEAR(result.joints[0].bendRadius, 0.25, 1e-6);  // max_bend_radii × r
+  ASSERT_NO_FATAL_FAILURE(expectOnlyAnElbowOfBendRadius(result, 0.25, 1e-6));  // max_bend_radii × r
   EXPECT_EQ(result.joints[0].status, JointStatus::Proposed);
 }
 
@@ -316,9 +319,7 @@ TEST(Joints, AnElbowIsFoundWhenOneEndStopsShortAndTheOtherReachesIt) {
   scene.addBend(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), R, r);
   scene.addPipe({0, R, 0}, {0, 1.5, 0}, r);
   const JointsResult result = scene.connect();
-  ASSERT_EQ(result.joints.size(), 1u);
-  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
-  EXPECT_NEAR(result.joints[0].bendRadius, R, 0.05 * R);
+  ASSERT_NO_FATAL_FAILURE(expectOnlyAnElbowOfBendRadius(result, R, 0.05 * R));
   EXPECT_NEAR(result.pipes[0].end.x(), -R, 0.01);  // Extended to the tangent point.
 
   // Both ends that far from the corner are no elbow.
@@ -329,18 +330,16 @@ TEST(Joints, AnElbowIsFoundWhenOneEndStopsShortAndTheOtherReachesIt) {
 }
 
 TEST(Joints, AnEndASectionPastTheCornerOfAThinShortElbowStillMakesTheElbow) {
-  // A 1.7 cm pipe into a short-radius elbow (R = 2r): the extents end it on a 4 cm section
-  // boundary, here 1.4 radii past the corner, beyond the radius and a quarter a square bend's
-  // surface keeps within the first pipe's band.
+  // A 1.7 cm pipe into a short-radius elbow (R = 2r), as the completion ends a leg it found: on
+  // its last 4 cm section's boundary, here 1.4 radii past the corner, beyond the radius and a
+  // quarter a square bend's surface keeps within the first pipe's band.
   const double r = 0.017, R = 2.0 * r;
   ConstructedScene scene;
   scene.addPipe({-1.2, 0, 0}, {1.4 * r, 0, 0}, r);
   scene.addBend(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), R, r);
   scene.addPipe({0, R, 0}, {0, 1.2, 0}, r);
   const JointsResult result = scene.connect();
-  ASSERT_EQ(result.joints.size(), 1u);
-  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
-  EXPECT_NEAR(result.joints[0].bendRadius, R, 0.15 * R);
+  ASSERT_NO_FATAL_FAILURE(expectOnlyAnElbowOfBendRadius(result, R, 0.15 * R));
   EXPECT_NEAR(result.pipes[0].end.x(), -R, 0.005);  // Trimmed back to the tangent point.
 }
 
@@ -863,9 +862,7 @@ TEST(Joints, ALegInARackIsCompletedBesideAPipeNoStageFound) {
 
   const JointsResult result = scene.connect();
   EXPECT_EQ(result.diagnostics.completedPipes, 1u);
-  ASSERT_EQ(result.joints.size(), 1u);
-  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
-  EXPECT_NEAR(result.joints[0].bendRadius, R, 0.1 * R);
+  ASSERT_NO_FATAL_FAILURE(expectOnlyAnElbowOfBendRadius(result, R, 0.1 * R));
 }
 
 TEST(Joints, AnEndThatOnlyAProposedJointTookIsStillCompleted) {

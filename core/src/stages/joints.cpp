@@ -330,10 +330,10 @@ class JointBuilder {
     // The corner lies ahead of both ends, or behind one by as much as the ends of pipes fitted
     // into the elbow overshoot it: about a radius at a square bend, more at a gentle one, whose
     // surface stays within a cylinder's band for longer (a quarter more for where the extents
-    // place an end), and half a section more: the extents end a pipe on a 4 cm section's boundary,
-    // which on a thin pipe is more than a radius. A main seen on one side of a branch overshoots
-    // the same way, to the branch's far wall, and that corner becomes a tee when no bend fits
-    // (teeForBendlessCorner).
+    // place an end), and half a section more: a pipe the completion found ends on the boundary of
+    // its last section (completeAt), which on a thin pipe is more than a radius past its last
+    // point. A main seen on one side of a branch overshoots the same way, to the branch's far
+    // wall, and that corner becomes a tee when no bend fits (teeForBendlessCorner).
     const double overshoot = 1.25 * larger / std::tan(0.5 * bendAngle) + 0.5 * kSectionLength;
     // Together the ends lie within twice the search distance of the elbow's shortest tangent
     // points: one may be farther when the other is nearer (an end whose last half metre was too
