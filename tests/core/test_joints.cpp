@@ -329,18 +329,22 @@ TEST(Joints, AnElbowIsFoundWhenOneEndStopsShortAndTheOtherReachesIt) {
   EXPECT_TRUE(far.connect().joints.empty());
 }
 
-TEST(Joints, AnEndASectionPastTheCornerOfAThinShortElbowStillMakesTheElbow) {
-  // A 1.7 cm pipe into a short-radius elbow (R = 2r), as the completion ends a leg it found: on
-  // its last 4 cm section's boundary, here 1.4 radii past the corner, beyond the radius and a
-  // quarter a square bend's surface keeps within the first pipe's band.
-  const double r = 0.017, R = 2.0 * r;
+TEST(Joints, ACompletedLegEndsAtItsLastPoint) {
+  // A 1.7 cm pipe turns up a short elbow (R = 2r) into a 30.6 cm tail, points only. The completion
+  // looks along the tail in 4 cm sections, but the pipe it finds ends where the points do: ended on
+  // its last section's boundary, up to 4 cm on (more than two radii of this pipe), it would reach
+  // past the corner of an elbow beyond it.
+  const double r = 0.017, R = 2.0 * r, tailEnd = 0.34;
   ConstructedScene scene;
-  scene.addPipe({-1.2, 0, 0}, {1.4 * r, 0, 0}, r);
+  scene.addPipe({-1.2, 0, 0}, {-R, 0, 0}, r);
   scene.addBend(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), R, r);
-  scene.addPipe({0, R, 0}, {0, 1.2, 0}, r);
+  scene.addPipe({0, R, 0}, {0, tailEnd, 0}, r, /*listed=*/false);
   const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.completedPipes, 1u);
   ASSERT_NO_FATAL_FAILURE(expectOnlyAnElbowOfBendRadius(result, R, 0.15 * R));
-  EXPECT_NEAR(result.pipes[0].end.x(), -R, 0.005);  // Trimmed back to the tangent point.
+  ASSERT_EQ(result.pipes.size(), 2u);
+  const PipeSegment& tail = result.pipes[1];
+  EXPECT_NEAR(std::max(tail.start.y(), tail.end.y()), tailEnd, 0.003);
 }
 
 TEST(Joints, AGentleBendBetweenALevelAndASlopedPipeIsAnElbow) {

@@ -330,11 +330,9 @@ class JointBuilder {
     // The corner lies ahead of both ends, or behind one by as much as the ends of pipes fitted
     // into the elbow overshoot it: about a radius at a square bend, more at a gentle one, whose
     // surface stays within a cylinder's band for longer (a quarter more for where the extents
-    // place an end), and half a section more: a pipe the completion found ends on the boundary of
-    // its last section (completeAt), which on a thin pipe is more than a radius past its last
-    // point. A main seen on one side of a branch overshoots the same way, to the branch's far
-    // wall, and that corner becomes a tee when no bend fits (teeForBendlessCorner).
-    const double overshoot = 1.25 * larger / std::tan(0.5 * bendAngle) + 0.5 * kSectionLength;
+    // place an end). A main seen on one side of a branch overshoots the same way, to the branch's
+    // far wall, and that corner becomes a tee when no bend fits (teeForBendlessCorner).
+    const double overshoot = 1.25 * larger / std::tan(0.5 * bendAngle);
     // Together the ends lie within twice the search distance of the elbow's shortest tangent
     // points: one may be farther when the other is nearer (an end whose last half metre was too
     // sparse for the extents).
@@ -1365,6 +1363,16 @@ class Completer {
     return std::sqrt(std::max(0.0, solver.eigenvalues()(0)));
   }
 
+  /// How far along `along` from `origin` the farthest of `points` lies.
+  double farthestAlong(const std::vector<std::uint32_t>& points, const Eigen::Vector3d& origin,
+                       const Eigen::Vector3d& along) const {
+    double farthest = 0.0;
+    for (std::uint32_t i : points) {
+      farthest = std::max(farthest, (input_.cloud.positions[i].cast<double>() - origin).dot(along));
+    }
+    return farthest;
+  }
+
   /// How points lie off the circle of radius r around the axis through `origin` along `along`.
   struct RadialOffsets {
     std::size_t count = 0;
@@ -1645,7 +1653,10 @@ class Completer {
     }
     if (hasNormals && squareEdge(windows)) return std::nullopt;
     pipe.start = corner;
-    pipe.end = corner + length * along;
+    // A leg ends where its points do, as the extents end a pipe, not on its last section's
+    // boundary: up to a section on, more than two radii of a thin pipe, it would reach past the
+    // corner of an elbow beyond. A leg between two ends runs to the far one's corner.
+    pipe.end = corner + (straight.between ? length : farthestAlong(inBand, corner, along)) * along;
     pipe.radius = r;
     pipe.rms = onSurface.rms;
     pipe.confidence = coverage;
