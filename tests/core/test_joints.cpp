@@ -1181,6 +1181,22 @@ TEST(Joints, APostSeenFromAfarIsNotCompletedAsAPipe) {
   EXPECT_TRUE(result.joints.empty());
 }
 
+TEST(Joints, ANoisyPostSeenAcrossItsEdgeIsNotCompletedAsAPipe) {
+  // A 1.5" rail ends at a 5 cm square post a centimetre beside its axis, seen across an edge from
+  // afar, every normal towards the scanner, with 2 mm of noise. A rail-sized cylinder down the post
+  // holds the edge and a strip of each face in its band: on its radius on average, round enough,
+  // on no single line; but two lines meeting at the edge fit them far better than its circle.
+  const double r = 0.0211;
+  ConstructedScene scene(0.002);
+  scene.addPipe({-1.5, 0, 1.1}, {-0.025, 0, 1.1}, r);
+  scene.addPostFaces(0.0, 0.01, 0.05, 0.0, 1.1 - r, {Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, -1, 0)},
+                     ConstructedScene::PostNormals::TowardsScanner, Eigen::Vector3d(-1, -0.4, 0).normalized());
+  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.completedPipes, 0u);
+  EXPECT_TRUE(result.joints.empty());
+}
+
 /// A 4" main along x from -1 to 1 at the origin; a pipe far off along z makes z one of the
 /// network's directions. A test adds what hangs below the main at x = 0.3.
 ConstructedScene mainPipeScene(double noise) {

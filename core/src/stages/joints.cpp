@@ -53,6 +53,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <tuple>
 
@@ -1161,6 +1162,10 @@ class Completer {
   static constexpr double kMaxFlatShare = 0.4;          // Normals sharing one direction (see flatShare)...
   static constexpr double kLineToCircle = 0.9;          // ...with a line fit's RMS under this share of the
                                                         // circle's: a flat face.
+  static constexpr double kTwoLinesToCircle = 0.6;      // Two lines meeting at a corner fitting this much
+                                                        // better than the circle: a post's edge...
+  static constexpr std::size_t kMinEdgePoints = 20;     // ...over this many points (fewer fit any two lines)...
+  static constexpr double kMaxEdgeGapDeg = 20.0;        // ...around the axis with no wider gap between them.
   static constexpr int kSquareToleranceDeg = 15;        // Two normal directions this close to square...
   static constexpr double kMinFaceShare = 0.2;          // ...each holding this share of the points...
   static constexpr double kMinSquareShare = 0.7;        // ...and together this share: two faces at an edge.
@@ -1361,6 +1366,59 @@ class Completer {
     covariance /= static_cast<double>(across.size());
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> solver(covariance, Eigen::EigenvaluesOnly);
     return std::sqrt(std::max(0.0, solver.eigenvalues()(0)));
+  }
+
+  /// RMS distance of `points`, seen along the pipe (`x` × `y` is its axis), from the two straight
+  /// lines that fit them best, one on each side of a split in their order around the axis: the two
+  /// faces of a post seen across its edge. (The points may span the whole circle: the order starts
+  /// past the widest empty arc.)
+  double twoLineRms(const std::vector<std::uint32_t>& points, const Eigen::Vector3d& origin,
+                    const Eigen::Vector3d& along, const Eigen::Vector3d& x, const Eigen::Vector3d& y) const {
+    constexpr std::size_t kMinSide = 3;
+    if (points.size() < 2 * kMinSide) return std::numeric_limits<double>::infinity();
+    std::vector<std::pair<double, Eigen::Vector2d>> around;
+    for (std::uint32_t i : points) {
+      const Eigen::Vector3d d = radialOffset(i, origin, along);
+      const Eigen::Vector2d q(d.dot(x), d.dot(y));
+      around.emplace_back(std::atan2(q.y(), q.x()), q);
+    }
+    std::sort(around.begin(), around.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::size_t widest = 0;
+    double widestGap = around.front().first + 2.0 * kPi - around.back().first;
+    for (std::size_t k = 1; k < around.size(); ++k) {
+      if (around[k].first - around[k - 1].first > widestGap) {
+        widestGap = around[k].first - around[k - 1].first;
+        widest = k;
+      }
+    }
+    std::rotate(around.begin(), around.begin() + static_cast<std::ptrdiff_t>(widest), around.end());
+    // Two lines pass through any few scan columns of a thin pipe seen from afar, whatever its shape:
+    // only points that fill their arc tell an edge from a circle.
+    for (std::size_t k = 1; k < around.size(); ++k) {
+      const double gap = around[k].first - around[k - 1].first;
+      if ((gap < 0.0 ? gap + 2.0 * kPi : gap) > radians(kMaxEdgeGapDeg)) return std::numeric_limits<double>::infinity();
+    }
+    // Sums of x, y, x², xy, y² over the first k points: each side's line fit in constant time.
+    const std::size_t n = around.size();
+    std::vector<Eigen::Matrix<double, 5, 1>> sums(n + 1, Eigen::Matrix<double, 5, 1>::Zero());
+    for (std::size_t k = 0; k < n; ++k) {
+      const Eigen::Vector2d& q = around[k].second;
+      sums[k + 1] = sums[k];
+      sums[k + 1] += Eigen::Matrix<double, 5, 1>(q.x(), q.y(), q.x() * q.x(), q.x() * q.y(), q.y() * q.y());
+    }
+    const auto squaresOffLine = [](const Eigen::Matrix<double, 5, 1>& s, double count) {
+      const double mx = s(0) / count, my = s(1) / count;
+      Eigen::Matrix2d covariance;
+      covariance << s(2) / count - mx * mx, s(3) / count - mx * my, s(3) / count - mx * my, s(4) / count - my * my;
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> solver(covariance, Eigen::EigenvaluesOnly);
+      return count * std::max(0.0, solver.eigenvalues()(0));
+    };
+    double best = std::numeric_limits<double>::infinity();
+    for (std::size_t k = kMinSide; k + kMinSide <= n; ++k) {
+      best = std::min(best, squaresOffLine(sums[k], static_cast<double>(k)) +
+                                squaresOffLine(sums[n] - sums[k], static_cast<double>(n - k)));
+    }
+    return std::sqrt(best / static_cast<double>(n));
   }
 
   /// How far along `along` from `origin` the farthest of `points` lies.
@@ -1652,6 +1710,13 @@ class Completer {
       return std::nullopt;
     }
     if (hasNormals && squareEdge(windows)) return std::nullopt;
+    // Two faces seen across a post's edge, with normals that do not tell (towards a far scanner):
+    // a circle of the pipe's radius fits them within the band, two lines meeting at the edge far
+    // better, where they fit an arc about as well as the circle does.
+    if (inBand.size() >= kMinEdgePoints &&
+        twoLineRms(inBand, corner, along, across, aside) < kTwoLinesToCircle * overBand.rms) {
+      return std::nullopt;
+    }
     pipe.start = corner;
     // A leg ends where its points do, as the extents end a pipe, not on its last section's
     // boundary: up to a section on, more than two radii of a thin pipe, it would reach past the
