@@ -1166,33 +1166,34 @@ TEST(Joints, APostSeenAcrossItsEdgeIsNotCompletedAsAPipe) {
   EXPECT_TRUE(result.joints.empty());
 }
 
-TEST(Joints, APostSeenFromAfarIsNotCompletedAsAPipe) {
-  // A 1.5" rail ends at a 5 cm square post seen across an edge from afar, every normal towards the
-  // scanner: the points whose normals agree with a rail-sized cylinder's are a strip by the edge,
-  // but all the points in its support band lie outside its radius.
+/// A 1.5" rail (r = 21.1 mm) ending at x = -2.5 cm at a 5 cm square post centred on (0, postY),
+/// seen across its edge from afar along -`towardsScanner` with every normal towards the scanner,
+/// with `noise`; a pipe far off along z makes z one of the network's directions.
+JointsResult railEndingAtAPostSeenFromAfar(double noise, double postY, const Eigen::Vector3d& towardsScanner) {
   const double r = 0.0211;
-  ConstructedScene scene;
+  ConstructedScene scene(noise);
   scene.addPipe({-1.5, 0, 1.1}, {-0.025, 0, 1.1}, r);
-  scene.addPostFaces(0.0, 0.0, 0.05, 0.0, 1.1 - r, {Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, -1, 0)},
-                     ConstructedScene::PostNormals::TowardsScanner, Eigen::Vector3d(-1, -1, 0).normalized());
+  scene.addPostFaces(0.0, postY, 0.05, 0.0, 1.1 - r, {Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, -1, 0)},
+                     ConstructedScene::PostNormals::TowardsScanner, towardsScanner.normalized());
   scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
-  const JointsResult result = scene.connect();
+  return scene.connect();
+}
+
+TEST(Joints, APostSeenFromAfarIsNotCompletedAsAPipe) {
+  // The post on the rail's axis, no noise: the points whose normals agree with a rail-sized
+  // cylinder's are a strip by the edge, but all the points in its support band lie outside its
+  // radius.
+  const JointsResult result = railEndingAtAPostSeenFromAfar(0.0, 0.0, Eigen::Vector3d(-1, -1, 0));
   EXPECT_EQ(result.diagnostics.completedPipes, 0u);
   EXPECT_TRUE(result.joints.empty());
 }
 
 TEST(Joints, ANoisyPostSeenAcrossItsEdgeIsNotCompletedAsAPipe) {
-  // A 1.5" rail ends at a 5 cm square post a centimetre beside its axis, seen across an edge from
-  // afar, every normal towards the scanner, with 2 mm of noise. A rail-sized cylinder down the post
-  // holds the edge and a strip of each face in its band: on its radius on average, round enough,
-  // on no single line; but two lines meeting at the edge fit them far better than its circle.
-  const double r = 0.0211;
-  ConstructedScene scene(0.002);
-  scene.addPipe({-1.5, 0, 1.1}, {-0.025, 0, 1.1}, r);
-  scene.addPostFaces(0.0, 0.01, 0.05, 0.0, 1.1 - r, {Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, -1, 0)},
-                     ConstructedScene::PostNormals::TowardsScanner, Eigen::Vector3d(-1, -0.4, 0).normalized());
-  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
-  const JointsResult result = scene.connect();
+  // The post a centimetre beside the rail's axis, seen more along it, with 2 mm of noise. A
+  // rail-sized cylinder down the post holds the edge and a strip of each face in its band: on its
+  // radius on average, round enough, on no single line; but two lines meeting at the edge fit them
+  // far better than its circle.
+  const JointsResult result = railEndingAtAPostSeenFromAfar(0.002, 0.01, Eigen::Vector3d(-1, -0.4, 0));
   EXPECT_EQ(result.diagnostics.completedPipes, 0u);
   EXPECT_TRUE(result.joints.empty());
 }

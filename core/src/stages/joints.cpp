@@ -904,6 +904,30 @@ std::vector<Eigen::Vector3d> networkDirections(const std::vector<PipeSegment>& p
 /// A pipe the earlier stages missed, found beyond a free end: short legs between elbows and tails
 /// into equipment hold too few points for the Gaussian sphere, but knowing the radius, the end and
 /// the network's directions leaves only the corner's place to find.
+/// Sums over points in a plane from which the squared distances of the points from the line that
+/// fits them best follow (the smaller eigenvalue of their covariance), for any run of them.
+struct LineFitSums {
+  double count = 0.0;
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d squares = Eigen::Matrix2d::Zero();
+
+  void add(const Eigen::Vector2d& q) {
+    count += 1.0;
+    sum += q;
+    squares += q * q.transpose();
+  }
+  LineFitSums operator-(const LineFitSums& other) const {
+    return {count - other.count, sum - other.sum, squares - other.squares};
+  }
+  double squaresOffLine() const {
+    if (count <= 0.0) return 0.0;
+    const Eigen::Vector2d mean = sum / count;
+    const Eigen::Matrix2d covariance = squares / count - mean * mean.transpose();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> solver(covariance, Eigen::EigenvaluesOnly);
+    return count * std::max(0.0, solver.eigenvalues()(0));
+  }
+};
+
 struct Completion {
   PipeEnd from;   // The end it continues beyond an elbow...
   int main = -1;  // ...or, when not negative, the pipe it branches from at a tee.
@@ -1353,70 +1377,57 @@ class Completer {
   /// that fits them best across the pipe.
   double lineRms(const std::vector<std::uint32_t>& points, const Eigen::Vector3d& origin, const Eigen::Vector3d& x,
                  const Eigen::Vector3d& y) const {
-    std::vector<Eigen::Vector2d> across;
-    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+    LineFitSums sums;
     for (std::uint32_t i : points) {
       const Eigen::Vector3d d = input_.cloud.positions[i].cast<double>() - origin;
-      across.emplace_back(d.dot(x), d.dot(y));
-      mean += across.back();
+      sums.add(Eigen::Vector2d(d.dot(x), d.dot(y)));
     }
-    mean /= static_cast<double>(across.size());
-    Eigen::Matrix2d covariance = Eigen::Matrix2d::Zero();
-    for (const Eigen::Vector2d& q : across) covariance += (q - mean) * (q - mean).transpose();
-    covariance /= static_cast<double>(across.size());
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> solver(covariance, Eigen::EigenvaluesOnly);
-    return std::sqrt(std::max(0.0, solver.eigenvalues()(0)));
+    return std::sqrt(sums.squaresOffLine() / std::max(1.0, sums.count));
   }
 
   /// RMS distance of `points`, seen along the pipe (`x` × `y` is its axis), from the two straight
   /// lines that fit them best, one on each side of a split in their order around the axis: the two
   /// faces of a post seen across its edge. (The points may span the whole circle: the order starts
   /// past the widest empty arc.)
-  double twoLineRms(const std::vector<std::uint32_t>& points, const Eigen::Vector3d& origin,
-                    const Eigen::Vector3d& along, const Eigen::Vector3d& x, const Eigen::Vector3d& y) const {
+  double twoLineRms(const std::vector<std::uint32_t>& points, const Eigen::Vector3d& origin, const Eigen::Vector3d& x,
+                    const Eigen::Vector3d& y) const {
     constexpr std::size_t kMinSide = 3;
     if (points.size() < 2 * kMinSide) return std::numeric_limits<double>::infinity();
     std::vector<std::pair<double, Eigen::Vector2d>> around;
     for (std::uint32_t i : points) {
-      const Eigen::Vector3d d = radialOffset(i, origin, along);
+      const Eigen::Vector3d d = input_.cloud.positions[i].cast<double>() - origin;
       const Eigen::Vector2d q(d.dot(x), d.dot(y));
       around.emplace_back(std::atan2(q.y(), q.x()), q);
     }
     std::sort(around.begin(), around.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    // The widest empty arc, and the widest of the others: two lines pass through any few scan
+    // columns of a thin pipe seen from afar, whatever its shape, so only points that fill their arc
+    // tell an edge from a circle.
     std::size_t widest = 0;
     double widestGap = around.front().first + 2.0 * kPi - around.back().first;
-    for (std::size_t k = 1; k < around.size(); ++k) {
-      if (around[k].first - around[k - 1].first > widestGap) {
-        widestGap = around[k].first - around[k - 1].first;
-        widest = k;
-      }
-    }
-    std::rotate(around.begin(), around.begin() + static_cast<std::ptrdiff_t>(widest), around.end());
-    // Two lines pass through any few scan columns of a thin pipe seen from afar, whatever its shape:
-    // only points that fill their arc tell an edge from a circle.
+    double otherGap = 0.0;
     for (std::size_t k = 1; k < around.size(); ++k) {
       const double gap = around[k].first - around[k - 1].first;
-      if ((gap < 0.0 ? gap + 2.0 * kPi : gap) > radians(kMaxEdgeGapDeg)) return std::numeric_limits<double>::infinity();
+      if (gap > widestGap) {
+        otherGap = widestGap;
+        widestGap = gap;
+        widest = k;
+      } else {
+        otherGap = std::max(otherGap, gap);
+      }
     }
-    // Sums of x, y, x², xy, y² over the first k points: each side's line fit in constant time.
+    if (otherGap > radians(kMaxEdgeGapDeg)) return std::numeric_limits<double>::infinity();
+    std::rotate(around.begin(), around.begin() + static_cast<std::ptrdiff_t>(widest), around.end());
+    // Sums over the first k points: each side's line fit in constant time.
     const std::size_t n = around.size();
-    std::vector<Eigen::Matrix<double, 5, 1>> sums(n + 1, Eigen::Matrix<double, 5, 1>::Zero());
+    std::vector<LineFitSums> sums(n + 1);
     for (std::size_t k = 0; k < n; ++k) {
-      const Eigen::Vector2d& q = around[k].second;
       sums[k + 1] = sums[k];
-      sums[k + 1] += Eigen::Matrix<double, 5, 1>(q.x(), q.y(), q.x() * q.x(), q.x() * q.y(), q.y() * q.y());
+      sums[k + 1].add(around[k].second);
     }
-    const auto squaresOffLine = [](const Eigen::Matrix<double, 5, 1>& s, double count) {
-      const double mx = s(0) / count, my = s(1) / count;
-      Eigen::Matrix2d covariance;
-      covariance << s(2) / count - mx * mx, s(3) / count - mx * my, s(3) / count - mx * my, s(4) / count - my * my;
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> solver(covariance, Eigen::EigenvaluesOnly);
-      return count * std::max(0.0, solver.eigenvalues()(0));
-    };
     double best = std::numeric_limits<double>::infinity();
     for (std::size_t k = kMinSide; k + kMinSide <= n; ++k) {
-      best = std::min(best, squaresOffLine(sums[k], static_cast<double>(k)) +
-                                squaresOffLine(sums[n] - sums[k], static_cast<double>(n - k)));
+      best = std::min(best, sums[k].squaresOffLine() + (sums[n] - sums[k]).squaresOffLine());
     }
     return std::sqrt(best / static_cast<double>(n));
   }
@@ -1714,7 +1725,7 @@ class Completer {
     // a circle of the pipe's radius fits them within the band, two lines meeting at the edge far
     // better, where they fit an arc about as well as the circle does.
     if (inBand.size() >= kMinEdgePoints &&
-        twoLineRms(inBand, corner, along, across, aside) < kTwoLinesToCircle * overBand.rms) {
+        twoLineRms(inBand, corner, across, aside) < kTwoLinesToCircle * overBand.rms) {
       return std::nullopt;
     }
     pipe.start = corner;
