@@ -298,14 +298,22 @@ TEST(Joints, ElbowOnNoisyOneSidedScan) {
   ASSERT_NO_FATAL_FAILURE(expectOnlyAnElbowOfBendRadius(result, 0.15, 0.1 * 0.15));
 }
 
-TEST(Joints, OccludedElbowIsProposedWithTheLargestRadiusTheEndsAllow) {
-  // No points on the elbow at all: the geometry alone suggests it.
+TEST(Joints, OccludedElbowIsProposedAsALongRadiusElbow) {
+  // No points on the elbow at all: the geometry alone suggests it, and nothing says how it bends.
+  // The ends, seen straight up to 30 cm from the corner, allow up to 6 radii; the commonest
+  // fitting, a long-radius elbow (1.5 diameters, 3 radii), is taken.
   ConstructedScene scene;
   scene.addPipe({-1.5, 0, 0}, {-0.3, 0, 0}, 0.05);
   scene.addPipe({0, 0.3, 0}, {0, 1.5, 0}, 0.05);
   const JointsResult result = scene.connect();
-  ASSERT_NO_FATAL_FAILURE(expectOnlyAnElbowOfBendRadius(result, 0.25, 1e-6));  // max_bend_radii × r
+  ASSERT_NO_FATAL_FAILURE(expectOnlyAnElbowOfBendRadius(result, 0.15, 1e-6));
   EXPECT_EQ(result.joints[0].status, JointStatus::Proposed);
+
+  // Ends that stop 10 cm from the corner were seen straight there: the elbow is tighter.
+  ConstructedScene tight;
+  tight.addPipe({-1.5, 0, 0}, {-0.1, 0, 0}, 0.05);
+  tight.addPipe({0, 0.1, 0}, {0, 1.5, 0}, 0.05);
+  ASSERT_NO_FATAL_FAILURE(expectOnlyAnElbowOfBendRadius(tight.connect(), 0.1, 1e-6));
 }
 
 TEST(Joints, AnElbowIsFoundWhenOneEndStopsShortAndTheOtherReachesIt) {

@@ -71,6 +71,9 @@ constexpr double kMaxBendlessSupport = 0.2;
 // Missing points say the torus is not there only where it would hold this many: a thin pipe seen
 // from afar leaves a few on an elbow, which the overshooting pipes take as their inliers.
 constexpr double kMinBendlessEvidence = 10.0;
+// An elbow with no points to vote for its bend is taken for the commonest fitting, a long-radius
+// elbow (1.5 diameters), unless its pipes' ends, seen straight up to where they stop, say tighter.
+constexpr double kLongElbowRadii = 3.0;
 // Rounds of completion at most: the pipes one round finds look for what lies beyond them in the
 // next, until a round finds none (medium scenes need two).
 constexpr int kMaxCompletionRounds = 4;
@@ -560,7 +563,7 @@ class JointBuilder {
         histogram.vote(bendRadius);
       }
     }
-    double bendRadius = std::clamp(std::min(toEndA, toEndB) / tangentPerRadius, minBend, maxBend);
+    double bendRadius = std::clamp(std::min(std::min(toEndA, toEndB) / tangentPerRadius, kLongElbowRadii * r), minBend, maxBend);
     if (!votes.empty()) {
       const double peakRadius = histogram.peak().first;
       // Refine: the mean of the votes within two bins of the peak.
