@@ -121,6 +121,7 @@ const std::vector<Field>& fields() {
       PIPERUN_FIELD("joints", "min_completion_coverage", "", Stage::Joints, joints.minCompletionCoverage, "...in at least this share of its sections (a short leg between two parallel pipes, half of each)"),
       PIPERUN_FIELD("joints", "min_completion_bend_deg", "deg", Stage::Joints, joints.minCompletionBendDeg, "...and turns at least this far from the end's axis"),
       PIPERUN_FIELD("joints", "min_branch_radius", "m", Stage::Joints, joints.minBranchRadius, "Pipes look along their body for a missed branch (checked as a completed pipe) from this radius up to their own (0: off)"),
+      PIPERUN_FIELD("joints", "occluded_search_diameters", "", Stage::Joints, joints.occludedSearchDiameters, "Two ends no joint took look this far for a proposed elbow across a hidden corner, when its bridged stretches cross no pipe and hold no points near their axes (at most search_diameters: off)"),
   };
   return table;
 }

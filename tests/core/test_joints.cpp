@@ -330,11 +330,65 @@ TEST(Joints, AnElbowIsFoundWhenOneEndStopsShortAndTheOtherReachesIt) {
   ASSERT_NO_FATAL_FAILURE(expectOnlyAnElbowOfBendRadius(result, R, 0.05 * R));
   EXPECT_NEAR(result.pipes[0].end.x(), -R, 0.01);  // Extended to the tangent point.
 
-  // Both ends that far from the corner are no elbow.
+  // Both ends that far from the corner are no elbow of the search.
   ConstructedScene far;
   far.addPipe({-1.5, 0, 0}, {-R - 0.45, 0, 0}, r);
   far.addPipe({0, R + 0.45, 0}, {0, 1.5, 0}, r);
-  EXPECT_TRUE(far.connect().joints.empty());
+  JointsParams searchOnly;
+  searchOnly.occludedSearchDiameters = 0.0;
+  EXPECT_TRUE(far.connect(searchOnly).joints.empty());
+}
+
+/// Two pipes of radius 5 cm whose ends stop `short` before their corner at the origin, nothing
+/// seen between them: the first along +x, the second leaving along +y.
+ConstructedScene cornerHiddenBehindSomething(double shortOfCorner) {
+  ConstructedScene scene;
+  scene.addPipe({-2.5, 0, 0}, {-shortOfCorner, 0, 0}, 0.05);
+  scene.addPipe({0, shortOfCorner, 0}, {0, 2.5, 0}, 0.05);
+  return scene;
+}
+
+TEST(Joints, AnElbowIsProposedAcrossACornerHiddenFartherThanTheSearchDistance) {
+  // Both ends stop 1 m short (10 diameters; the search reaches 4 for each end, 8 for both).
+  auto scene = cornerHiddenBehindSomething(1.0);
+  const JointsResult result = scene.connect();
+  ASSERT_NO_FATAL_FAILURE(expectOnlyAnElbowOfBendRadius(result, 0.15, 1e-6));  // Long-radius: nothing seen.
+  EXPECT_EQ(result.joints[0].status, JointStatus::Proposed);
+  EXPECT_EQ(result.diagnostics.occludedElbows, 1u);
+  // The pipes run across the hidden stretches to the tangent points.
+  EXPECT_NEAR(result.pipes[0].end.x(), -0.15, 1e-6);
+  EXPECT_NEAR(result.pipes[1].start.y(), 0.15, 1e-6);
+
+  // A piece of the first pipe seen through a gap in whatever hides it, too short to take a joint,
+  // is a bit of the bridged stretch: it goes.
+  auto glimpsed = cornerHiddenBehindSomething(1.0);
+  glimpsed.addPipe({-0.6, 0, 0}, {-0.54, 0, 0}, 0.05);
+  const JointsResult withPiece = glimpsed.connect();
+  ASSERT_NO_FATAL_FAILURE(expectOnlyAnElbowOfBendRadius(withPiece, 0.15, 1e-6));
+  EXPECT_EQ(withPiece.pipes.size(), 2u);
+  EXPECT_EQ(withPiece.diagnostics.absorbedFragments, 1u);
+
+  // Off, or with the two ends together farther from the corner than twice 12 diameters (as the
+  // search's 4), no elbow.
+  JointsParams off;
+  off.occludedSearchDiameters = 0.0;
+  EXPECT_TRUE(scene.connect(off).joints.empty());
+  EXPECT_TRUE(cornerHiddenBehindSomething(1.5).connect().joints.empty());
+}
+
+TEST(Joints, NoElbowIsProposedAcrossAHiddenCornerWhereSomethingWasSeenInThePipesWay) {
+  // A post stands on the first pipe's line, 50 cm before the corner: the pipe does not run there.
+  auto post = cornerHiddenBehindSomething(1.0);
+  post.addPost(-0.5, 0.0, 0.05, -0.3, 0.3);
+  EXPECT_TRUE(post.connect().joints.empty());
+
+  // A pipe crosses the second pipe's hidden stretch 8 cm off its line (its points keep clear of the
+  // stretch's core): the two tubes would cut each other.
+  auto crossed = cornerHiddenBehindSomething(1.0);
+  crossed.addPipe({-1.0, 0.6, 0.08}, {1.0, 0.6, 0.08}, 0.05);
+  const JointsResult result = crossed.connect();
+  EXPECT_TRUE(std::none_of(result.joints.begin(), result.joints.end(),
+                           [](const Joint& joint) { return joint.type == JointType::Elbow; }));
 }
 
 TEST(Joints, ACompletedLegEndsAtItsLastPoint) {

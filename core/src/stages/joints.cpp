@@ -77,6 +77,9 @@ constexpr double kLongElbowRadii = 3.0;
 // Rounds of completion at most: the pipes one round finds look for what lies beyond them in the
 // next, until a round finds none (medium scenes need two).
 constexpr int kMaxCompletionRounds = 4;
+// Points this close to the axis of a stretch an elbow would bridge across an occlusion, in its
+// pipe's radius, are something else standing where the pipe would run (see bridgeOccludedCorners).
+constexpr double kOccludedCoreRadii = 0.5;
 
 /// Whether point i's normal is within the support angle of the unit `radial` (normals are unoriented).
 bool normalAgrees(const PointCloud& cloud, std::uint32_t i, const Eigen::Vector3d& radial,
@@ -563,7 +566,8 @@ class JointBuilder {
         histogram.vote(bendRadius);
       }
     }
-    double bendRadius = std::clamp(std::min(std::min(toEndA, toEndB) / tangentPerRadius, kLongElbowRadii * r), minBend, maxBend);
+    double bendRadius =
+        std::clamp(std::min(std::min(toEndA, toEndB) / tangentPerRadius, kLongElbowRadii * r), minBend, maxBend);
     if (!votes.empty()) {
       const double peakRadius = histogram.peak().first;
       // Refine: the mean of the votes within two bins of the peak.
@@ -1921,6 +1925,145 @@ std::optional<Adoption> adoptCompletions(const JointsInput& input, const JointsP
   return std::nullopt;
 }
 
+/// Elbows across occlusions. A corner hidden behind equipment or another pipe leaves both its
+/// pipes cut short, often farther from it than the search distance, and after the completion no
+/// other joint claims their ends. Two such ends look for each other up to
+/// `occludedSearchDiameters`, for corners the search distance does not reach. An elbow between
+/// them is chosen (the best-supported first) when the stretches it bridges to its tangent points
+/// keep out of every other pipe and hold no points near their axes (whatever was seen there stands
+/// where the pipe would run). Nothing was seen on those stretches, so the elbow's confidence stays
+/// low: it is proposed, for review. Returns the bridged stretches.
+std::vector<PipeSegment> bridgeOccludedCorners(const JointsInput& input, const JointsParams& params,
+                                               const std::vector<char>& explained, double cellSize,
+                                               Resolution& resolution) {
+  std::vector<PipeSegment> stretches;
+  if (params.occludedSearchDiameters <= params.searchDiameters) return stretches;
+  const auto& pipes = input.pipes;
+  const JointBuilder builder(input, params, explained);
+  JointsParams occludedParams = params;
+  occludedParams.searchDiameters = params.occludedSearchDiameters;
+  const JointBuilder occludedBuilder(input, occludedParams, explained);
+
+  std::vector<PipeEnd> ends;  // The free ends of pipes that take joints, in key order.
+  std::vector<double> reaches;
+  const double widestTangent = std::tan(0.5 * radians(params.maxElbowAngleDeg));
+  for (int p = 0; p < static_cast<int>(pipes.size()); ++p) {
+    const auto pipe = static_cast<std::size_t>(p);
+    if (isFragment(pipes[pipe], params) || resolution.arcPieces[pipe]) continue;
+    for (int side = 0; side < 2; ++side) {
+      if (resolution.takenBy[static_cast<std::size_t>(2 * p + side)] >= 0) continue;
+      ends.push_back(endOf(pipes, p, side));
+      // As far as tryEndPair lets two ends lie apart, for a partner as thick as an elbow allows.
+      const double partner = ends.back().radius / params.minRadiusRatio;
+      reaches.push_back(2.0 * (occludedBuilder.searchDistance(partner) + params.minBendRadii * partner * widestTangent) +
+                        occludedBuilder.skewLimit(partner));
+    }
+  }
+  HashGrid endGrid(cellSize);
+  for (std::size_t e = 0; e < ends.size(); ++e) endGrid.insert(endGrid.cellOf(ends[e].point), static_cast<std::uint32_t>(e));
+  std::vector<Hypothesis> candidates;
+  std::vector<Hypothesis> within;
+  for (std::size_t e = 0; e < ends.size(); ++e) {
+    std::vector<std::size_t> partners;
+    endGrid.forEachInCube(ends[e].point, reaches[e], [&](std::uint32_t f) {
+      if (f > e && ends[f].pipe != ends[e].pipe) partners.push_back(f);
+    });
+    std::sort(partners.begin(), partners.end());
+    partners.erase(std::unique(partners.begin(), partners.end()), partners.end());
+    for (const std::size_t f : partners) {
+      within.clear();
+      builder.tryEndPair(ends[e], ends[f], within);
+      if (!within.empty()) continue;  // The resolution weighed this pair already.
+      const std::size_t before = candidates.size();
+      occludedBuilder.tryEndPair(ends[e], ends[f], candidates);
+      candidates.erase(std::remove_if(candidates.begin() + static_cast<std::ptrdiff_t>(before), candidates.end(),
+                                      [](const Hypothesis& h) { return h.type != JointType::Elbow; }),
+                       candidates.end());
+    }
+  }
+  if (candidates.empty()) return stretches;
+
+  std::vector<std::pair<Eigen::Vector3d, double>> spheres;
+  for (const auto& candidate : candidates) spheres.emplace_back(candidate.center, candidate.reach);
+  const auto nearby = pointsInSpheres(input.cloud, spheres, cellSize, [](std::size_t) { return true; });
+  tbb::parallel_for(std::size_t{0}, candidates.size(),
+                    [&](std::size_t h) { builder.reconstruct(candidates[h], nearby[h]); });
+
+  // Where each end lies once the chosen elbows have moved it (see resolveJoints).
+  std::vector<Eigen::Vector3d> endPoint(2 * pipes.size());
+  for (std::size_t p = 0; p < pipes.size(); ++p) {
+    endPoint[2 * p] = pipes[p].start;
+    endPoint[2 * p + 1] = pipes[p].end;
+  }
+  for (std::size_t h : resolution.chosen) {
+    const Hypothesis& chosen = resolution.hypotheses[h];
+    if (chosen.type != JointType::Elbow) continue;
+    endPoint[static_cast<std::size_t>(chosen.a.key())] = chosen.newA;
+    endPoint[static_cast<std::size_t>(chosen.b.key())] = chosen.newB;
+  }
+  const auto keepsLength = [&](const PipeEnd& end, const Eigen::Vector3d& moved) {
+    return (moved - endPoint[static_cast<std::size_t>(end.key() ^ 1)]).dot(end.outward) >= kSectionLength;
+  };
+  // The stretch from an end to its tangent point, when the tangent point lies beyond it.
+  const auto stretchOf = [](const PipeEnd& end, const Eigen::Vector3d& tangent) -> std::optional<PipeSegment> {
+    if ((tangent - end.point).dot(end.outward) <= 0.0) return std::nullopt;
+    PipeSegment stretch;
+    stretch.start = end.point;
+    stretch.end = tangent;
+    stretch.radius = end.radius;
+    return stretch;
+  };
+  const auto clear = [&](const PipeSegment& stretch, const Hypothesis& h, const std::vector<std::uint32_t>& points) {
+    for (std::size_t p = 0; p < pipes.size(); ++p) {
+      const PipeSegment& pipe = pipes[p];
+      if (static_cast<int>(p) == h.a.pipe || static_cast<int>(p) == h.b.pipe || isFragment(pipe, params)) continue;
+      if (segmentDistance(stretch.start, stretch.end, pipe.start, pipe.end) <
+          stretch.radius + pipe.radius - params.supportDistance) {
+        return false;
+      }
+    }
+    const Eigen::Vector3d axis = stretch.end - stretch.start;
+    const double length = axis.norm();
+    return std::none_of(points.begin(), points.end(), [&](std::uint32_t i) {
+      const Eigen::Vector3d w = input.cloud.positions[i].cast<double>() - stretch.start;
+      const double along = w.dot(axis) / length;
+      return along > 0.0 && along < length && (w - along * axis / length).norm() < kOccludedCoreRadii * stretch.radius;
+    });
+  };
+  std::vector<std::size_t> order;
+  for (std::size_t h = 0; h < candidates.size(); ++h) {
+    const Hypothesis& candidate = candidates[h];
+    if (!candidate.valid || !keepsLength(candidate.a, candidate.newA) || !keepsLength(candidate.b, candidate.newB)) continue;
+    const auto stretchA = stretchOf(candidate.a, candidate.newA);
+    const auto stretchB = stretchOf(candidate.b, candidate.newB);
+    if ((stretchA && !clear(*stretchA, candidate, nearby[h])) || (stretchB && !clear(*stretchB, candidate, nearby[h]))) {
+      continue;
+    }
+    order.push_back(h);
+  }
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t x, std::size_t y) { return candidates[x].confidence > candidates[y].confidence; });
+  for (std::size_t h : order) {
+    Hypothesis& candidate = candidates[h];
+    auto& takenA = resolution.takenBy[static_cast<std::size_t>(candidate.a.key())];
+    auto& takenB = resolution.takenBy[static_cast<std::size_t>(candidate.b.key())];
+    if (takenA >= 0 || takenB >= 0 || !keepsLength(candidate.a, candidate.newA) ||
+        !keepsLength(candidate.b, candidate.newB)) {
+      continue;
+    }
+    endPoint[static_cast<std::size_t>(candidate.a.key())] = candidate.newA;
+    endPoint[static_cast<std::size_t>(candidate.b.key())] = candidate.newB;
+    for (const auto& stretch : {stretchOf(candidate.a, candidate.newA), stretchOf(candidate.b, candidate.newB)}) {
+      if (stretch) stretches.push_back(*stretch);
+    }
+    takenA = takenB = static_cast<int>(resolution.hypotheses.size());
+    resolution.chosen.push_back(resolution.hypotheses.size());
+    resolution.hypotheses.push_back(std::move(candidate));
+    ++resolution.diagnostics.occludedElbows;
+  }
+  return stretches;
+}
+
 }  // namespace
 
 JointsResult connectPipes(const JointsInput& input, const JointsParams& params, Progress& progress) {
@@ -1970,6 +2113,8 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
       resolution = std::move(adopted->resolution);
     }
   }
+  const std::vector<PipeSegment> bridged =
+      bridgeOccludedCorners({input.cloud, pipes}, params, explained, cellSize, resolution);
   progress.report("joints", 0.8);
 
   JointsResult result;
@@ -1994,9 +2139,13 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
         absorbed[static_cast<std::size_t>(p)] = 1;
       }
     }
-    // So do fragments inside a completed pipe's tube: bits of the leg it completed.
+    // So do fragments inside a completed pipe's tube (bits of the leg it completed) and inside a
+    // stretch bridged across an occlusion (bits of the pipe seen through a gap in it).
     for (std::size_t c = foundCount; c < pipes.size(); ++c) {
       if (middleInsideTube(pipes[static_cast<std::size_t>(p)], pipes[c])) absorbed[static_cast<std::size_t>(p)] = 1;
+    }
+    for (const PipeSegment& stretch : bridged) {
+      if (middleInsideTube(pipes[static_cast<std::size_t>(p)], stretch)) absorbed[static_cast<std::size_t>(p)] = 1;
     }
   }
   // Pipe ids: input order, absorbed fragments left out.

@@ -60,6 +60,10 @@ struct JointsParams {
                                        ///< (a thin one seen in a few scan columns), of this radius (m) up to its own,
                                        ///< along one of the network's directions, checked as a completed pipe is and
                                        ///< kept when it takes the tee (0: off; see maxCompletionLength).
+  double occludedSearchDiameters = 12.0;  ///< Two ends no joint took, after the completion, look for an elbow between
+                                       ///< them this far (as searchDiameters; no farther than it: off), across a
+                                       ///< corner hidden behind something: proposed, when the stretches it bridges
+                                       ///< cross no other pipe and hold no points near their axes.
 };
 
 struct JointsInput {
@@ -92,6 +96,7 @@ struct JointsResult {
     std::size_t splitKinks = 0;            ///< Pairs of pipes overlapping at a gentle bend, split at its corner...
     std::size_t kinkLegs = 0;              ///< ...and legs found beyond a bend one pipe was fitted across (appended
                                            ///< after the input pipes, before the completed ones).
+    std::size_t occludedElbows = 0;        ///< Elbows across corners hidden farther than the search distance.
     double seconds = 0.0;
   } diagnostics;
 };
