@@ -2013,7 +2013,9 @@ std::vector<PipeSegment> bridgeOccludedCorners(const JointsInput& input, const J
     stretch.radius = end.radius;
     return stretch;
   };
-  const auto clear = [&](const PipeSegment& stretch, const Hypothesis& h, const std::vector<std::uint32_t>& points) {
+  // Whether nothing stands in a bridged stretch's way: no other pipe's tube, no points near its axis.
+  const auto nothingInTheWay = [&](const PipeSegment& stretch, const Hypothesis& h,
+                                   const std::vector<std::uint32_t>& points) {
     for (std::size_t p = 0; p < pipes.size(); ++p) {
       const PipeSegment& pipe = pipes[p];
       if (static_cast<int>(p) == h.a.pipe || static_cast<int>(p) == h.b.pipe || isFragment(pipe, params)) continue;
@@ -2033,10 +2035,11 @@ std::vector<PipeSegment> bridgeOccludedCorners(const JointsInput& input, const J
   std::vector<std::size_t> order;
   for (std::size_t h = 0; h < candidates.size(); ++h) {
     const Hypothesis& candidate = candidates[h];
-    if (!candidate.valid || !keepsLength(candidate.a, candidate.newA) || !keepsLength(candidate.b, candidate.newB)) continue;
+    if (!candidate.valid) continue;
     const auto stretchA = stretchOf(candidate.a, candidate.newA);
     const auto stretchB = stretchOf(candidate.b, candidate.newB);
-    if ((stretchA && !clear(*stretchA, candidate, nearby[h])) || (stretchB && !clear(*stretchB, candidate, nearby[h]))) {
+    if ((stretchA && !nothingInTheWay(*stretchA, candidate, nearby[h])) ||
+        (stretchB && !nothingInTheWay(*stretchB, candidate, nearby[h]))) {
       continue;
     }
     order.push_back(h);
