@@ -53,6 +53,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <initializer_list>
 #include <limits>
 #include <optional>
 #include <tuple>
@@ -100,13 +101,15 @@ bool insideAnotherPipe(const PipeSegment& piece, const std::vector<PipeSegment>&
   });
 }
 
-/// Whether the tube of `piece` cuts the tube of one of `pipes` other than `except` (a fragment's
-/// does not count): pipes do not pass through each other.
-bool cutsAnotherPipe(const PipeSegment& piece, int except, const std::vector<PipeSegment>& pipes,
+/// Whether the tube of `piece` cuts the tube of one of `pipes` other than those in `except` (a
+/// fragment's does not count): pipes do not pass through each other.
+bool cutsAnotherPipe(const PipeSegment& piece, std::initializer_list<int> except, const std::vector<PipeSegment>& pipes,
                      const JointsParams& params) {
   for (std::size_t p = 0; p < pipes.size(); ++p) {
     const PipeSegment& pipe = pipes[p];
-    if (static_cast<int>(p) == except || isFragment(pipe, params)) continue;
+    if (std::find(except.begin(), except.end(), static_cast<int>(p)) != except.end() || isFragment(pipe, params)) {
+      continue;
+    }
     if (segmentDistance(piece.start, piece.end, pipe.start, pipe.end) <
         piece.radius + pipe.radius - params.supportDistance) {
       return true;
@@ -276,6 +279,34 @@ struct Hypothesis {
   std::vector<Eigen::Vector3d> axis;
   std::vector<std::uint32_t> supportPoints;
   bool valid = false;
+};
+
+/// Where each pipe end lies once the elbows chosen so far have moved it to their tangent points:
+/// two elbows on one short pipe must leave it a length.
+class MovedEnds {
+ public:
+  explicit MovedEnds(const std::vector<PipeSegment>& pipes) : points_(2 * pipes.size()) {
+    for (std::size_t p = 0; p < pipes.size(); ++p) {
+      points_[2 * p] = pipes[p].start;
+      points_[2 * p + 1] = pipes[p].end;
+    }
+  }
+
+  /// Whether `elbow` leaves both its pipes at least a section long.
+  bool leaveLength(const Hypothesis& elbow) const {
+    return keepsLength(elbow.a, elbow.newA) && keepsLength(elbow.b, elbow.newB);
+  }
+  void move(const Hypothesis& elbow) {
+    points_[static_cast<std::size_t>(elbow.a.key())] = elbow.newA;
+    points_[static_cast<std::size_t>(elbow.b.key())] = elbow.newB;
+  }
+
+ private:
+  bool keepsLength(const PipeEnd& end, const Eigen::Vector3d& moved) const {
+    return (moved - points_[static_cast<std::size_t>(end.key() ^ 1)]).dot(end.outward) >= kSectionLength;
+  }
+
+  std::vector<Eigen::Vector3d> points_;
 };
 
 class JointBuilder {
@@ -819,34 +850,19 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
   auto& takenBy = resolution.takenBy;
   takenBy.assign(2 * static_cast<std::size_t>(pipeCount), -1);
   const auto taken = [&](const PipeEnd& end) { return takenBy[static_cast<std::size_t>(end.key())] >= 0; };
-  // Where each end lies once the chosen elbows have moved it: two elbows on one short pipe must
-  // leave it a length.
-  std::vector<Eigen::Vector3d> endPoint(2 * static_cast<std::size_t>(pipeCount));
-  for (int p = 0; p < pipeCount; ++p) {
-    endPoint[2 * static_cast<std::size_t>(p)] = pipes[static_cast<std::size_t>(p)].start;
-    endPoint[2 * static_cast<std::size_t>(p) + 1] = pipes[static_cast<std::size_t>(p)].end;
-  }
-  const auto lengthLeft = [&](const PipeEnd& end, const Eigen::Vector3d& moved) {
-    return (moved - endPoint[static_cast<std::size_t>(end.key() ^ 1)]).dot(end.outward);
-  };
-  const auto keepsLength = [&](const PipeEnd& end, const Eigen::Vector3d& moved) {
-    return lengthLeft(end, moved) >= kSectionLength;
-  };
+  MovedEnds movedEnds(pipes);
   for (std::size_t h : order) {
     const Hypothesis& hypothesis = hypotheses[h];
     const bool twoEnds = hypothesis.type != JointType::Tee;
     const bool elbow = hypothesis.type == JointType::Elbow;
     if (taken(hypothesis.a) || (twoEnds && taken(hypothesis.b)) ||
-        (elbow && (!keepsLength(hypothesis.a, hypothesis.newA) || !keepsLength(hypothesis.b, hypothesis.newB)))) {
+        (elbow && !movedEnds.leaveLength(hypothesis))) {
       ++resolution.diagnostics.conflicts;
       continue;
     }
     takenBy[static_cast<std::size_t>(hypothesis.a.key())] = static_cast<int>(h);
     if (twoEnds) takenBy[static_cast<std::size_t>(hypothesis.b.key())] = static_cast<int>(h);
-    if (elbow) {
-      endPoint[static_cast<std::size_t>(hypothesis.a.key())] = hypothesis.newA;
-      endPoint[static_cast<std::size_t>(hypothesis.b.key())] = hypothesis.newB;
-    }
+    if (elbow) movedEnds.move(hypothesis);
     resolution.chosen.push_back(h);
   }
 
@@ -1849,7 +1865,7 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
     if (insideAnotherPipe(found[e].pipe, input.pipes, params)) continue;
     // A branch is found from votes alone, and two neighbouring branches' facing walls fit a wide one
     // between them.
-    if (found[e].main >= 0 && cutsAnotherPipe(found[e].pipe, found[e].main, input.pipes, params)) continue;
+    if (found[e].main >= 0 && cutsAnotherPipe(found[e].pipe, {found[e].main}, input.pipes, params)) continue;
     const auto& inliers = found[e].pipe.inliers;
     const auto shared = static_cast<std::size_t>(
         std::count_if(inliers.begin(), inliers.end(), [&](std::uint32_t i) { return used[i] != 0; }));
@@ -1989,21 +2005,10 @@ std::vector<PipeSegment> bridgeOccludedCorners(const JointsInput& input, const J
   tbb::parallel_for(std::size_t{0}, candidates.size(),
                     [&](std::size_t h) { builder.reconstruct(candidates[h], nearby[h]); });
 
-  // Where each end lies once the chosen elbows have moved it (see resolveJoints).
-  std::vector<Eigen::Vector3d> endPoint(2 * pipes.size());
-  for (std::size_t p = 0; p < pipes.size(); ++p) {
-    endPoint[2 * p] = pipes[p].start;
-    endPoint[2 * p + 1] = pipes[p].end;
-  }
+  MovedEnds movedEnds(pipes);
   for (std::size_t h : resolution.chosen) {
-    const Hypothesis& chosen = resolution.hypotheses[h];
-    if (chosen.type != JointType::Elbow) continue;
-    endPoint[static_cast<std::size_t>(chosen.a.key())] = chosen.newA;
-    endPoint[static_cast<std::size_t>(chosen.b.key())] = chosen.newB;
+    if (resolution.hypotheses[h].type == JointType::Elbow) movedEnds.move(resolution.hypotheses[h]);
   }
-  const auto keepsLength = [&](const PipeEnd& end, const Eigen::Vector3d& moved) {
-    return (moved - endPoint[static_cast<std::size_t>(end.key() ^ 1)]).dot(end.outward) >= kSectionLength;
-  };
   // The stretch from an end to its tangent point, when the tangent point lies beyond it.
   const auto stretchOf = [](const PipeEnd& end, const Eigen::Vector3d& tangent) -> std::optional<PipeSegment> {
     if ((tangent - end.point).dot(end.outward) <= 0.0) return std::nullopt;
@@ -2016,14 +2021,7 @@ std::vector<PipeSegment> bridgeOccludedCorners(const JointsInput& input, const J
   // Whether nothing stands in a bridged stretch's way: no other pipe's tube, no points near its axis.
   const auto nothingInTheWay = [&](const PipeSegment& stretch, const Hypothesis& h,
                                    const std::vector<std::uint32_t>& points) {
-    for (std::size_t p = 0; p < pipes.size(); ++p) {
-      const PipeSegment& pipe = pipes[p];
-      if (static_cast<int>(p) == h.a.pipe || static_cast<int>(p) == h.b.pipe || isFragment(pipe, params)) continue;
-      if (segmentDistance(stretch.start, stretch.end, pipe.start, pipe.end) <
-          stretch.radius + pipe.radius - params.supportDistance) {
-        return false;
-      }
-    }
+    if (cutsAnotherPipe(stretch, {h.a.pipe, h.b.pipe}, pipes, params)) return false;
     const Eigen::Vector3d axis = stretch.end - stretch.start;
     const double length = axis.norm();
     return std::none_of(points.begin(), points.end(), [&](std::uint32_t i) {
@@ -2032,17 +2030,16 @@ std::vector<PipeSegment> bridgeOccludedCorners(const JointsInput& input, const J
       return along > 0.0 && along < length && (w - along * axis / length).norm() < kOccludedCoreRadii * stretch.radius;
     });
   };
+  std::vector<std::array<std::optional<PipeSegment>, 2>> bridges(candidates.size());
   std::vector<std::size_t> order;
   for (std::size_t h = 0; h < candidates.size(); ++h) {
     const Hypothesis& candidate = candidates[h];
-    if (!candidate.valid) continue;
-    const auto stretchA = stretchOf(candidate.a, candidate.newA);
-    const auto stretchB = stretchOf(candidate.b, candidate.newB);
-    if ((stretchA && !nothingInTheWay(*stretchA, candidate, nearby[h])) ||
-        (stretchB && !nothingInTheWay(*stretchB, candidate, nearby[h]))) {
-      continue;
+    bridges[h] = {stretchOf(candidate.a, candidate.newA), stretchOf(candidate.b, candidate.newB)};
+    if (std::all_of(bridges[h].begin(), bridges[h].end(), [&](const std::optional<PipeSegment>& stretch) {
+          return !stretch || nothingInTheWay(*stretch, candidate, nearby[h]);
+        })) {
+      order.push_back(h);
     }
-    order.push_back(h);
   }
   std::stable_sort(order.begin(), order.end(),
                    [&](std::size_t x, std::size_t y) { return candidates[x].confidence > candidates[y].confidence; });
@@ -2050,13 +2047,9 @@ std::vector<PipeSegment> bridgeOccludedCorners(const JointsInput& input, const J
     Hypothesis& candidate = candidates[h];
     auto& takenA = resolution.takenBy[static_cast<std::size_t>(candidate.a.key())];
     auto& takenB = resolution.takenBy[static_cast<std::size_t>(candidate.b.key())];
-    if (takenA >= 0 || takenB >= 0 || !keepsLength(candidate.a, candidate.newA) ||
-        !keepsLength(candidate.b, candidate.newB)) {
-      continue;
-    }
-    endPoint[static_cast<std::size_t>(candidate.a.key())] = candidate.newA;
-    endPoint[static_cast<std::size_t>(candidate.b.key())] = candidate.newB;
-    for (const auto& stretch : {stretchOf(candidate.a, candidate.newA), stretchOf(candidate.b, candidate.newB)}) {
+    if (takenA >= 0 || takenB >= 0 || !movedEnds.leaveLength(candidate)) continue;
+    movedEnds.move(candidate);
+    for (const auto& stretch : bridges[h]) {
       if (stretch) stretches.push_back(*stretch);
     }
     takenA = takenB = static_cast<int>(resolution.hypotheses.size());
