@@ -924,9 +924,6 @@ std::vector<Eigen::Vector3d> networkDirections(const std::vector<PipeSegment>& p
   return directions;
 }
 
-/// A pipe the earlier stages missed, found beyond a free end: short legs between elbows and tails
-/// into equipment hold too few points for the Gaussian sphere, but knowing the radius, the end and
-/// the network's directions leaves only the corner's place to find.
 /// Sums over points in a plane from which the squared distances of the points from the line that
 /// fits them best follow (the smaller eigenvalue of their covariance), for any run of them.
 struct LineFitSums {
@@ -951,6 +948,9 @@ struct LineFitSums {
   }
 };
 
+/// A pipe the earlier stages missed, found beyond a free end: short legs between elbows and tails
+/// into equipment hold too few points for the Gaussian sphere, but knowing the radius, the end and
+/// the network's directions leaves only the corner's place to find.
 struct Completion {
   PipeEnd from;   // The end it continues beyond an elbow...
   int main = -1;  // ...or, when not negative, the pipe it branches from at a tee.
@@ -1767,6 +1767,28 @@ class Completer {
   const JointBuilder& builder_;
 };
 
+/// The pairs (e, f), e < f, of `ends` of different pipes whose points lie within reaches[e] of each
+/// other, ordered by e then f (filed by position).
+std::vector<std::pair<std::size_t, std::size_t>> endPairsWithin(const std::vector<PipeEnd>& ends,
+                                                                const std::vector<double>& reaches) {
+  double largestReach = 0.0;
+  for (const double reach : reaches) largestReach = std::max(largestReach, reach);
+  HashGrid endGrid(std::max(largestReach, 1e-3));
+  for (std::size_t e = 0; e < ends.size(); ++e) endGrid.insert(endGrid.cellOf(ends[e].point), static_cast<std::uint32_t>(e));
+  std::vector<std::pair<std::size_t, std::size_t>> pairs;
+  for (std::size_t e = 0; e < ends.size(); ++e) {
+    std::vector<std::size_t> partners;
+    endGrid.forEachInCube(ends[e].point, reaches[e], [&](std::uint32_t f) {
+      if (f > e && ends[f].pipe != ends[e].pipe && (ends[f].point - ends[e].point).norm() <= reaches[e]) {
+        partners.push_back(f);
+      }
+    });
+    std::sort(partners.begin(), partners.end());
+    for (const std::size_t f : partners) pairs.emplace_back(e, f);
+  }
+  return pairs;
+}
+
 /// Completions of the ends no accepted joint took, and branches off the pipes' bodies, of the pipes
 /// from `lookingFrom` on; best-supported first, a point supports one completion.
 std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsParams& params,
@@ -1800,23 +1822,10 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
   std::vector<std::optional<Completion>> completed(ends.size());
   tbb::parallel_for(std::size_t{0}, ends.size(),
                     [&](std::size_t e) { completed[e] = completer.complete(ends[e], directions, nearby[e]); });
-  // Legs between two ends of parallel pipes, from the pairs of ends within reach of each other
-  // (filed by position).
-  double largestReach = cellSize;
-  for (const auto& sphere : spheres) largestReach = std::max(largestReach, sphere.second);
-  HashGrid endGrid(largestReach);
-  for (std::size_t e = 0; e < ends.size(); ++e) endGrid.insert(endGrid.cellOf(ends[e].point), static_cast<std::uint32_t>(e));
-  std::vector<std::pair<std::size_t, std::size_t>> pairs;
-  for (std::size_t e = 0; e < ends.size(); ++e) {
-    std::vector<std::size_t> partners;
-    endGrid.forEachInCube(ends[e].point, spheres[e].second, [&](std::uint32_t f) {
-      if (f > e && ends[f].pipe != ends[e].pipe && (ends[f].point - ends[e].point).norm() <= spheres[e].second) {
-        partners.push_back(f);
-      }
-    });
-    std::sort(partners.begin(), partners.end());
-    for (const std::size_t f : partners) pairs.emplace_back(e, f);
-  }
+  // Legs between two ends of parallel pipes, from the pairs of ends within reach of each other.
+  std::vector<double> reaches;
+  for (const auto& sphere : spheres) reaches.push_back(sphere.second);
+  const auto pairs = endPairsWithin(ends, reaches);
   std::vector<std::optional<Completion>> legs(pairs.size());
   tbb::parallel_for(std::size_t{0}, pairs.size(), [&](std::size_t k) {
     const auto [e, f] = pairs[k];
@@ -1975,27 +1984,17 @@ std::vector<PipeSegment> bridgeOccludedCorners(const JointsInput& input, const J
                         occludedBuilder.skewLimit(partner));
     }
   }
-  HashGrid endGrid(cellSize);
-  for (std::size_t e = 0; e < ends.size(); ++e) endGrid.insert(endGrid.cellOf(ends[e].point), static_cast<std::uint32_t>(e));
   std::vector<Hypothesis> candidates;
   std::vector<Hypothesis> within;
-  for (std::size_t e = 0; e < ends.size(); ++e) {
-    std::vector<std::size_t> partners;
-    endGrid.forEachInCube(ends[e].point, reaches[e], [&](std::uint32_t f) {
-      if (f > e && ends[f].pipe != ends[e].pipe) partners.push_back(f);
-    });
-    std::sort(partners.begin(), partners.end());
-    partners.erase(std::unique(partners.begin(), partners.end()), partners.end());
-    for (const std::size_t f : partners) {
-      within.clear();
-      builder.tryEndPair(ends[e], ends[f], within);
-      if (!within.empty()) continue;  // The resolution weighed this pair already.
-      const std::size_t before = candidates.size();
-      occludedBuilder.tryEndPair(ends[e], ends[f], candidates);
-      candidates.erase(std::remove_if(candidates.begin() + static_cast<std::ptrdiff_t>(before), candidates.end(),
-                                      [](const Hypothesis& h) { return h.type != JointType::Elbow; }),
-                       candidates.end());
-    }
+  for (const auto& [e, f] : endPairsWithin(ends, reaches)) {
+    within.clear();
+    builder.tryEndPair(ends[e], ends[f], within);
+    if (!within.empty()) continue;  // The resolution weighed this pair already.
+    const std::size_t before = candidates.size();
+    occludedBuilder.tryEndPair(ends[e], ends[f], candidates);
+    candidates.erase(std::remove_if(candidates.begin() + static_cast<std::ptrdiff_t>(before), candidates.end(),
+                                    [](const Hypothesis& h) { return h.type != JointType::Elbow; }),
+                     candidates.end());
   }
   if (candidates.empty()) return stretches;
 
