@@ -1154,6 +1154,53 @@ TEST(Joints, ALegEndingAtAFaceAcrossItIsCompleted) {
   EXPECT_NEAR(std::max(result.pipes[2].start.z(), result.pipes[2].end.z()), top, kSectionLength);
 }
 
+TEST(Joints, AnElbowSeenBeyondAnEndWhoseLegWasNotIsCompletedFromItsBend) {
+  // A 10 cm pipe comes along +x to its tangent point and turns up through a long-radius elbow
+  // (R = 3r), fully scanned; the leg beyond was hidden (no point on it). The bend's points vote for
+  // where it starts and how wide it turns: the leg is completed as a stub a diameter long from the
+  // tangent point, upright at the corner, and the elbow between them has the bend's radius.
+  const double r = 0.05, R = 0.15;
+  ConstructedScene scene = cornerScene(r, R);
+  scene.addBend(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitZ(), R, r);
+  const JointsResult result = scene.connect();
+  ASSERT_NO_FATAL_FAILURE(expectUprightLegCompletedAtTheOrigin(result));
+  const PipeSegment& leg = result.pipes[2];
+  EXPECT_TRUE(leg.inliers.empty());
+  EXPECT_NEAR(std::min(leg.start.z(), leg.end.z()), R, 0.01);  // Trimmed to the tangent point...
+  EXPECT_GE(std::fabs(leg.end.z() - leg.start.z()), 2.0 * r);   // ...and no fragment.
+  EXPECT_NEAR(result.joints[0].bendRadius, R, 0.05 * R);
+  EXPECT_EQ(result.joints[0].status, JointStatus::Accepted);
+
+  // Without the bend's points there is nothing to complete.
+  const ConstructedScene bare = cornerScene(r, R);
+  EXPECT_EQ(bare.connect().diagnostics.completedPipes, 0u);
+}
+
+TEST(Joints, NoLegIsCompletedFromABendThatLeavesNoDoubtItIsNone) {
+  const double r = 0.05, R = 0.15;
+  {
+    // The pipe carries on straight past where the bend would have left it: a gap, not an elbow.
+    ConstructedScene scene = cornerScene(r, R);
+    scene.addBend(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitZ(), R, r);
+    scene.addPipe({0.05, 0, 0}, {0.5, 0, 0}, r, false);
+    EXPECT_EQ(scene.connect().diagnostics.completedPipes, 0u);
+  }
+  {
+    // Only the first 45° of the bend were seen, where it has not yet left the straight pipe's line
+    // by a radius: nothing says where, or whether, it turns on.
+    ConstructedScene scene = cornerScene(r, R);
+    scene.addElbow({-R, 0, R}, {-R, 0, 0}, -Eigen::Vector3d::UnitY(), 45.0 * kPi / 180.0, r);
+    EXPECT_EQ(scene.connect().diagnostics.completedPipes, 0u);
+  }
+  {
+    // Points on the whole bend, but 24 times sparser than on the pipe the scan saw next to them
+    // (every 2 cm along the arc, six lines around against every 5 mm and 36): something else's.
+    ConstructedScene scene = cornerScene(r, R);
+    scene.addElbow({-R, 0, R}, {-R, 0, 0}, -Eigen::Vector3d::UnitY(), 0.5 * kPi, r, {0, 60, 120, 180, 240, 300}, 0.02);
+    EXPECT_EQ(scene.connect().diagnostics.completedPipes, 0u);
+  }
+}
+
 TEST(Joints, AnEndAtAPoleThatRunsOnBothWaysIsNotCompletedAsAnElbowLeg) {
   // A 2" pipe ends at an upright pole of its own radius (points only) that runs on 60 cm below and
   // above it: round and on the radius either way, but no elbow's leg, which starts at its corner.

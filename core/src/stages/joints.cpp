@@ -956,12 +956,17 @@ struct Completion {
   int main = -1;  // ...or, when not negative, the pipe it branches from at a tee.
   PipeSegment pipe;  // From the corner beyond `from` (the main's wall) to its last supported section.
   bool between = false;  // A leg up to the corner beyond a second end (see Completer::legBetween).
+  std::size_t bendSupport = 0;  // Points on the elbow's bend, for a leg found from them (see legBeyondBend).
+
+  /// The points that support it: on its pipe, and on the bend it was found from.
+  std::size_t support() const { return pipe.inliers.size() + bendSupport; }
 };
 
 class Completer {
  public:
-  Completer(const JointsInput& input, const JointsParams& params, const JointBuilder& builder)
-      : input_(input), params_(params), builder_(builder) {}
+  /// `fromBends`: complete legs from their bends alone (see legBeyondBend), and no straight legs.
+  Completer(const JointsInput& input, const JointsParams& params, const JointBuilder& builder, bool fromBends = false)
+      : input_(input), params_(params), builder_(builder), fromBends_(fromBends) {}
 
   /// The radius of the sphere around an end that holds every point a completion may use.
   double reach(const PipeEnd& end) const {
@@ -985,7 +990,7 @@ class Completer {
     for (const Eigen::Vector3d& direction : directions) {
       for (const double sign : {1.0, -1.0}) {
         auto candidate = completeAlong(end, sign * direction, nearby);
-        if (candidate && (!best || candidate->pipe.inliers.size() > best->pipe.inliers.size())) {
+        if (candidate && (!best || candidate->support() > best->support())) {
           best = std::move(candidate);
         }
       }
@@ -1199,6 +1204,11 @@ class Completer {
   // A missed pipe is sparse: a normal fitted over a few of its scan columns leans up to about 45°
   // off the radial direction, where one fitted over a dense surface keeps within 30°.
   static constexpr double kCompletionNormalAngleDeg = 40.0;
+  static constexpr double kBendRadiusStepRadii = 0.1;  // A bend's major radii voted for this many pipe radii
+  static constexpr double kMinBendRadiusStep = 0.002;  // apart, and at least this (m; see legBeyondBend),
+  static constexpr double kMinOneSidedBendRadii = 1.8;  // from this many (a short-radius elbow's 2, less a 10 %).
+  static constexpr double kMinBendDensityShare = 0.1;  // A bend's points per metre of arc, against its end's...
+  static constexpr double kEndDensityLength = 0.12;     // ...inliers per metre over this much of it (m).
   static constexpr int kMaxLeadSections = 3;  // The straight starts this close to the elbow...
   static constexpr int kMaxGapSections = 3;   // ...and ends at a gap longer than this, unless...
   static constexpr std::size_t kMaxBridgeSections = 20;  // ...a run as long follows a gap up to this.
@@ -1524,6 +1534,7 @@ class Completer {
     const double cosine = end.outward.dot(along);
     const double bend = std::acos(std::clamp(cosine, -1.0, 1.0));
     if (bend < radians(params_.minCompletionBendDeg) || bend > radians(params_.maxElbowAngleDeg)) return std::nullopt;
+    if (fromBends_) return legBeyondBend(end, along, bend, nearby);
     const double sine = std::sin(bend);
     // In the plane across `along`: `across` points from the end's line towards the corners, `aside`
     // is the bend plane's normal. The new pipe's axis passes at (t sin θ, 0) for a corner t past the end.
@@ -1579,6 +1590,236 @@ class Completer {
       }
     }
     return best;
+  }
+
+  /// The leg beyond an elbow whose bend was seen but not the leg, or too little of it for
+  /// completeAt (hidden past the bend, or shorter than the elbow). Bending from the end's axis
+  /// towards `along` by `bend`, the torus has two unknowns, its major radius R and where along the
+  /// end's extension it starts: for each R, every point votes for the starts that put it on the
+  /// torus with its normal radial (the paper's R vote, with one pipe in place of two). The most
+  /// voted torus must be covered along its arc as a completion is along its axis, also past where
+  /// it has left the pipe's line by a radius (before, a floor or flange by the end fills it), and
+  /// hold little clutter; the end's pipe must not carry on straight past where the bend leaves it
+  /// (a gap, or a bend that was not). The leg runs from the corner over the sections its points
+  /// cover past the tangent point, and at least a diameter (a fragment takes no joint); it must
+  /// hold too few points for completeAt (which tried it), run into no other pipe, and take the
+  /// elbow as every completion does.
+  std::optional<Completion> legBeyondBend(const PipeEnd& end, const Eigen::Vector3d& along, double bend,
+                                          const std::vector<std::uint32_t>& nearby) const {
+    const double r = end.radius;
+    const double band = params_.supportDistance;
+    const Eigen::Vector3d& outward = end.outward;
+    // The bend plane: x along the end's extension, y towards the leg, z across.
+    const Eigen::Vector3d toward = (along - std::cos(bend) * outward) / std::sin(bend);
+    const Eigen::Vector3d normal = outward.cross(toward);
+    // Seen from one pipe only, a bend tighter than a short-radius elbow is a pipe's end against
+    // something (a floor, a post).
+    const double minBend = std::max(params_.minBendRadii, kMinOneSidedBendRadii) * r;
+    const double radiusStep = std::max(kMinBendRadiusStep, kBendRadiusStepRadii * r);
+    const auto radii = static_cast<std::size_t>(std::floor((params_.maxBendRadii * r - minBend) / radiusStep)) + 1;
+    const double minStart = -cornerBehindEnd(r, bend);
+    const double startStep = 0.5 * band;
+    const auto starts = static_cast<std::size_t>(std::ceil((builder_.searchDistance(r) - minStart) / startStep)) + 1;
+
+    // On the torus of radius R starting `start` past the end: the point at w (from the end) lies
+    // at angle `turned` along the arc, `radial` off the tube's centre line.
+    struct OnBend {
+      double turned;
+      Eigen::Vector3d radial;
+    };
+    const auto onBend = [&](const Eigen::Vector3d& w, double R, double start) -> std::optional<OnBend> {
+      const double x = w.dot(outward) - start;
+      const double y = w.dot(toward) - R;
+      const double distance = std::hypot(x, y);
+      if (distance < 1e-12) return std::nullopt;
+      const double turned = std::atan2(x, -y);
+      if (turned < 0.0 || turned > bend) return std::nullopt;
+      const Eigen::Vector3d tubeCenter = (start + R * x / distance) * outward + (R + R * y / distance) * toward;
+      return OnBend{turned, w - tubeCenter};
+    };
+    const auto radialNormal = [&](std::uint32_t i, const Eigen::Vector3d& radial) {
+      return normalAgrees(input_.cloud, i, radial / std::max(radial.norm(), 1e-12), kCompletionNormalAngleDeg);
+    };
+
+    // Votes over (R, start): the centre circle at distance R ± the tube's half-chord from the
+    // point in the bend plane puts the start at x ∓ the half-chord along the extension.
+    std::vector<double> votes(radii * starts, 0.0);
+    struct Vote {
+      std::size_t cell;
+      double R;
+      double start;
+    };
+    std::vector<Vote> cast;
+    for (std::uint32_t i : nearby) {
+      const Eigen::Vector3d w = input_.cloud.positions[i].cast<double>() - end.point;
+      const double z = w.dot(normal);
+      if (std::fabs(z) >= r) continue;
+      const double x = w.dot(outward);
+      const double y = w.dot(toward);
+      const double halfTube = std::sqrt(r * r - z * z);
+      for (std::size_t k = 0; k < radii; ++k) {
+        const double R = minBend + static_cast<double>(k) * radiusStep;
+        for (const double side : {halfTube, -halfTube}) {
+          const double fromCenter = R + side;
+          const double squared = fromCenter * fromCenter - (y - R) * (y - R);
+          if (squared < 0.0) continue;
+          for (const double offset : {std::sqrt(squared), -std::sqrt(squared)}) {
+            const double start = x - offset;
+            if (start < minStart) continue;
+            const auto bin = static_cast<std::size_t>((start - minStart) / startStep + 0.5);
+            if (bin >= starts) continue;
+            const auto point = onBend(w, R, start);
+            if (!point || !radialNormal(i, point->radial)) continue;
+            votes[k * starts + bin] += 1.0;
+            cast.push_back(Vote{k * starts + bin, R, start});
+          }
+        }
+      }
+    }
+    if (cast.empty()) return std::nullopt;
+    // The peak of the votes summed over 3 × 3 cells, refined to the mean of its votes.
+    const auto windowOf = [&](std::size_t cell) {
+      const std::size_t k = cell / starts;
+      const std::size_t bin = cell % starts;
+      return std::make_pair(std::make_pair(k == 0 ? 0 : k - 1, std::min(radii - 1, k + 1)),
+                            std::make_pair(bin == 0 ? 0 : bin - 1, std::min(starts - 1, bin + 1)));
+    };
+    std::size_t peak = 0;
+    double most = 0.0;
+    for (std::size_t cell = 0; cell < votes.size(); ++cell) {
+      if (votes[cell] == 0.0) continue;
+      const auto [kRange, binRange] = windowOf(cell);
+      double sum = 0.0;
+      for (std::size_t k = kRange.first; k <= kRange.second; ++k) {
+        for (std::size_t bin = binRange.first; bin <= binRange.second; ++bin) sum += votes[k * starts + bin];
+      }
+      if (sum > most) {
+        most = sum;
+        peak = cell;
+      }
+    }
+    const auto [kRange, binRange] = windowOf(peak);
+    double sumR = 0.0;
+    double sumStart = 0.0;
+    double count = 0.0;
+    for (const Vote& vote : cast) {
+      const std::size_t k = vote.cell / starts;
+      const std::size_t bin = vote.cell % starts;
+      if (k < kRange.first || k > kRange.second || bin < binRange.first || bin > binRange.second) continue;
+      sumR += vote.R;
+      sumStart += vote.start;
+      count += 1.0;
+    }
+    const double R = sumR / count;
+    const double start = sumStart / count;
+
+    // The torus's support along its arc, and the clutter in and around its tube.
+    const double arcLength = R * bend;
+    const auto arcSections = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(arcLength / kSectionLength)));
+    std::vector<char> arcCovered(arcSections, 0);
+    std::size_t support = 0;
+    std::size_t clutter = 0;
+    // Where the bend's centre line has left the end's axis by a radius: from there on its points
+    // are none of a straight pipe's carrying on.
+    const double departed = R > r ? std::acos(1.0 - r / R) : 0.0;
+    std::size_t departedSupport = 0;
+    // The end's straight extension past where the bend has left it by a diameter.
+    const double leaves = R > r ? start + R * std::sin(std::min(bend, std::acos(std::max(-1.0, 1.0 - 2.0 * r / R))))
+                                : start + R * std::sin(bend);
+    std::array<char, kBehindSections> straightOn{};
+    const Eigen::Vector3d corner = end.point + (start + R * std::tan(0.5 * bend)) * outward;
+    const Eigen::Vector3d tangentB = corner + R * std::tan(0.5 * bend) * along;
+    for (std::uint32_t i : nearby) {
+      const Eigen::Vector3d w = input_.cloud.positions[i].cast<double>() - end.point;
+      if (const auto point = onBend(w, R, start)) {
+        const double distance = point->radial.norm();
+        if (std::fabs(distance - r) <= band && radialNormal(i, point->radial)) {
+          ++support;
+          arcCovered[std::min(arcSections - 1, static_cast<std::size_t>(point->turned * R / kSectionLength))] = 1;
+          if (point->turned >= departed) ++departedSupport;
+          continue;
+        }
+        if (isClutter(distance, r, band, /*unexplained=*/true)) ++clutter;
+      }
+      const double x = w.dot(outward);
+      const double pastLeaving = x - leaves;
+      if (pastLeaving < 0.0 || pastLeaving >= kBehindSections * kSectionLength) continue;
+      const Eigen::Vector3d radial = w - x * outward;
+      const Eigen::Vector3d fromLeg = input_.cloud.positions[i].cast<double>() - tangentB;
+      const bool onLeg = fromLeg.dot(along) >= 0.0 && (fromLeg - fromLeg.dot(along) * along).norm() <= r + 2.0 * band;
+      if (!onLeg && std::fabs(radial.norm() - r) <= band && radialNormal(i, radial)) {
+        straightOn[static_cast<std::size_t>(pastLeaving / kSectionLength)] = 1;
+      }
+    }
+    const auto covered = static_cast<std::size_t>(std::count(arcCovered.begin(), arcCovered.end(), 1));
+    const auto departedFrom = std::min(arcSections - 1, static_cast<std::size_t>(departed * R / kSectionLength));
+    const auto departedCovered = static_cast<std::size_t>(
+        std::count(arcCovered.begin() + static_cast<std::ptrdiff_t>(departedFrom), arcCovered.end(), 1));
+    const auto atLeastShare = [&](std::size_t part, std::size_t whole) {
+      return static_cast<double>(part) >= params_.minCompletionCoverage * static_cast<double>(whole);
+    };
+    const bool supported = support >= params_.minCompletionPoints && atLeastShare(covered, arcSections);
+    const bool leavesThePipe = departed < bend && 2 * departedSupport >= params_.minCompletionPoints &&
+                               atLeastShare(departedCovered, arcSections - departedFrom);
+    const bool clear = static_cast<double>(clutter) <= kMaxClutterShare * static_cast<double>(support);
+    // The bend lies next to the end the scan saw: seen far more thinly than that end, its points are
+    // something else's (a mug's rim, a thinner neighbour's end).
+    const PipeSegment& own = input_.pipes[static_cast<std::size_t>(end.pipe)];
+    const double endStretch = std::min(kEndDensityLength, (own.end - own.start).norm());
+    const auto endPoints = std::count_if(own.inliers.begin(), own.inliers.end(), [&](std::uint32_t i) {
+      const double behind = (end.point - input_.cloud.positions[i].cast<double>()).dot(outward);
+      return behind >= 0.0 && behind < endStretch;
+    });
+    const bool seenAsTheEnd = static_cast<double>(support) / arcLength >=
+                              kMinBendDensityShare * static_cast<double>(endPoints) / endStretch;
+    const bool carriesOn =
+        atLeastShare(static_cast<std::size_t>(std::count(straightOn.begin(), straightOn.end(), 1)), kBehindSections);
+    if (!supported || !leavesThePipe || !clear || carriesOn || !seenAsTheEnd) return std::nullopt;
+
+    // The leg: the sections its points cover from the tangent point on, at least a diameter.
+    const auto sections =
+        std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(params_.maxCompletionLength / kSectionLength)));
+    std::vector<std::vector<std::uint32_t>> bySection(sections);
+    for (std::uint32_t i : nearby) {
+      const Eigen::Vector3d d = input_.cloud.positions[i].cast<double>() - tangentB;
+      const double distanceAlong = d.dot(along);
+      if (distanceAlong < 0.0 || distanceAlong >= static_cast<double>(sections) * kSectionLength) continue;
+      const Eigen::Vector3d radial = d - distanceAlong * along;
+      if (std::fabs(radial.norm() - r) <= band && radialNormal(i, radial)) {
+        bySection[static_cast<std::size_t>(distanceAlong / kSectionLength)].push_back(i);
+      }
+    }
+    // A leg with enough points to be tested was, by completeAlong, and failed: a post the end met,
+    // or a face, whose edge the bend followed.
+    std::size_t legPoints = 0;
+    for (const auto& points : bySection) legPoints += points.size();
+    if (legPoints >= params_.minCompletionPoints) return std::nullopt;
+    const auto occupied = [&](std::size_t k) { return !bySection[k].empty(); };
+    std::size_t first = 0;
+    while (first < sections && !occupied(first)) ++first;
+    const auto shortest =
+        static_cast<std::size_t>(std::floor(2.0 * r * params_.minPipeDiameters / kSectionLength)) + 1;
+    std::size_t last = shortest - 1;
+    if (first < static_cast<std::size_t>(kMaxLeadSections)) {
+      last = std::max(last, runEnd(first, sections, static_cast<std::size_t>(kMaxGapSections), occupied));
+    }
+    Completion completion{end, -1, PipeSegment{}};
+    PipeSegment& leg = completion.pipe;
+    std::size_t legCovered = 0;
+    for (std::size_t k = 0; k <= last && k < sections; ++k) {
+      legCovered += occupied(k) ? 1 : 0;
+      leg.inliers.insert(leg.inliers.end(), bySection[k].begin(), bySection[k].end());
+    }
+    std::sort(leg.inliers.begin(), leg.inliers.end());
+    leg.start = corner;
+    leg.end = tangentB + static_cast<double>(last + 1) * kSectionLength * along;
+    leg.radius = r;
+    leg.rms = radialOffsets(leg.inliers, tangentB, along, r).rms;
+    leg.confidence = static_cast<double>(legCovered) / static_cast<double>(last + 1);
+    // Little or nothing was seen on the leg: where it runs into another pipe, the bend was that pipe's.
+    if (cutsAnotherPipe(leg, {end.pipe}, input_.pipes, params_)) return std::nullopt;
+    completion.bendSupport = support;
+    return completion;
   }
 
   /// The corner (along `outward` from `origin`) of a leg along `along` (`aside` = `along` × `outward`)
@@ -1765,6 +2006,7 @@ class Completer {
   const JointsInput& input_;
   const JointsParams& params_;
   const JointBuilder& builder_;
+  bool fromBends_;
 };
 
 /// The pairs (e, f), e < f, of `ends` of different pipes whose points lie within reaches[e] of each
@@ -1793,9 +2035,9 @@ std::vector<std::pair<std::size_t, std::size_t>> endPairsWithin(const std::vecto
 /// from `lookingFrom` on; best-supported first, a point supports one completion.
 std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsParams& params,
                                          const std::vector<char>& explained, const Resolution& resolution,
-                                         std::size_t lookingFrom, double cellSize) {
+                                         std::size_t lookingFrom, double cellSize, bool fromBends) {
   const JointBuilder builder(input, params, explained);
-  const Completer completer(input, params, builder);
+  const Completer completer(input, params, builder, fromBends);
   // An end that only a proposed joint took is completed too: resolved again with the completion,
   // the better-supported joint takes it.
   const auto takenByAccepted = [&](int key) {
@@ -1829,12 +2071,12 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
   std::vector<std::optional<Completion>> legs(pairs.size());
   tbb::parallel_for(std::size_t{0}, pairs.size(), [&](std::size_t k) {
     const auto [e, f] = pairs[k];
-    legs[k] = completer.legBetween(ends[e], ends[f], nearby[e], nearby[f]);
+    if (!fromBends) legs[k] = completer.legBetween(ends[e], ends[f], nearby[e], nearby[f]);
   });
 
   // Branches off those pipes' bodies, from the unexplained points filed by position.
   std::vector<std::vector<Completion>> branches(mains.size());
-  if (params.minBranchRadius > 0.0) {
+  if (params.minBranchRadius > 0.0 && !fromBends) {
     HashGrid pointGrid(cellSize);
     for (std::size_t i = 0; i < input.cloud.size(); ++i) {
       if (!explained[i]) pointGrid.insert(pointGrid.cellOf(input.cloud.positions[i].cast<double>()), static_cast<std::uint32_t>(i));
@@ -1863,7 +2105,7 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
   for (std::size_t c = 0; c < found.size(); ++c) order[c] = c;
   std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
     if (found[x].between != found[y].between) return found[x].between;
-    return found[x].pipe.inliers.size() > found[y].pipe.inliers.size();
+    return found[x].support() > found[y].support();
   });
   // A completion whose middle lies inside a pipe's tube is that pipe again, over points its inliers
   // left out: the end it grew from belongs with that pipe (whose joint it is, proposed or not). A
@@ -2090,22 +2332,28 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
       for (std::uint32_t i : pipe.inliers) explainedByPipes[i] = 1;
     }
     std::size_t lookingFrom = 0;
-    for (int round = 0; round < kMaxCompletionRounds; ++round) {
+    // Rounds of straight legs and branches until one finds none; then one of legs seen only on
+    // their bends, where no straight leg was found.
+    bool fromBends = false;
+    for (int round = 0; round <= kMaxCompletionRounds; ++round) {
       const JointsInput current{input.cloud, pipes};
-      std::vector<Completion> completions =
-          completeFreeEnds(current, params, explainedByPipes, resolution, lookingFrom, cellSize);
+      std::vector<Completion> completions = completeFreeEnds(current, params, explainedByPipes, resolution,
+                                                             fromBends ? 0 : lookingFrom, cellSize, fromBends);
       auto adopted =
           adoptCompletions(current, params, explained, std::move(completions), foundCount, cellSize, progress);
-      if (!adopted) break;
-      lookingFrom = pipes.size();
-      for (const Completion& completion : adopted->completions) {
-        for (std::uint32_t i : completion.pipe.inliers) explainedByPipes[i] = 1;
-        ++(completion.main >= 0 ? branches : completed);
-        if (completion.between) ++legsBetween;
+      if (adopted) {
+        lookingFrom = pipes.size();
+        for (const Completion& completion : adopted->completions) {
+          for (std::uint32_t i : completion.pipe.inliers) explainedByPipes[i] = 1;
+          ++(completion.main >= 0 ? branches : completed);
+          if (completion.between) ++legsBetween;
+        }
+        pipes = std::move(adopted->pipes);
+        explained = std::move(adopted->explained);
+        resolution = std::move(adopted->resolution);
       }
-      pipes = std::move(adopted->pipes);
-      explained = std::move(adopted->explained);
-      resolution = std::move(adopted->resolution);
+      if (fromBends) break;
+      if (!adopted || round + 1 == kMaxCompletionRounds) fromBends = true;
     }
   }
   const std::vector<PipeSegment> bridged =
