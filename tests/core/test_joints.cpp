@@ -1157,8 +1157,8 @@ TEST(Joints, ALegEndingAtAFaceAcrossItIsCompleted) {
 TEST(Joints, AnElbowSeenBeyondAnEndWhoseLegWasNotIsCompletedFromItsBend) {
   // A 10 cm pipe comes along +x to its tangent point and turns up through a long-radius elbow
   // (R = 3r), fully scanned; the leg beyond was hidden (no point on it). The bend's points vote for
-  // where it starts and how wide it turns: the leg is completed as a stub a diameter long from the
-  // tangent point, upright at the corner, and the elbow between them has the bend's radius.
+  // where it starts and how wide it turns. The leg is completed upright at the corner, as a stub
+  // reaching a diameter past the tangent point, and the elbow between them has the bend's radius.
   const double r = 0.05, R = 0.15;
   ConstructedScene scene = cornerScene(r, R);
   scene.addBend(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitZ(), R, r);

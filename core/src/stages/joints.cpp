@@ -965,7 +965,7 @@ struct Completion {
 class Completer {
  public:
   /// `fromBends`: complete legs from their bends alone (see legBeyondBend), and no straight legs.
-  Completer(const JointsInput& input, const JointsParams& params, const JointBuilder& builder, bool fromBends = false)
+  Completer(const JointsInput& input, const JointsParams& params, const JointBuilder& builder, bool fromBends)
       : input_(input), params_(params), builder_(builder), fromBends_(fromBends) {}
 
   /// The radius of the sphere around an end that holds every point a completion may use.
@@ -1721,11 +1721,11 @@ class Completer {
     std::size_t clutter = 0;
     // Where the bend's centre line has left the end's axis by a radius: from there on its points
     // are none of a straight pipe's carrying on.
-    const double departed = R > r ? std::acos(1.0 - r / R) : 0.0;
+    // (R is at least minBend, above 1.8 r, so both angles exist.)
+    const double departed = std::acos(1.0 - r / R);
     std::size_t departedSupport = 0;
     // The end's straight extension past where the bend has left it by a diameter.
-    const double leaves = R > r ? start + R * std::sin(std::min(bend, std::acos(std::max(-1.0, 1.0 - 2.0 * r / R))))
-                                : start + R * std::sin(bend);
+    const double leaves = start + R * std::sin(std::min(bend, std::acos(1.0 - 2.0 * r / R)));
     std::array<char, kBehindSections> straightOn{};
     const Eigen::Vector3d corner = end.point + (start + R * std::tan(0.5 * bend)) * outward;
     const Eigen::Vector3d tangentB = corner + R * std::tan(0.5 * bend) * along;
@@ -2065,13 +2065,16 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
   tbb::parallel_for(std::size_t{0}, ends.size(),
                     [&](std::size_t e) { completed[e] = completer.complete(ends[e], directions, nearby[e]); });
   // Legs between two ends of parallel pipes, from the pairs of ends within reach of each other.
-  std::vector<double> reaches;
-  for (const auto& sphere : spheres) reaches.push_back(sphere.second);
-  const auto pairs = endPairsWithin(ends, reaches);
+  std::vector<std::pair<std::size_t, std::size_t>> pairs;
+  if (!fromBends) {
+    std::vector<double> reaches;
+    for (const auto& sphere : spheres) reaches.push_back(sphere.second);
+    pairs = endPairsWithin(ends, reaches);
+  }
   std::vector<std::optional<Completion>> legs(pairs.size());
   tbb::parallel_for(std::size_t{0}, pairs.size(), [&](std::size_t k) {
     const auto [e, f] = pairs[k];
-    if (!fromBends) legs[k] = completer.legBetween(ends[e], ends[f], nearby[e], nearby[f]);
+    legs[k] = completer.legBetween(ends[e], ends[f], nearby[e], nearby[f]);
   });
 
   // Branches off those pipes' bodies, from the unexplained points filed by position.
@@ -2332,29 +2335,32 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
       for (std::uint32_t i : pipe.inliers) explainedByPipes[i] = 1;
     }
     std::size_t lookingFrom = 0;
-    // Rounds of straight legs and branches until one finds none; then one of legs seen only on
-    // their bends, where no straight leg was found.
-    bool fromBends = false;
-    for (int round = 0; round <= kMaxCompletionRounds; ++round) {
+    // One round of completions of the pipes from `lookingFrom` on (of all, for legs seen only on
+    // their bends); whether any was adopted.
+    const auto completeRound = [&](bool fromBends) {
       const JointsInput current{input.cloud, pipes};
       std::vector<Completion> completions = completeFreeEnds(current, params, explainedByPipes, resolution,
                                                              fromBends ? 0 : lookingFrom, cellSize, fromBends);
       auto adopted =
           adoptCompletions(current, params, explained, std::move(completions), foundCount, cellSize, progress);
-      if (adopted) {
-        lookingFrom = pipes.size();
-        for (const Completion& completion : adopted->completions) {
-          for (std::uint32_t i : completion.pipe.inliers) explainedByPipes[i] = 1;
-          ++(completion.main >= 0 ? branches : completed);
-          if (completion.between) ++legsBetween;
-        }
-        pipes = std::move(adopted->pipes);
-        explained = std::move(adopted->explained);
-        resolution = std::move(adopted->resolution);
+      if (!adopted) return false;
+      lookingFrom = pipes.size();
+      for (const Completion& completion : adopted->completions) {
+        for (std::uint32_t i : completion.pipe.inliers) explainedByPipes[i] = 1;
+        ++(completion.main >= 0 ? branches : completed);
+        if (completion.between) ++legsBetween;
       }
-      if (fromBends) break;
-      if (!adopted || round + 1 == kMaxCompletionRounds) fromBends = true;
+      pipes = std::move(adopted->pipes);
+      explained = std::move(adopted->explained);
+      resolution = std::move(adopted->resolution);
+      return true;
+    };
+    // Rounds of straight legs and branches until one finds none; then one of legs seen only on
+    // their bends, where no straight leg was found.
+    for (int round = 0; round < kMaxCompletionRounds; ++round) {
+      if (!completeRound(false)) break;
     }
+    completeRound(true);
   }
   const std::vector<PipeSegment> bridged =
       bridgeOccludedCorners({input.cloud, pipes}, params, explained, cellSize, resolution);
