@@ -846,6 +846,61 @@ TEST(Joints, ALegBetweenTwoElbowsThatNoPipeCoversIsCompleted) {
   EXPECT_TRUE(without.joints.empty());
 }
 
+TEST(Joints, ALegBetweenTwoSeenBendsIsJoinedThoughTooLittleOfItWasSeen) {
+  // Both elbows (R = 3r) of a 90 cm leg were scanned whole, the leg only in a 4 cm glimpse at its
+  // middle: too little of it for a completion, too much to complete it from either bend alone. The
+  // two pipes' lines pass each other askew and square; their common perpendicular is the leg.
+  const double r = 0.05, R = 0.15, corner = 0.9;
+  const ConstructedScene scene = legBetweenTwoElbows(corner, {{0.43, 0.47}});
+
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.completedPipes, 0u);
+  EXPECT_EQ(result.diagnostics.legsBetweenBends, 1u);
+  ASSERT_EQ(result.pipes.size(), 4u);
+  const PipeSegment& leg = result.pipes[3];  // After the input pipes.
+  EXPECT_NEAR(leg.radius, r, 1e-12);
+  EXPECT_NEAR(leg.start.x(), 0.0, 1e-9);
+  EXPECT_NEAR(leg.start.z(), 0.0, 1e-9);
+  EXPECT_NEAR(std::min(leg.start.y(), leg.end.y()), R, 0.01);  // Trimmed to the tangent points.
+  EXPECT_NEAR(std::max(leg.start.y(), leg.end.y()), corner - R, 0.01);
+  ASSERT_EQ(result.joints.size(), 2u);
+  for (const Joint& joint : result.joints) {
+    EXPECT_EQ(joint.type, JointType::Elbow);
+    EXPECT_NEAR(joint.bendRadius, R, 0.05 * R);
+    // Two of the leg's fifteen sections were seen: proposed, for review.
+    EXPECT_NEAR(joint.confidence, 2.0 / 15.0, 1e-9);
+    EXPECT_EQ(joint.status, JointStatus::Proposed);
+  }
+  EXPECT_EQ(result.joints[0].pipeIds, (std::vector<int>{1, 4}));
+  EXPECT_EQ(result.joints[1].pipeIds, (std::vector<int>{4, 2}));
+
+  JointsParams off;
+  off.maxCompletionLength = 0.0;
+  EXPECT_EQ(scene.connect(off).diagnostics.legsBetweenBends, 0u);
+}
+
+TEST(Joints, NoLegJoinsTwoPipesWhoseBendsWereNotSeenOrWhereSomethingStandsInItsWay) {
+  const double r = 0.05, R = 0.15, corner = 0.9;
+  {
+    // The same pipes and glimpse with no point on either bend: the lines alone do not say that the
+    // pipes turn towards each other.
+    ConstructedScene scene;
+    scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+    scene.addPipe({0, 0.43, 0}, {0, 0.47, 0}, r, false);
+    scene.addPipe({0, corner, R}, {0, corner, 1.5}, r);
+    scene.addPipe({3, 0, 0}, {3, 1.2, 0}, r);
+    const JointsResult result = scene.connect();
+    EXPECT_EQ(result.diagnostics.legsBetweenBends, 0u);
+    EXPECT_EQ(result.pipes.size(), 3u);
+  }
+  {
+    // A thin upright post stands on the leg's axis: the leg does not run there.
+    ConstructedScene scene = legBetweenTwoElbows(corner, {{0.43, 0.47}});
+    scene.addPost(0.0, 0.6, 0.02, -0.3, 0.3);
+    EXPECT_EQ(scene.connect().diagnostics.legsBetweenBends, 0u);
+  }
+}
+
 TEST(Joints, ALegBeyondACompletedLegIsCompletedInTheNextRound) {
   // Pipe 1 comes along +x to a corner at the origin and turns up (R = 3r, r = 5 cm) into a 60 cm
   // leg, which turns along +y into a 60 cm tail ending freely: both are points only, as legs too

@@ -32,7 +32,10 @@
 //    in a few scan columns: its axis meets the main's, so each unexplained point votes for where
 //    along the main and how thick; a peak's branch passes the same tests and must take the tee.
 //    The pipes so found look on in turn, round by round, until a round finds none.
-// 5. Runs: connected components of the pipes over accepted joints.
+// 5. Ends still free: two look farther for each other across a corner hidden behind something
+//    (bridgeOccludedCorners), and two whose bends were seen turning square towards each other's
+//    line are joined by the leg between the bends, little of which was seen (joinSeenBends).
+// 6. Runs: connected components of the pipes over accepted joints.
 
 #include "piperun/stages/joints.h"
 
@@ -81,6 +84,11 @@ constexpr int kMaxCompletionRounds = 4;
 // Points this close to the axis of a stretch an elbow would bridge across an occlusion, in its
 // pipe's radius, are something else standing where the pipe would run (see bridgeOccludedCorners).
 constexpr double kOccludedCoreRadii = 0.5;
+// A leg between two seen bends (see joinSeenBends) turns square off both pipes it joins: their
+// lines pass each other at least this far from parallel, and it runs along one of the network's
+// directions within this.
+constexpr double kSquareLegMinAngleDeg = 60.0;
+constexpr double kSquareLegDirectionDeg = 3.0;
 
 /// Whether point i's normal is within the support angle of the unit `radial` (normals are unoriented).
 bool normalAgrees(const PointCloud& cloud, std::uint32_t i, const Eigen::Vector3d& radial,
@@ -511,16 +519,6 @@ class JointBuilder {
     }
   }
 
- private:
-  Eigen::Vector3d position(std::uint32_t i) const { return input_.cloud.positions[i].cast<double>(); }
-
-  /// Inliers per metre of axis of a pipe: the density a joint of the same size should show.
-  double linearDensity(int pipe) const {
-    const PipeSegment& segment = input_.pipes[static_cast<std::size_t>(pipe)];
-    const double length = (segment.end - segment.start).norm();
-    return length > 0.0 ? static_cast<double>(segment.inliers.size()) / length : 0.0;
-  }
-
   /// Share of the straight piece from `from` to `to` (radius r) whose sections hold a point on its
   /// surface; collects those points.
   double straightCoverage(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double r,
@@ -544,6 +542,16 @@ class JointBuilder {
       supportPoints.push_back(i);
     }
     return static_cast<double>(std::count(covered.begin(), covered.end(), 1)) / static_cast<double>(sections);
+  }
+
+ private:
+  Eigen::Vector3d position(std::uint32_t i) const { return input_.cloud.positions[i].cast<double>(); }
+
+  /// Inliers per metre of axis of a pipe: the density a joint of the same size should show.
+  double linearDensity(int pipe) const {
+    const PipeSegment& segment = input_.pipes[static_cast<std::size_t>(pipe)];
+    const double length = (segment.end - segment.start).norm();
+    return length > 0.0 ? static_cast<double>(segment.inliers.size()) / length : 0.0;
   }
 
   void reconstructElbow(Hypothesis& h, const std::vector<std::uint32_t>& nearby) const {
@@ -729,6 +737,22 @@ bool liesOnArc(const PipeSegment& pipe, const Hypothesis& elbow) {
   return nearArc(pipe.start) && nearArc(pipe.end);
 }
 
+/// A spatial index over the pipes' axes: each pipe (by index) is filed in the cells its axis samples,
+/// half a cell apart, fall in.
+HashGrid pipeAxisGrid(const std::vector<PipeSegment>& pipes, double cellSize) {
+  HashGrid grid(cellSize);
+  for (std::size_t p = 0; p < pipes.size(); ++p) {
+    const PipeSegment& pipe = pipes[p];
+    const double length = (pipe.end - pipe.start).norm();
+    const int steps = std::max(1, static_cast<int>(std::ceil(length / (0.5 * cellSize))));
+    for (int k = 0; k <= steps; ++k) {
+      const Eigen::Vector3d sample = pipe.start + (pipe.end - pipe.start) * (static_cast<double>(k) / steps);
+      grid.insert(grid.cellOf(sample), static_cast<std::uint32_t>(p));
+    }
+  }
+  return grid;
+}
+
 /// The joints chosen among the hypotheses between a set of pipes.
 struct Resolution {
   std::vector<Hypothesis> hypotheses;
@@ -748,19 +772,9 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
   const JointBuilder builder(input, params, explained);
   Resolution resolution;
 
-  // Spatial index over the pipes' axes.
   double largestRadius = 0.0;
   for (const auto& pipe : pipes) largestRadius = std::max(largestRadius, pipe.radius);
-  HashGrid pipeGrid(cellSize);
-  for (int p = 0; p < pipeCount; ++p) {
-    const PipeSegment& pipe = pipes[static_cast<std::size_t>(p)];
-    const double length = (pipe.end - pipe.start).norm();
-    const int steps = std::max(1, static_cast<int>(std::ceil(length / (0.5 * cellSize))));
-    for (int k = 0; k <= steps; ++k) {
-      const Eigen::Vector3d sample = pipe.start + (pipe.end - pipe.start) * (static_cast<double>(k) / steps);
-      pipeGrid.insert(pipeGrid.cellOf(sample), static_cast<std::uint32_t>(p));
-    }
-  }
+  const HashGrid pipeGrid = pipeAxisGrid(pipes, cellSize);
 
   // Hypotheses, in a deterministic order (by end, then by partner).
   auto& hypotheses = resolution.hypotheses;
@@ -2195,6 +2209,46 @@ std::optional<Adoption> adoptCompletions(const JointsInput& input, const JointsP
   return std::nullopt;
 }
 
+/// The ends no chosen joint took, of the pipes that take joints (no fragment, no piece of an
+/// elbow's arc), in key order.
+std::vector<PipeEnd> freeEnds(const std::vector<PipeSegment>& pipes, const JointsParams& params,
+                              const Resolution& resolution) {
+  std::vector<PipeEnd> ends;
+  for (int p = 0; p < static_cast<int>(pipes.size()); ++p) {
+    const auto pipe = static_cast<std::size_t>(p);
+    if (isFragment(pipes[pipe], params) || resolution.arcPieces[pipe]) continue;
+    for (int side = 0; side < 2; ++side) {
+      if (resolution.takenBy[static_cast<std::size_t>(2 * p + side)] < 0) ends.push_back(endOf(pipes, p, side));
+    }
+  }
+  return ends;
+}
+
+/// The stretch of pipe from `end` to `tangent`, when the tangent point lies beyond the end.
+std::optional<PipeSegment> stretchBeyond(const PipeEnd& end, const Eigen::Vector3d& tangent) {
+  if ((tangent - end.point).dot(end.outward) <= 0.0) return std::nullopt;
+  PipeSegment stretch;
+  stretch.start = end.point;
+  stretch.end = tangent;
+  stretch.radius = end.radius;
+  return stretch;
+}
+
+/// Whether nothing stands where a pipe bridged across an occlusion would run: its tube cuts no pipe
+/// but those in `except`, and none of `points` lies near its axis.
+bool nothingInTheWay(const PointCloud& cloud, const PipeSegment& stretch, std::initializer_list<int> except,
+                     const std::vector<PipeSegment>& pipes, const JointsParams& params,
+                     const std::vector<std::uint32_t>& points) {
+  if (cutsAnotherPipe(stretch, except, pipes, params)) return false;
+  const Eigen::Vector3d axis = stretch.end - stretch.start;
+  const double length = axis.norm();
+  return std::none_of(points.begin(), points.end(), [&](std::uint32_t i) {
+    const Eigen::Vector3d w = cloud.positions[i].cast<double>() - stretch.start;
+    const double along = w.dot(axis) / length;
+    return along > 0.0 && along < length && (w - along * axis / length).norm() < kOccludedCoreRadii * stretch.radius;
+  });
+}
+
 /// Elbows across occlusions. A corner hidden behind equipment or another pipe leaves both its
 /// pipes cut short, often farther from it than the search distance, and after the completion no
 /// other joint claims their ends. Two such ends look for each other up to
@@ -2214,20 +2268,14 @@ std::vector<PipeSegment> bridgeOccludedCorners(const JointsInput& input, const J
   occludedParams.searchDiameters = params.occludedSearchDiameters;
   const JointBuilder occludedBuilder(input, occludedParams, explained);
 
-  std::vector<PipeEnd> ends;  // The free ends of pipes that take joints, in key order.
+  const std::vector<PipeEnd> ends = freeEnds(pipes, params, resolution);
   std::vector<double> reaches;
   const double widestTangent = std::tan(0.5 * radians(params.maxElbowAngleDeg));
-  for (int p = 0; p < static_cast<int>(pipes.size()); ++p) {
-    const auto pipe = static_cast<std::size_t>(p);
-    if (isFragment(pipes[pipe], params) || resolution.arcPieces[pipe]) continue;
-    for (int side = 0; side < 2; ++side) {
-      if (resolution.takenBy[static_cast<std::size_t>(2 * p + side)] >= 0) continue;
-      ends.push_back(endOf(pipes, p, side));
-      // As far as tryEndPair lets two ends lie apart, for a partner as thick as an elbow allows.
-      const double partner = ends.back().radius / params.minRadiusRatio;
-      reaches.push_back(2.0 * (occludedBuilder.searchDistance(partner) + params.minBendRadii * partner * widestTangent) +
-                        occludedBuilder.skewLimit(partner));
-    }
+  for (const PipeEnd& end : ends) {
+    // As far as tryEndPair lets two ends lie apart, for a partner as thick as an elbow allows.
+    const double partner = end.radius / params.minRadiusRatio;
+    reaches.push_back(2.0 * (occludedBuilder.searchDistance(partner) + params.minBendRadii * partner * widestTangent) +
+                      occludedBuilder.skewLimit(partner));
   }
   std::vector<Hypothesis> candidates;
   std::vector<Hypothesis> within;
@@ -2253,34 +2301,14 @@ std::vector<PipeSegment> bridgeOccludedCorners(const JointsInput& input, const J
   for (std::size_t h : resolution.chosen) {
     if (resolution.hypotheses[h].type == JointType::Elbow) movedEnds.move(resolution.hypotheses[h]);
   }
-  // The stretch from an end to its tangent point, when the tangent point lies beyond it.
-  const auto stretchOf = [](const PipeEnd& end, const Eigen::Vector3d& tangent) -> std::optional<PipeSegment> {
-    if ((tangent - end.point).dot(end.outward) <= 0.0) return std::nullopt;
-    PipeSegment stretch;
-    stretch.start = end.point;
-    stretch.end = tangent;
-    stretch.radius = end.radius;
-    return stretch;
-  };
-  // Whether nothing stands in a bridged stretch's way: no other pipe's tube, no points near its axis.
-  const auto nothingInTheWay = [&](const PipeSegment& stretch, const Hypothesis& h,
-                                   const std::vector<std::uint32_t>& points) {
-    if (cutsAnotherPipe(stretch, {h.a.pipe, h.b.pipe}, pipes, params)) return false;
-    const Eigen::Vector3d axis = stretch.end - stretch.start;
-    const double length = axis.norm();
-    return std::none_of(points.begin(), points.end(), [&](std::uint32_t i) {
-      const Eigen::Vector3d w = input.cloud.positions[i].cast<double>() - stretch.start;
-      const double along = w.dot(axis) / length;
-      return along > 0.0 && along < length && (w - along * axis / length).norm() < kOccludedCoreRadii * stretch.radius;
-    });
-  };
   std::vector<std::array<std::optional<PipeSegment>, 2>> bridges(candidates.size());
   std::vector<std::size_t> order;
   for (std::size_t h = 0; h < candidates.size(); ++h) {
     const Hypothesis& candidate = candidates[h];
-    bridges[h] = {stretchOf(candidate.a, candidate.newA), stretchOf(candidate.b, candidate.newB)};
+    bridges[h] = {stretchBeyond(candidate.a, candidate.newA), stretchBeyond(candidate.b, candidate.newB)};
     if (std::all_of(bridges[h].begin(), bridges[h].end(), [&](const std::optional<PipeSegment>& stretch) {
-          return !stretch || nothingInTheWay(*stretch, candidate, nearby[h]);
+          return !stretch ||
+                 nothingInTheWay(input.cloud, *stretch, {candidate.a.pipe, candidate.b.pipe}, pipes, params, nearby[h]);
         })) {
       order.push_back(h);
     }
@@ -2302,6 +2330,186 @@ std::vector<PipeSegment> bridgeOccludedCorners(const JointsInput& input, const J
     ++resolution.diagnostics.occludedElbows;
   }
   return stretches;
+}
+
+/// A leg between the free ends of two pipes whose lines pass each other askew (see
+/// joinSeenBends): the lines' common perpendicular, from the corner on `from`'s line to the corner
+/// on `to`'s.
+struct SquareLeg {
+  PipeSegment pipe;
+  PipeEnd from;
+  PipeEnd to;
+};
+
+/// The legs that may join pairs of the free `ends`: where two ends' lines pass each other askew
+/// and near square, their common perpendicular, when it runs along one of the network's
+/// `directions`, is long enough for an elbow at each corner and no longer than a completion, and
+/// each corner lies on its end's line within the search distance ahead of it.
+std::vector<SquareLeg> squareLegCandidates(const std::vector<PipeEnd>& ends, const std::vector<Eigen::Vector3d>& directions,
+                                           const JointsParams& params, const JointBuilder& builder) {
+  const auto alongNetwork = [&](const Eigen::Vector3d& axis) {
+    return std::any_of(directions.begin(), directions.end(), [&](const Eigen::Vector3d& direction) {
+      return std::fabs(direction.dot(axis)) >= std::cos(radians(kSquareLegDirectionDeg));
+    });
+  };
+  // Ahead of the end, or behind it by as much as a pipe fitted into a square elbow overshoots the
+  // corner (see tryEndPair).
+  const auto cornerInReach = [&](const PipeEnd& end, double along) {
+    return along >= -1.25 * end.radius && along <= builder.searchDistance(end.radius);
+  };
+  std::vector<double> reaches;
+  for (const PipeEnd& end : ends) {
+    reaches.push_back(2.0 * builder.searchDistance(end.radius / params.minRadiusRatio) + params.maxCompletionLength);
+  }
+  std::vector<SquareLeg> legs;
+  for (const auto& [e, f] : endPairsWithin(ends, reaches)) {
+    const PipeEnd& a = ends[e];
+    const PipeEnd& b = ends[f];
+    if (std::min(a.radius, b.radius) < params.minRadiusRatio * std::max(a.radius, b.radius) ||
+        std::fabs(a.outward.dot(b.outward)) > std::cos(radians(kSquareLegMinAngleDeg))) {
+      continue;
+    }
+    const auto parameters = closestLineParameters(a.point, a.outward, b.point, b.outward);
+    if (!parameters || !cornerInReach(a, parameters->first) || !cornerInReach(b, parameters->second)) continue;
+    const Eigen::Vector3d cornerA = a.point + parameters->first * a.outward;
+    const Eigen::Vector3d cornerB = b.point + parameters->second * b.outward;
+    const double length = (cornerB - cornerA).norm();
+    const double radius = 0.5 * (a.radius + b.radius);
+    if (length < 2.0 * params.minBendRadii * radius + kSectionLength || length > params.maxCompletionLength ||
+        !alongNetwork((cornerB - cornerA) / length)) {
+      continue;
+    }
+    SquareLeg& leg = legs.emplace_back();
+    leg.pipe.start = cornerA;
+    leg.pipe.end = cornerB;
+    leg.pipe.radius = radius;
+    leg.from = a;
+    leg.to = b;
+  }
+  return legs;
+}
+
+/// Legs between two seen bends. Two pipes may each be seen turning square off their ends, one
+/// towards the other's line, while the leg between the bends holds too few points for any
+/// completion (a thin or far leg, or one mostly in shadow). After the hidden corners, two ends
+/// still free whose lines pass each other askew and near square are joined by the lines' common
+/// perpendicular (squareLegCandidates) with an elbow at each corner, when both bends are seen (their
+/// tori hold at least a fifth of the points their pipes' density gives an arc, and that is at least
+/// ten points) and everything the joints bridge (the leg between its tangent points and the
+/// stretches from the ends to theirs) keeps out of every other pipe and holds no points near its
+/// axis. The best-supported pair of bends goes first; a leg cuts no leg chosen before it. The
+/// elbows' confidence is capped at the share of the leg's sections seen: a leg that little of was
+/// seen is proposed, for review. Returns the legs chosen, which follow `input.pipes` in
+/// `resolution`.
+std::vector<PipeSegment> joinSeenBends(const JointsInput& input, const JointsParams& params,
+                                       const std::vector<char>& explained, double cellSize, Resolution& resolution) {
+  std::vector<PipeSegment> chosenLegs;
+  if (params.maxCompletionLength <= 0.0) return chosenLegs;
+  const auto& pipes = input.pipes;
+  const std::vector<SquareLeg> candidates =
+      squareLegCandidates(freeEnds(pipes, params, resolution), networkDirections(pipes), params,
+                          JointBuilder(input, params, explained));
+  if (candidates.empty()) return chosenLegs;
+
+  // Each candidate's leg is a pipe of its own, after the input pipes, to build its elbows with.
+  std::vector<PipeSegment> augmented = pipes;
+  for (const SquareLeg& leg : candidates) augmented.push_back(leg.pipe);
+  const JointsInput augmentedInput{input.cloud, augmented};
+  const JointBuilder builder(augmentedInput, params, explained);
+  const auto legPipe = [&](std::size_t k) { return static_cast<int>(pipes.size() + k); };
+  // Per candidate: the elbow at `from`, then the one at `to`.
+  std::vector<std::vector<Hypothesis>> elbows(candidates.size());
+  std::vector<std::pair<Eigen::Vector3d, double>> spheres;  // Per candidate: the two elbows', the leg's.
+  for (std::size_t k = 0; k < candidates.size(); ++k) {
+    const SquareLeg& leg = candidates[k];
+    std::vector<Hypothesis> made;
+    builder.tryEndPair(leg.from, endOf(augmented, legPipe(k), 0), made);
+    builder.tryEndPair(endOf(augmented, legPipe(k), 1), leg.to, made);
+    if (made.size() == 2 && made[0].type == JointType::Elbow && made[1].type == JointType::Elbow) {
+      elbows[k] = std::move(made);
+    }
+    for (std::size_t j = 0; j < 2; ++j) {
+      spheres.emplace_back(elbows[k].empty() ? leg.pipe.start : elbows[k][j].center,
+                           elbows[k].empty() ? 0.0 : elbows[k][j].reach);
+    }
+    spheres.emplace_back(0.5 * (leg.pipe.start + leg.pipe.end),
+                         0.5 * (leg.pipe.end - leg.pipe.start).norm() + 2.0 * leg.pipe.radius);
+  }
+  const auto nearby = pointsInSpheres(input.cloud, spheres, cellSize, [](std::size_t) { return true; });
+
+  // Whether an elbow's bend off the end `end` was seen, at the density of the end's pipe.
+  const auto bendSeen = [&](const Hypothesis& elbow, const PipeEnd& end) {
+    const PipeSegment& pipe = pipes[static_cast<std::size_t>(end.pipe)];
+    const double expected = static_cast<double>(pipe.inliers.size()) / (pipe.end - pipe.start).norm() *
+                            elbow.bendRadius * elbow.bendAngle;
+    return expected >= kMinBendlessEvidence &&
+           static_cast<double>(elbow.supportPoints.size()) >= kMaxBendlessSupport * expected;
+  };
+  // The leg between its tangent points, the share of its sections seen, and whether both bends
+  // were seen and nothing stands in the way of what the elbows bridge.
+  std::vector<PipeSegment> between(candidates.size());
+  std::vector<double> coverage(candidates.size(), 0.0);
+  std::vector<char> viable(candidates.size(), 0);
+  tbb::parallel_for(std::size_t{0}, candidates.size(), [&](std::size_t k) {
+    if (elbows[k].empty()) return;
+    const SquareLeg& leg = candidates[k];
+    Hypothesis& near = elbows[k][0];
+    Hypothesis& far = elbows[k][1];
+    builder.reconstruct(near, nearby[3 * k]);
+    builder.reconstruct(far, nearby[3 * k + 1]);
+    if (!near.valid || !far.valid || !bendSeen(near, leg.from) || !bendSeen(far, leg.to)) return;
+    PipeSegment& stretch = between[k];
+    stretch = leg.pipe;
+    stretch.start = near.newB;
+    stretch.end = far.newA;
+    if ((stretch.end - stretch.start).dot(unitAxis(leg.pipe)) < kSectionLength) return;
+    coverage[k] = builder.straightCoverage(stretch.start, stretch.end, stretch.radius, nearby[3 * k + 2], stretch.inliers);
+    const auto inTheClear = [&](const std::optional<PipeSegment>& piece, const std::vector<std::uint32_t>& points) {
+      return !piece || nothingInTheWay(input.cloud, *piece, {leg.from.pipe, leg.to.pipe}, pipes, params, points);
+    };
+    viable[k] = inTheClear(stretchBeyond(leg.from, near.newA), nearby[3 * k]) && inTheClear(stretch, nearby[3 * k + 2]) &&
+                inTheClear(stretchBeyond(leg.to, far.newB), nearby[3 * k + 1]);
+  });
+
+  std::vector<std::size_t> order;
+  for (std::size_t k = 0; k < candidates.size(); ++k) {
+    if (viable[k]) order.push_back(k);
+  }
+  const auto support = [&](std::size_t k) { return std::min(elbows[k][0].confidence, elbows[k][1].confidence); };
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return support(x) > support(y); });
+  MovedEnds movedEnds(augmented);
+  for (std::size_t h : resolution.chosen) {
+    if (resolution.hypotheses[h].type == JointType::Elbow) movedEnds.move(resolution.hypotheses[h]);
+  }
+  auto& takenBy = resolution.takenBy;
+  for (std::size_t k : order) {
+    const SquareLeg& leg = candidates[k];
+    if (takenBy[static_cast<std::size_t>(leg.from.key())] >= 0 || takenBy[static_cast<std::size_t>(leg.to.key())] >= 0 ||
+        !movedEnds.leaveLength(elbows[k][0]) || !movedEnds.leaveLength(elbows[k][1]) ||
+        cutsAnotherPipe(between[k], {}, chosenLegs, params)) {
+      continue;
+    }
+    const int pipe = static_cast<int>(pipes.size() + chosenLegs.size());
+    takenBy.resize(2 * static_cast<std::size_t>(pipe + 1), -1);
+    resolution.arcPieces.push_back(0);
+    for (Hypothesis& elbow : elbows[k]) {
+      movedEnds.move(elbow);
+      for (PipeEnd* end : {&elbow.a, &elbow.b}) {
+        if (end->pipe == legPipe(k)) end->pipe = pipe;
+      }
+      elbow.confidence = std::min(elbow.confidence, coverage[k]);
+      takenBy[static_cast<std::size_t>(elbow.a.key())] = takenBy[static_cast<std::size_t>(elbow.b.key())] =
+          static_cast<int>(resolution.hypotheses.size());
+      resolution.chosen.push_back(resolution.hypotheses.size());
+      resolution.hypotheses.push_back(std::move(elbow));
+    }
+    PipeSegment chosen = leg.pipe;
+    chosen.confidence = coverage[k];
+    chosen.inliers = std::move(between[k].inliers);
+    chosenLegs.push_back(std::move(chosen));
+    ++resolution.diagnostics.legsBetweenBends;
+  }
+  return chosenLegs;
 }
 
 }  // namespace
@@ -2364,6 +2572,9 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   }
   const std::vector<PipeSegment> bridged =
       bridgeOccludedCorners({input.cloud, pipes}, params, explained, cellSize, resolution);
+  const std::vector<PipeSegment> legsBetweenBends =
+      joinSeenBends({input.cloud, pipes}, params, explained, cellSize, resolution);
+  pipes.insert(pipes.end(), legsBetweenBends.begin(), legsBetweenBends.end());
   progress.report("joints", 0.8);
 
   JointsResult result;

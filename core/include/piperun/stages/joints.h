@@ -48,10 +48,11 @@ struct JointsParams {
   double acceptConfidence = 0.5;       ///< Joints with at least this confidence are accepted, others proposed.
   double maxCompletionLength = 1.0;    ///< An end no accepted joint took looks for a pipe the earlier stages missed
                                        ///< beyond an elbow, along one of the network's directions, up to this long
-                                       ///< (m; 0: off, and so are the branch search and the search for the leg beyond
-                                       ///< a gentle bend one pipe was fitted across): short legs between elbows and
-                                       ///< tails into equipment have too few points to stand out on the Gaussian
-                                       ///< sphere. Branches found off a pipe's body are at most this long too.
+                                       ///< (m; 0: off, and so are the branch search, the search for the leg beyond a
+                                       ///< gentle bend one pipe was fitted across and the legs between two seen
+                                       ///< bends): short legs between elbows and tails into equipment have too few
+                                       ///< points to stand out on the Gaussian sphere. Branches found off a pipe's
+                                       ///< body are at most this long too.
   std::size_t minCompletionPoints = 12;  ///< Such a pipe needs this many points on its surface...
   double minCompletionCoverage = 0.5;  ///< ...in this share of its sections at least, and must take the elbow.
   double minCompletionBendDeg = 8.0;   ///< Such a pipe turns at least this far from the end's axis: normals scatter a
@@ -73,8 +74,8 @@ struct JointsInput {
 
 /// The joined network in the cloud's frame. The pipes keep their input order, less the fragments
 /// an elbow absorbed, followed by the legs found beyond gentle bends that one pipe was fitted
-/// across, then the pipes completed beyond free ends or found as branches (round by round), with
-/// ids from 1 in that order (elbows move their ends to the tangent points, and two pipes
+/// across, then the pipes completed beyond free ends or found as branches (round by round), then
+/// the legs between two seen bends, with ids from 1 in that order (elbows move their ends to the tangent points, and two pipes
 /// overlapping at a gentle bend end at its corner, each axis refitted on its side); joint ids
 /// continue after the last pipe id.
 /// Runs are the connected components of the pipes over accepted joints, every pipe in exactly one
@@ -97,6 +98,8 @@ struct JointsResult {
     std::size_t kinkLegs = 0;              ///< ...and legs found beyond a bend one pipe was fitted across (appended
                                            ///< after the input pipes, before the completed ones).
     std::size_t occludedElbows = 0;        ///< Elbows across corners hidden farther than the search distance.
+    std::size_t legsBetweenBends = 0;      ///< Legs between two seen bends, each with its two elbows (appended after
+                                           ///< the completed pipes).
     double seconds = 0.0;
   } diagnostics;
 };
