@@ -2,8 +2,10 @@
 # Reconstructs generated scenes over several seeds and prints the accuracy of each and the mean.
 #   scripts/evaluate.sh [--preset small] [--seeds "1 2 3"] [--noise M] [--outliers F]
 #                       [--stations K] [--pipes-only] [--until merge|joints] [--set key=value]...
+#                       [--joints]
 # --pipes-only compares only straight pipes (the pipe-axis figures before joints); --until merge
-# stops the reconstruction before the joints stage (the same pipes, no joints).
+# stops the reconstruction before the joints stage (the same pipes, no joints); --joints also lists,
+# seed by seed, every truth elbow and tee missed and every spurious joint (piperun eval --joints).
 # Needs a build (scripts/build.sh). Prints one line per seed, then
 #   mean: precision=… recall=… f1=… radius_err_mm=… (median of the seeds' medians)
 #   observable: share=… recall_observable=… (the share of the truth the scan shows, and the recall
@@ -19,6 +21,7 @@ outliers=0.01
 stations=0
 sets=()
 eval_flags=()
+list_joints=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --preset) preset=$2; shift 2 ;;
@@ -29,6 +32,7 @@ while [ $# -gt 0 ]; do
     --set) sets+=(--set "$2"); shift 2 ;;
     --until) sets+=(--until "$2"); shift 2 ;;
     --pipes-only) eval_flags+=(--pipes-only); shift ;;
+    --joints) list_joints=1; shift ;;
     *) echo "evaluate.sh: unknown option $1" >&2; exit 1 ;;
   esac
 done
@@ -43,7 +47,11 @@ for seed in $seeds; do
   start=$(date +%s.%N)
   "$PIPERUN" -q reconstruct "$work/scene.ply" -o "$work/net.json" --seed "$seed" "${sets[@]}" >/dev/null
   end=$(date +%s.%N)
-  line=$("$PIPERUN" eval "${eval_flags[@]}" --scan "$work/scene.ply" "$work/truth.json" "$work/net.json" | tail -1)
+  "$PIPERUN" eval "${eval_flags[@]}" --joints --scan "$work/scene.ply" "$work/truth.json" "$work/net.json" >"$work/eval.txt"
+  line=$(tail -1 "$work/eval.txt")
+  if [ "$list_joints" -eq 1 ]; then
+    grep -E '^(joint .* missed|spurious )' "$work/eval.txt" | sed "s/^/seed=$seed /" || true
+  fi
   seconds=$(awk -v a="$start" -v b="$end" 'BEGIN { printf "%.2f", b - a }')
   echo "seed=$seed $line seconds=$seconds"
   echo "$line seconds=$seconds" >>"$results"

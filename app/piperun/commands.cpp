@@ -195,6 +195,51 @@ int runGenerate(const GenerateOptions& options) {
   return kExitOk;
 }
 
+namespace {
+
+/// One line per truth elbow and tee ("joint …", found or missed) and per spurious joint
+/// ("spurious …"), positions in metres.
+void printJointOutcomes(const EvaluationResult& figures) {
+  for (const JointOutcome& outcome : figures.jointOutcomes) {
+    std::string line = "joint " + toString(outcome.type) + " " + std::to_string(outcome.truthId);
+    char text[160];
+    if (outcome.matchedId >= 0) {
+      std::snprintf(text, sizeof text, " found as %d, %.3f m off", outcome.matchedId, outcome.distance);
+    } else {
+      std::snprintf(text, sizeof text, " missed");
+    }
+    line += text;
+    if (outcome.type == JointType::Elbow) {
+      if (outcome.matchedId >= 0) {
+        std::snprintf(text, sizeof text, ", R %.3f -> %.3f m", outcome.truthBendRadius, outcome.predictedBendRadius);
+      } else {
+        std::snprintf(text, sizeof text, ", R %.3f m", outcome.truthBendRadius);
+      }
+      line += text;
+    }
+    std::snprintf(text, sizeof text, ", at (%.2f, %.2f, %.2f), pipes", outcome.position.x(), outcome.position.y(),
+                  outcome.position.z());
+    line += text;
+    for (std::size_t k = 0; k < outcome.pipeIds.size(); ++k) {
+      line += " " + std::to_string(outcome.pipeIds[k]);
+      if (k < outcome.pipePoints.size()) line += " (" + std::to_string(outcome.pipePoints[k]) + " points)";
+    }
+    if (outcome.ownPoints >= 0) line += ", " + std::to_string(outcome.ownPoints) + " points on it";
+    std::printf("%s\n", line.c_str());
+  }
+  for (const SpuriousJoint& joint : figures.spurious) {
+    std::printf("spurious %s %d, %s %.2f, at (%.2f, %.2f, %.2f)", toString(joint.type).c_str(), joint.id,
+                toString(joint.status).c_str(), joint.confidence, joint.position.x(), joint.position.y(),
+                joint.position.z());
+    if (joint.nearestTruthId >= 0) {
+      std::printf(", nearest truth joint %d %.2f m away", joint.nearestTruthId, joint.nearestTruthDistance);
+    }
+    std::printf("\n");
+  }
+}
+
+}  // namespace
+
 int runEval(const EvalOptions& options) {
   const PipeNetwork truth = readNetwork(options.truth);
   const PipeNetwork result = readNetwork(options.result);
@@ -226,9 +271,47 @@ int runEval(const EvalOptions& options) {
       out["observable_tees_truth"] = figures.observableTees;
       out["observable_tees_found"] = figures.foundObservableTees;
     }
+    if (options.joints) {
+      const auto point = [](const Eigen::Vector3d& p) { return json::array({p.x(), p.y(), p.z()}); };
+      json outcomes = json::array();
+      for (const JointOutcome& outcome : figures.jointOutcomes) {
+        json entry = {{"truth_id", outcome.truthId},
+                      {"type", toString(outcome.type)},
+                      {"position", point(outcome.position)},
+                      {"found", outcome.matchedId >= 0},
+                      {"pipes", outcome.pipeIds}};
+        if (outcome.matchedId >= 0) {
+          entry["matched_id"] = outcome.matchedId;
+          entry["distance"] = outcome.distance;
+        }
+        if (outcome.type == JointType::Elbow) {
+          entry["bend_radius_truth"] = outcome.truthBendRadius;
+          if (outcome.matchedId >= 0) entry["bend_radius_found"] = outcome.predictedBendRadius;
+        }
+        if (!outcome.pipePoints.empty()) entry["pipe_points"] = outcome.pipePoints;
+        if (outcome.ownPoints >= 0) entry["own_points"] = outcome.ownPoints;
+        outcomes.push_back(std::move(entry));
+      }
+      json spurious = json::array();
+      for (const SpuriousJoint& joint : figures.spurious) {
+        json entry = {{"id", joint.id},
+                      {"type", toString(joint.type)},
+                      {"status", toString(joint.status)},
+                      {"confidence", joint.confidence},
+                      {"position", point(joint.position)}};
+        if (joint.nearestTruthId >= 0) {
+          entry["nearest_truth_id"] = joint.nearestTruthId;
+          entry["nearest_truth_distance"] = joint.nearestTruthDistance;
+        }
+        spurious.push_back(std::move(entry));
+      }
+      out["joints"] = std::move(outcomes);
+      out["spurious"] = std::move(spurious);
+    }
     std::printf("%s\n", out.dump(2).c_str());
     return kExitOk;
   }
+  if (options.joints) printJointOutcomes(figures);
   std::printf("truth: %s (%zu pipes, %zu joints, %zu samples)\n", options.truth.c_str(), truth.pipes.size(),
               truth.joints.size(), figures.truthSamples);
   std::printf("result: %s (%zu pipes, %zu joints, %zu samples)\n", options.result.c_str(), result.pipes.size(),

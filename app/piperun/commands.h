@@ -38,6 +38,7 @@ struct EvalOptions {
   double step = 0.01;
   bool pipesOnly = false;
   std::string scan;  ///< Labelled scan: adds the observable-recall figures.
+  bool joints = false;  ///< List every truth elbow and tee and every spurious joint.
 };
 int runEval(const EvalOptions& options);
 

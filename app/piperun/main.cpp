@@ -79,6 +79,9 @@ int main(int argc, char** argv) {
                           "The labelled scan the result came from (piperun generate --labels): also measure "
                           "recall over the truth the scan shows")
       ->check(CLI::ExistingFile);
+  evalCommand->add_flag("--joints", eval.joints,
+                        "Also list every truth elbow and tee (found or missed, with its pipes' labelled points given "
+                        "--scan) and every spurious joint");
 
   ConvertOptions convert;
   auto* convertCommand = app.add_subcommand("convert", "Convert a point cloud to PLY or text, streaming");

@@ -117,6 +117,13 @@ case "$CASE" in
     run 0 generate --preset small --seed 3 --density 0.25 --labels -o "$WORK/labelled.ply"
     run 0 eval --scan "$WORK/labelled.ply" "$WORK/truth.json" "$WORK/truth.json"
     expect_out " observable=0\.[0-9]+ recall_observable=1\.000 observable_elbows=([0-9]+)/\1 observable_tees=([0-9]+)/\2$"
+    # Joint by joint: every truth elbow and tee found (by itself), with the points on its pipes.
+    run 0 eval --joints --scan "$WORK/labelled.ply" "$WORK/truth.json" "$WORK/truth.json"
+    expect_out "^joint elbow ([0-9]+) found as \1, 0\.000 m off, R ([0-9.]+) -> \2 m, at \(.*\), pipes [0-9]+ \([0-9]+ points\) [0-9]+ \([0-9]+ points\), [0-9]+ points on it$"
+    expect_out "^joint tee ([0-9]+) found as \1, 0\.000 m off, at "
+    run 0 eval --json --joints "$WORK/truth.json" "$WORK/truth.json"
+    expect_out '"spurious": \[\]'
+    expect_out '"found": true'
     run 1 eval --scan "$WORK/scene.ply" "$WORK/truth.json" "$WORK/truth.json"
     expect_one_line_error "the scan has no labels"
     ;;

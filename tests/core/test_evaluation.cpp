@@ -179,19 +179,22 @@ TEST(Evaluation, ObservableRecallCountsOnlyWhatTheScanShows) {
   EXPECT_THROW(evaluateNetwork(truth, predicted, {}, &unlabelled), std::invalid_argument);
 }
 
-TEST(Evaluation, ObservableJointsHaveEnoughPointsOnEachPipe) {
-  const PipeNetwork truth = lShapedRun();  // elbow 4 joins pipes 1 and 2, tee 5 pipes 1 and 3
+/// A scan of points (all at the origin) labelled with truth elements: (label, count) pairs.
+PointCloud labelledScan(const std::vector<std::pair<int, int>>& counts) {
   PointCloud scan;
-  const auto label = [&](int element, int count) {
+  for (const auto& [element, count] : counts) {
     for (int i = 0; i < count; ++i) {
       scan.positions.emplace_back(0.0f, 0.0f, 0.0f);
       scan.labels.push_back(element);
     }
-  };
-  label(1, 30);
-  label(2, 20);
-  label(3, 19);  // one short of the 20 points a pipe needs: the tee is not observable
-  label(0, 50);  // clutter
+  }
+  return scan;
+}
+
+TEST(Evaluation, ObservableJointsHaveEnoughPointsOnEachPipe) {
+  const PipeNetwork truth = lShapedRun();  // elbow 4 joins pipes 1 and 2, tee 5 pipes 1 and 3
+  // Pipe 3 holds one short of the 20 points a pipe needs: the tee is not observable. Label 0: clutter.
+  const PointCloud scan = labelledScan({{1, 30}, {2, 20}, {3, 19}, {0, 50}});
 
   const EvaluationResult all = evaluateNetwork(truth, truth, {}, &scan);
   EXPECT_EQ(all.observableElbows, 1);
@@ -206,6 +209,51 @@ TEST(Evaluation, ObservableJointsHaveEnoughPointsOnEachPipe) {
   EXPECT_EQ(missed.foundObservableElbows, 0);
   EXPECT_EQ(missed.foundElbows, 0);
   EXPECT_EQ(missed.foundTees, 1);
+}
+
+TEST(Evaluation, JointOutcomesSayWhatWasFoundMissedAndSpurious) {
+  const PipeNetwork truth = lShapedRun();  // elbow 4 joins pipes 1 and 2, tee 5 pipes 1 and 3
+  PipeNetwork predicted = truth;
+  predicted.joints[0].bendRadius = 0.12;
+  predicted.joints[1].axis = {Eigen::Vector3d(1.5, 0, 0), Eigen::Vector3d(1.5, 0.05, 0)};  // 0.5 m off: no match
+  predicted.joints[1].status = JointStatus::Proposed;
+  predicted.joints[1].confidence = 0.3;
+  // Seven points on the elbow itself; pipe 3 and the tee hold none.
+  const PointCloud scan = labelledScan({{1, 30}, {2, 20}, {4, 7}});
+
+  const EvaluationResult result = evaluateNetwork(truth, predicted, {}, &scan);
+  ASSERT_EQ(result.jointOutcomes.size(), 2u);
+  const JointOutcome& elbow = result.jointOutcomes[0];
+  EXPECT_EQ(elbow.truthId, 4);
+  EXPECT_EQ(elbow.type, JointType::Elbow);
+  EXPECT_EQ(elbow.matchedId, 4);
+  EXPECT_NEAR(elbow.distance, 0.0, 1e-12);
+  EXPECT_DOUBLE_EQ(elbow.truthBendRadius, 0.1);
+  EXPECT_DOUBLE_EQ(elbow.predictedBendRadius, 0.12);
+  EXPECT_EQ(elbow.pipeIds, (std::vector<int>{1, 2}));
+  EXPECT_EQ(elbow.pipePoints, (std::vector<int>{30, 20}));
+  EXPECT_EQ(elbow.ownPoints, 7);
+  const JointOutcome& tee = result.jointOutcomes[1];
+  EXPECT_EQ(tee.truthId, 5);
+  EXPECT_EQ(tee.matchedId, -1);
+  EXPECT_EQ(tee.pipePoints, (std::vector<int>{30, 0}));
+  EXPECT_EQ(tee.ownPoints, 0);
+  EXPECT_TRUE(tee.position.isApprox(Eigen::Vector3d(1, 0, 0)));
+
+  ASSERT_EQ(result.spurious.size(), 1u);
+  EXPECT_EQ(result.spuriousJoints, 1);
+  const SpuriousJoint& spurious = result.spurious[0];
+  EXPECT_EQ(spurious.id, 5);
+  EXPECT_EQ(spurious.type, JointType::Tee);
+  EXPECT_EQ(spurious.status, JointStatus::Proposed);
+  EXPECT_DOUBLE_EQ(spurious.confidence, 0.3);
+  EXPECT_EQ(spurious.nearestTruthId, 5);
+  EXPECT_NEAR(spurious.nearestTruthDistance, 0.5, 1e-9);
+
+  // Without a scan there are no point counts.
+  const EvaluationResult unscanned = evaluateNetwork(truth, predicted);
+  EXPECT_TRUE(unscanned.jointOutcomes[0].pipePoints.empty());
+  EXPECT_EQ(unscanned.jointOutcomes[0].ownPoints, -1);
 }
 
 TEST(Evaluation, FormatLine) {

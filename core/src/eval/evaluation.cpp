@@ -130,20 +130,21 @@ double median(std::vector<double> values) {
   return 0.5 * (lower + upper);
 }
 
-// Greedy one-to-one matching of joints of one type, closest pairs first (deterministic).
-// `found` receives the ids of the truth joints matched.
-void matchJoints(const PipeNetwork& truth, const std::vector<const Joint*>& predicted, JointType type,
-                 const EvaluationParams& params, std::vector<char>& predictedMatched, int& truthCount,
-                 int& foundCount, std::vector<double>& bendErrors, std::vector<int>& found) {
-  std::vector<std::tuple<double, std::size_t, std::size_t>> pairs;  // distance, truth index, predicted index
-  std::vector<const Joint*> truthJoints;
+// Greedy one-to-one matching of joints of one type, closest pairs first (deterministic). Returns the
+// truth joints of that type, in truth order, each with the index into `predicted` of its match (-1:
+// none).
+std::vector<std::pair<const Joint*, int>> matchJoints(const PipeNetwork& truth, const std::vector<const Joint*>& predicted,
+                                                      JointType type, const EvaluationParams& params,
+                                                      std::vector<char>& predictedMatched) {
+  std::vector<std::pair<const Joint*, int>> matches;
   for (const auto& joint : truth.joints) {
-    if (joint.type == type) truthJoints.push_back(&joint);
+    if (joint.type == type) matches.emplace_back(&joint, -1);
   }
-  truthCount = static_cast<int>(truthJoints.size());
-  for (std::size_t t = 0; t < truthJoints.size(); ++t) {
-    const double limit = std::max(params.jointMinDistance, params.jointRadiusFactor * truthJoints[t]->radius);
-    const Eigen::Vector3d position = truthJoints[t]->position();
+  std::vector<std::tuple<double, std::size_t, std::size_t>> pairs;  // distance, truth index, predicted index
+  for (std::size_t t = 0; t < matches.size(); ++t) {
+    const Joint& joint = *matches[t].first;
+    const double limit = std::max(params.jointMinDistance, params.jointRadiusFactor * joint.radius);
+    const Eigen::Vector3d position = joint.position();
     for (std::size_t p = 0; p < predicted.size(); ++p) {
       if (predicted[p]->type != type) continue;
       const double distance = (predicted[p]->position() - position).norm();
@@ -151,41 +152,12 @@ void matchJoints(const PipeNetwork& truth, const std::vector<const Joint*>& pred
     }
   }
   std::sort(pairs.begin(), pairs.end());
-  std::vector<char> truthMatched(truthJoints.size(), 0);
-  foundCount = 0;
   for (const auto& [distance, t, p] : pairs) {
-    if (truthMatched[t] || predictedMatched[p]) continue;
-    truthMatched[t] = 1;
+    if (matches[t].second >= 0 || predictedMatched[p]) continue;
+    matches[t].second = static_cast<int>(p);
     predictedMatched[p] = 1;
-    ++foundCount;
-    found.push_back(truthJoints[t]->id);
-    if (type == JointType::Elbow && truthJoints[t]->bendRadius > 0.0) {
-      bendErrors.push_back(std::fabs(predicted[p]->bendRadius - truthJoints[t]->bendRadius) / truthJoints[t]->bendRadius);
-    }
   }
-}
-
-/// The truth elbows and tees whose pipes all have enough labelled points, and how many of them
-/// are among `foundJoints` (ids).
-void countObservableJoints(const PipeNetwork& truth, const std::unordered_map<int, int>& pointsOf,
-                           std::vector<int> foundJoints, const EvaluationParams& params, EvaluationResult& result) {
-  std::sort(foundJoints.begin(), foundJoints.end());
-  for (const Joint& joint : truth.joints) {
-    if (joint.type != JointType::Elbow && joint.type != JointType::Tee) continue;
-    const bool observable = std::all_of(joint.pipeIds.begin(), joint.pipeIds.end(), [&](int pipe) {
-      const auto found = pointsOf.find(pipe);
-      return found != pointsOf.end() && found->second >= params.observableJointMinPoints;
-    });
-    if (!observable) continue;
-    const bool found = std::binary_search(foundJoints.begin(), foundJoints.end(), joint.id);
-    if (joint.type == JointType::Elbow) {
-      ++result.observableElbows;
-      result.foundObservableElbows += found;
-    } else {
-      ++result.observableTees;
-      result.foundObservableTees += found;
-    }
-  }
+  return matches;
 }
 
 }  // namespace
@@ -276,16 +248,45 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
   }
   std::vector<char> predictedMatched(predictedJoints.size(), 0);
   std::vector<double> bendErrors;
-  int ignoredTruth = 0;
-  int ignoredFound = 0;
-  std::vector<int> foundJoints;
-  matchJoints(truth, predictedJoints, JointType::Elbow, params, predictedMatched, result.truthElbows,
-              result.foundElbows, bendErrors, foundJoints);
-  matchJoints(truth, predictedJoints, JointType::Tee, params, predictedMatched, result.truthTees, result.foundTees,
-              bendErrors, foundJoints);
-  matchJoints(truth, predictedJoints, JointType::Boundary, params, predictedMatched, ignoredTruth, ignoredFound,
-              bendErrors, foundJoints);
-  if (labelledScan) countObservableJoints(truth, coverage.pointsOf, foundJoints, params, result);
+  const auto labelledPoints = [&](int element) {
+    const auto found = coverage.pointsOf.find(element);
+    return found == coverage.pointsOf.end() ? 0 : found->second;
+  };
+  for (const JointType type : {JointType::Elbow, JointType::Tee, JointType::Boundary}) {
+    const auto matches = matchJoints(truth, predictedJoints, type, params, predictedMatched);
+    if (type == JointType::Boundary) continue;  // Generated truths list none; a bridged gap is checked below.
+    const bool elbow = type == JointType::Elbow;
+    for (const auto& [joint, p] : matches) {
+      JointOutcome outcome;
+      outcome.truthId = joint->id;
+      outcome.type = type;
+      outcome.position = joint->position();
+      outcome.truthBendRadius = joint->bendRadius;
+      outcome.pipeIds = joint->pipeIds;
+      if (p >= 0) {
+        const Joint& match = *predictedJoints[static_cast<std::size_t>(p)];
+        outcome.matchedId = match.id;
+        outcome.distance = (match.position() - outcome.position).norm();
+        outcome.predictedBendRadius = match.bendRadius;
+        if (elbow && joint->bendRadius > 0.0) {
+          bendErrors.push_back(std::fabs(match.bendRadius - joint->bendRadius) / joint->bendRadius);
+        }
+      }
+      (elbow ? result.truthElbows : result.truthTees) += 1;
+      (elbow ? result.foundElbows : result.foundTees) += p >= 0;
+      if (labelledScan) {
+        for (const int pipe : joint->pipeIds) outcome.pipePoints.push_back(labelledPoints(pipe));
+        if (!params.pipesOnly) outcome.ownPoints = labelledPoints(joint->id);
+        // Observable: each of its pipes holds enough points.
+        if (std::all_of(outcome.pipePoints.begin(), outcome.pipePoints.end(),
+                        [&](int points) { return points >= params.observableJointMinPoints; })) {
+          (elbow ? result.observableElbows : result.observableTees) += 1;
+          (elbow ? result.foundObservableElbows : result.foundObservableTees) += p >= 0;
+        }
+      }
+      result.jointOutcomes.push_back(std::move(outcome));
+    }
+  }
   // A boundary joint that bridges a gap along the truth (an occlusion of a continuous pipe) is
   // right even though the truth, having no gaps, lists no such joint.
   for (std::size_t p = 0; p < predictedJoints.size(); ++p) {
@@ -300,9 +301,21 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
     }
     predictedMatched[p] = alongTruth ? 1 : 0;
   }
+  for (std::size_t p = 0; p < predictedJoints.size(); ++p) {
+    if (predictedMatched[p]) continue;
+    const Joint& joint = *predictedJoints[p];
+    SpuriousJoint spurious{joint.id, joint.type, joint.status, joint.confidence, joint.position()};
+    for (const JointOutcome& outcome : result.jointOutcomes) {
+      const double distance = (outcome.position - spurious.position).norm();
+      if (spurious.nearestTruthId < 0 || distance < spurious.nearestTruthDistance) {
+        spurious.nearestTruthId = outcome.truthId;
+        spurious.nearestTruthDistance = distance;
+      }
+    }
+    result.spurious.push_back(spurious);
+  }
   result.predictedJoints = static_cast<int>(predictedJoints.size());
-  result.spuriousJoints =
-      static_cast<int>(std::count(predictedMatched.begin(), predictedMatched.end(), static_cast<char>(0)));
+  result.spuriousJoints = static_cast<int>(result.spurious.size());
   result.bendRadiusErrorMedian = median(bendErrors);
   return result;
 }

@@ -6,6 +6,7 @@
 
 #include <cstddef>
 #include <string>
+#include <vector>
 
 namespace piperun {
 
@@ -24,6 +25,32 @@ struct EvaluationParams {
   /// With a labelled scan: a truth elbow or tee is observable when each of its pipes has at least
   /// this many labelled points.
   int observableJointMinPoints = 20;
+};
+
+/// What the evaluation made of one truth elbow or tee.
+struct JointOutcome {
+  int truthId = 0;
+  JointType type = JointType::Elbow;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< The truth joint's position (Joint::position).
+  int matchedId = -1;                ///< The predicted joint matched to it; -1: missed.
+  double distance = 0.0;             ///< Between the two positions (m), when matched.
+  double truthBendRadius = 0.0;      ///< Elbows: the truth's major radius R...
+  double predictedBendRadius = 0.0;  ///< ...and the matched elbow's (m).
+  std::vector<int> pipeIds;          ///< The truth pipes it joins...
+  std::vector<int> pipePoints;       ///< ...and the scan points labelled with each (with a labelled scan, else empty).
+  int ownPoints = -1;                ///< With a labelled scan (and joints sampled): the points labelled with the
+                                     ///< joint itself; -1 when not measured.
+};
+
+/// A predicted joint (not rejected) that matched no truth joint.
+struct SpuriousJoint {
+  int id = 0;
+  JointType type = JointType::Elbow;
+  JointStatus status = JointStatus::Accepted;
+  double confidence = 0.0;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  int nearestTruthId = -1;           ///< The nearest truth elbow or tee, whatever its type; -1 when none...
+  double nearestTruthDistance = 0.0; ///< ...and how far it is (m).
 };
 
 struct EvaluationResult {
@@ -53,6 +80,9 @@ struct EvaluationResult {
   int predictedJoints = 0;           ///< Predicted joints that are not rejected.
   int spuriousJoints = 0;            ///< Predicted joints that match no truth joint.
   double bendRadiusErrorMedian = 0.0;  ///< Median |R_pred − R_truth| / R_truth over matched elbows.
+
+  std::vector<JointOutcome> jointOutcomes;  ///< Every truth elbow and tee, in truth order.
+  std::vector<SpuriousJoint> spurious;      ///< The spurious joints, in prediction order.
 };
 
 /// Compares `predicted` with `truth`. Pipes with status Deleted and joints with status Rejected
