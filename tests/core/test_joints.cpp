@@ -846,6 +846,51 @@ TEST(Joints, ALegBetweenTwoElbowsThatNoPipeCoversIsCompleted) {
   EXPECT_TRUE(without.joints.empty());
 }
 
+/// A riser (r = 5 cm) seen up to its tangent point below a corner at the origin, where a long
+/// level pipe leaves along +x; the level pipe was found only from 3 m on (the stages kept its dense
+/// part), and between them the scan saw it in one line of points along its top, every `step`
+/// (none when 0), too thin for any pipe. Its bend was not seen.
+ConstructedScene pipeRunningOnThinly(double step) {
+  const double r = 0.05, R = 0.15;
+  ConstructedScene scene;
+  scene.addPipe({0, 0, -1.5}, {0, 0, -R}, r);
+  scene.addPipe({3.0, 0, 0}, {4.5, 0, 0}, r);
+  if (step > 0.0) scene.addScanColumns({R, 0, 0}, {3.0, 0, 0}, r, Eigen::Vector3d::UnitZ(), {0.0}, 0.0, step);
+  return scene;
+}
+
+TEST(Joints, AnElbowIsProposedOntoAPipeSeenRunningOnThinlyToItsCorner) {
+  const double R = 0.15;
+  const JointsResult result = pipeRunningOnThinly(0.1).connect();
+  EXPECT_EQ(result.diagnostics.thinRunElbows, 1u);
+  ASSERT_EQ(result.joints.size(), 1u);
+  const Joint& elbow = result.joints[0];
+  EXPECT_EQ(elbow.type, JointType::Elbow);
+  EXPECT_EQ(elbow.pipeIds, (std::vector<int>{1, 2}));
+  EXPECT_NEAR(elbow.bendRadius, R, 0.01);  // The riser seen up to its tangent point bounds it.
+  // Nothing was seen of the bend, and the stretch in two of every five 4 cm sections: proposed.
+  EXPECT_LT(elbow.confidence, 0.4);
+  EXPECT_EQ(elbow.status, JointStatus::Proposed);
+  ASSERT_EQ(result.pipes.size(), 2u);
+  EXPECT_NEAR(result.pipes[1].start.x(), R, 0.01);  // Carried on to the tangent point.
+  EXPECT_NEAR(result.pipes[1].start.z(), 0.0, 1e-9);
+
+  JointsParams off;
+  off.maxThinStretch = 0.0;
+  EXPECT_TRUE(pipeRunningOnThinly(0.1).connect(off).joints.empty());
+}
+
+TEST(Joints, NoElbowIsProposedOntoAPipeWhoseStretchToTheCornerWasNotSeenOrIsInTheWay) {
+  // Nothing seen between the two: nothing says the level pipe runs on to the corner.
+  EXPECT_TRUE(pipeRunningOnThinly(0.0).connect().joints.empty());
+  // One point every 60 cm: a fraction of its 25 cm sections, stray points as much as a pipe.
+  EXPECT_TRUE(pipeRunningOnThinly(0.6).connect().joints.empty());
+  // A post stands on the stretch: the pipe does not run through it.
+  ConstructedScene scene = pipeRunningOnThinly(0.1);
+  scene.addPost(1.5, 0.0, 0.02, -0.2, 0.2);
+  EXPECT_TRUE(scene.connect().joints.empty());
+}
+
 TEST(Joints, ALegBetweenTwoSeenBendsIsJoinedThoughTooLittleOfItWasSeen) {
   // Both elbows (R = 3r) of a 90 cm leg were scanned whole, the leg only in a 4 cm glimpse at its
   // middle: too little of it for a completion, too much to complete it from either bend alone. The

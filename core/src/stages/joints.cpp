@@ -33,8 +33,9 @@
 //    along the main and how thick; a peak's branch passes the same tests and must take the tee.
 //    The pipes so found look on in turn, round by round, until a round finds none.
 // 5. Ends still free: two look farther for each other across a corner hidden behind something
-//    (bridgeOccludedCorners), and two whose bends were seen turning square towards each other's
-//    line are joined by the leg between the bends, little of which was seen (joinSeenBends).
+//    (bridgeOccludedCorners), one reaches a pipe seen running on thinly to its corner from metres
+//    away (reachThinRuns), and two whose bends were seen turning square towards each other's line
+//    are joined by the leg between the bends, little of which was seen (joinSeenBends).
 // 6. Runs: connected components of the pipes over accepted joints.
 
 #include "piperun/stages/joints.h"
@@ -88,6 +89,12 @@ constexpr double kOccludedCoreRadii = 0.5;
 // lines pass each other at least this far from parallel, and it runs along one of the network's
 // directions within this.
 constexpr double kSquareLegMinAngleDeg = 60.0;
+// A stretch a pipe runs on thinly to an elbow (see reachThinRuns) holds a point on its surface in at
+// least this share of its sections of this length (m), and at most this many points per metre near
+// its axis (outliers: a few per cubic metre of room).
+constexpr double kMinThinCoverage = 0.5;
+constexpr double kThinSectionLength = 0.25;
+constexpr double kMaxThinCorePoints = 1.0;
 constexpr double kSquareLegDirectionDeg = 3.0;
 
 /// Whether point i's normal is within the support angle of the unit `radial` (normals are unoriented).
@@ -2249,6 +2256,31 @@ bool nothingInTheWay(const PointCloud& cloud, const PipeSegment& stretch, std::i
   });
 }
 
+/// Adds to `resolution` the elbows among `candidates` (indices `viable`), best-supported first, whose
+/// ends no joint took and which leave both their pipes a length; `onChosen(h)` sees each one just
+/// before it goes in.
+template <class OnChosen>
+void chooseElbows(std::vector<Hypothesis>& candidates, std::vector<std::size_t> viable,
+                  const std::vector<PipeSegment>& pipes, Resolution& resolution, OnChosen&& onChosen) {
+  std::stable_sort(viable.begin(), viable.end(),
+                   [&](std::size_t x, std::size_t y) { return candidates[x].confidence > candidates[y].confidence; });
+  MovedEnds movedEnds(pipes);
+  for (std::size_t h : resolution.chosen) {
+    if (resolution.hypotheses[h].type == JointType::Elbow) movedEnds.move(resolution.hypotheses[h]);
+  }
+  for (std::size_t h : viable) {
+    Hypothesis& candidate = candidates[h];
+    auto& takenA = resolution.takenBy[static_cast<std::size_t>(candidate.a.key())];
+    auto& takenB = resolution.takenBy[static_cast<std::size_t>(candidate.b.key())];
+    if (takenA >= 0 || takenB >= 0 || !movedEnds.leaveLength(candidate)) continue;
+    movedEnds.move(candidate);
+    onChosen(h);
+    takenA = takenB = static_cast<int>(resolution.hypotheses.size());
+    resolution.chosen.push_back(resolution.hypotheses.size());
+    resolution.hypotheses.push_back(std::move(candidate));
+  }
+}
+
 /// Elbows across occlusions. A corner hidden behind equipment or another pipe leaves both its
 /// pipes cut short, often farther from it than the search distance, and after the completion no
 /// other joint claims their ends. Two such ends look for each other up to
@@ -2297,10 +2329,6 @@ std::vector<PipeSegment> bridgeOccludedCorners(const JointsInput& input, const J
   tbb::parallel_for(std::size_t{0}, candidates.size(),
                     [&](std::size_t h) { builder.reconstruct(candidates[h], nearby[h]); });
 
-  MovedEnds movedEnds(pipes);
-  for (std::size_t h : resolution.chosen) {
-    if (resolution.hypotheses[h].type == JointType::Elbow) movedEnds.move(resolution.hypotheses[h]);
-  }
   std::vector<std::array<std::optional<PipeSegment>, 2>> bridges(candidates.size());
   std::vector<std::size_t> order;
   for (std::size_t h = 0; h < candidates.size(); ++h) {
@@ -2313,22 +2341,119 @@ std::vector<PipeSegment> bridgeOccludedCorners(const JointsInput& input, const J
       order.push_back(h);
     }
   }
-  std::stable_sort(order.begin(), order.end(),
-                   [&](std::size_t x, std::size_t y) { return candidates[x].confidence > candidates[y].confidence; });
-  for (std::size_t h : order) {
-    Hypothesis& candidate = candidates[h];
-    auto& takenA = resolution.takenBy[static_cast<std::size_t>(candidate.a.key())];
-    auto& takenB = resolution.takenBy[static_cast<std::size_t>(candidate.b.key())];
-    if (takenA >= 0 || takenB >= 0 || !movedEnds.leaveLength(candidate)) continue;
-    movedEnds.move(candidate);
+  chooseElbows(candidates, std::move(order), pipes, resolution, [&](std::size_t h) {
     for (const auto& stretch : bridges[h]) {
       if (stretch) stretches.push_back(*stretch);
     }
-    takenA = takenB = static_cast<int>(resolution.hypotheses.size());
-    resolution.chosen.push_back(resolution.hypotheses.size());
-    resolution.hypotheses.push_back(std::move(candidate));
     ++resolution.diagnostics.occludedElbows;
+  });
+  return stretches;
+}
+
+/// Elbows onto pipes that run on thinly. A long pipe running away from the scanner thins out, and
+/// placement and the extents keep only its denser part: its end may stop metres short of the elbow
+/// where the pipe it meets is seen right up to the corner. After the hidden corners, a free end
+/// whose corner with another pipe's free end lies ahead of it within the search distance, while the
+/// other end faces the corner from farther (at most `maxThinStretch`), makes that elbow when the
+/// stretch the other pipe would run to its tangent point was seen thinly all along: at least half
+/// its 25 cm sections hold a point on its surface that no pipe explains, and at most
+/// kMaxThinCorePoints points per metre lie near its axis (stray points, not something in the way);
+/// it cuts no other pipe. (Its points are looked at in the preprocessed cloud, which keeps fewer of
+/// them than the scan: isolated points go as outliers.) The best-supported go first, an end takes
+/// one. The elbow's confidence is capped at the share of the stretch's 4 cm sections seen:
+/// proposed, for review, when as thin as such stretches are. Returns the stretches carried on.
+std::vector<PipeSegment> reachThinRuns(const JointsInput& input, const JointsParams& params,
+                                       const std::vector<char>& explained, double cellSize, Resolution& resolution) {
+  std::vector<PipeSegment> stretches;
+  if (params.maxThinStretch <= 0.0) return stretches;
+  const auto& pipes = input.pipes;
+  const JointBuilder builder(input, params, explained);
+  // The far end may lie anywhere up to maxThinStretch from the corner.
+  JointsParams farParams = params;
+  farParams.minSearchDistance = std::max(params.minSearchDistance, params.maxThinStretch);
+  const JointBuilder farBuilder(input, farParams, explained);
+
+  const std::vector<PipeEnd> ends = freeEnds(pipes, params, resolution);
+  std::vector<double> reaches;
+  for (const PipeEnd& end : ends) reaches.push_back(builder.searchDistance(end.radius) + params.maxThinStretch);
+  std::vector<Hypothesis> candidates;
+  std::vector<std::size_t> farEnds;  // Per candidate: 0 when its end `a` runs on thinly, 1 when `b` does.
+  std::vector<Hypothesis> made;
+  for (const auto& [e, f] : endPairsWithin(ends, reaches)) {
+    made.clear();
+    farBuilder.tryEndPair(ends[e], ends[f], made);
+    if (made.size() != 1 || made[0].type != JointType::Elbow) continue;
+    Hypothesis& h = made[0];
+    const double alongA = (h.corner - h.a.point).dot(h.a.outward);
+    const double alongB = (h.corner - h.b.point).dot(h.b.outward);
+    const bool aNear = alongA <= builder.searchDistance(h.a.radius);
+    const bool bNear = alongB <= builder.searchDistance(h.b.radius);
+    if (aNear == bNear) continue;  // Both near: the resolution weighed it; both far: nothing reaches it.
+    // Only the bend's surroundings vote for its radius; the stretch is looked at on its own.
+    const double larger = std::max(h.a.radius, h.b.radius);
+    h.center = h.corner;
+    h.reach = params.maxBendRadii * larger / std::tan(0.5 * (kPi - h.bendAngle)) + 2.0 * larger + params.supportDistance;
+    farEnds.push_back(aNear ? 1 : 0);
+    candidates.push_back(std::move(h));
   }
+  if (candidates.empty()) return stretches;
+
+  std::vector<std::pair<Eigen::Vector3d, double>> spheres;
+  for (const auto& candidate : candidates) spheres.emplace_back(candidate.center, candidate.reach);
+  const auto nearby = pointsInSpheres(input.cloud, spheres, cellSize, [](std::size_t) { return true; });
+  HashGrid pointGrid(cellSize);
+  for (std::size_t i = 0; i < input.cloud.size(); ++i) {
+    pointGrid.insert(pointGrid.cellOf(input.cloud.positions[i].cast<double>()), static_cast<std::uint32_t>(i));
+  }
+  std::vector<PipeSegment> thin(candidates.size());
+  std::vector<double> seen(candidates.size(), 0.0);
+  std::vector<char> viable(candidates.size(), 0);
+  tbb::parallel_for(std::size_t{0}, candidates.size(), [&](std::size_t h) {
+    Hypothesis& candidate = candidates[h];
+    builder.reconstruct(candidate, nearby[h]);
+    if (!candidate.valid) return;
+    const PipeEnd& far = farEnds[h] == 0 ? candidate.a : candidate.b;
+    const auto stretch = stretchBeyond(far, farEnds[h] == 0 ? candidate.newA : candidate.newB);
+    if (!stretch || cutsAnotherPipe(*stretch, {candidate.a.pipe, candidate.b.pipe}, pipes, params)) return;
+    thin[h] = *stretch;
+    const double length = (stretch->end - stretch->start).norm();
+    const Eigen::Vector3d axis = (stretch->end - stretch->start) / length;
+    const auto near = pointsNearSegment(pointGrid, cellSize, input.cloud, stretch->start, stretch->end,
+                                        stretch->radius + params.supportDistance);
+    // Seen all along, in long sections, and how much of it in the usual short ones; stray points
+    // near the axis are few. No normal is asked for: on a thin, far pipe they stray.
+    const auto coarseSections = static_cast<std::size_t>(std::ceil(length / kThinSectionLength));
+    const auto fineSections = static_cast<std::size_t>(std::ceil(length / kSectionLength));
+    std::vector<char> coarse(coarseSections, 0), fine(fineSections, 0);
+    std::size_t core = 0;
+    for (std::uint32_t i : near) {
+      const Eigen::Vector3d w = input.cloud.positions[i].cast<double>() - stretch->start;
+      const double along = w.dot(axis);
+      if (along <= 0.0 || along >= length) continue;
+      const Eigen::Vector3d radial = w - along * axis;
+      const double distance = radial.norm();
+      if (distance < kOccludedCoreRadii * stretch->radius) ++core;
+      if (explained[i] || std::fabs(distance - stretch->radius) > params.supportDistance) continue;
+      coarse[std::min(coarseSections - 1, static_cast<std::size_t>(along / kThinSectionLength))] = 1;
+      fine[std::min(fineSections - 1, static_cast<std::size_t>(along / kSectionLength))] = 1;
+    }
+    const auto share = [](const std::vector<char>& sections) {
+      return static_cast<double>(std::count(sections.begin(), sections.end(), 1)) / static_cast<double>(sections.size());
+    };
+    if (static_cast<double>(core) > kMaxThinCorePoints * length || share(coarse) < kMinThinCoverage) return;
+    seen[h] = share(fine);
+    viable[h] = 1;
+  });
+
+  std::vector<std::size_t> order;
+  for (std::size_t h = 0; h < candidates.size(); ++h) {
+    if (viable[h]) order.push_back(h);
+  }
+  chooseElbows(candidates, std::move(order), pipes, resolution, [&](std::size_t h) {
+    stretches.push_back(std::move(thin[h]));
+    candidates[h].confidence = std::min(candidates[h].confidence, seen[h]);
+    ++resolution.diagnostics.thinRunElbows;
+  });
   return stretches;
 }
 
@@ -2570,8 +2695,11 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
     }
     completeRound(true);
   }
-  const std::vector<PipeSegment> bridged =
+  std::vector<PipeSegment> bridged =
       bridgeOccludedCorners({input.cloud, pipes}, params, explained, cellSize, resolution);
+  for (PipeSegment& stretch : reachThinRuns({input.cloud, pipes}, params, explained, cellSize, resolution)) {
+    bridged.push_back(std::move(stretch));
+  }
   const std::vector<PipeSegment> legsBetweenBends =
       joinSeenBends({input.cloud, pipes}, params, explained, cellSize, resolution);
   pipes.insert(pipes.end(), legsBetweenBends.begin(), legsBetweenBends.end());

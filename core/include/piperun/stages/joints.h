@@ -65,6 +65,9 @@ struct JointsParams {
                                        ///< them this far (as searchDiameters; no farther than it: off), across a
                                        ///< corner hidden behind something: proposed, when the stretches it bridges
                                        ///< cross no other pipe and hold no points near their axes.
+  double maxThinStretch = 10.0;        ///< An end no joint took makes an elbow with a pipe whose end faces its corner
+                                       ///< from up to this far (m; 0: off), when that pipe was seen running on
+                                       ///< thinly to the corner (far from the scanner): proposed.
 };
 
 struct JointsInput {
@@ -98,6 +101,7 @@ struct JointsResult {
     std::size_t kinkLegs = 0;              ///< ...and legs found beyond a bend one pipe was fitted across (appended
                                            ///< after the input pipes, before the completed ones).
     std::size_t occludedElbows = 0;        ///< Elbows across corners hidden farther than the search distance.
+    std::size_t thinRunElbows = 0;         ///< Elbows onto pipes carried on over a stretch seen thinly.
     std::size_t legsBetweenBends = 0;      ///< Legs between two seen bends, each with its two elbows (appended after
                                            ///< the completed pipes).
     double seconds = 0.0;
