@@ -81,7 +81,7 @@ struct EvaluationResult {
   int spuriousJoints = 0;            ///< Predicted joints that match no truth joint.
   double bendRadiusErrorMedian = 0.0;  ///< Median |R_pred − R_truth| / R_truth over matched elbows.
 
-  std::vector<JointOutcome> jointOutcomes;  ///< Every truth elbow and tee, in truth order.
+  std::vector<JointOutcome> jointOutcomes;  ///< Every truth elbow, then every tee, each in truth order.
   std::vector<SpuriousJoint> spurious;      ///< The spurious joints, in prediction order.
 };
 
