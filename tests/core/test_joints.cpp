@@ -1276,6 +1276,45 @@ TEST(Joints, AnElbowSeenBeyondAnEndWhoseLegWasNotIsCompletedFromItsBend) {
   EXPECT_EQ(bare.connect().diagnostics.completedPipes, 0u);
 }
 
+TEST(Joints, ABendThatLeavesItsPipeIntoAFewPointsOfItsLegIsCompleted) {
+  // A 10 cm pipe seen from afar along -y (three columns every 2 cm) comes along +x to its tangent
+  // point and turns up through a long-radius elbow (R = 3r), seen in the same three columns up to
+  // 55° and at two places between 70° and 80°: five points where the bend has left the pipe's line
+  // by more than a radius, fewer than a completion needs there. Three rows of the leg seen beyond
+  // the tangent point, too few for a straight completion, say as well that it turned.
+  const double r = 0.05, R = 0.15;
+  const Eigen::Vector3d towardsScanner = -Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d center(-R, 0, R);
+  const auto onBendCircle = [&](double degrees) {
+    const double t = degrees * kPi / 180.0;
+    return Eigen::Vector3d(center + R * Eigen::Vector3d(std::sin(t), 0, -std::cos(t)));
+  };
+  const auto bendScene = [&](bool legSeen) {
+    ConstructedScene scene;
+    scene.addPipeSeenFromAfar({-1.5, 0, 0}, {-R, 0, 0}, r, towardsScanner, 0.0, /*listed=*/true, 0.02);
+    scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
+    const std::vector<double> columns{30.0, 60.0, 90.0, 120.0, 150.0};  // From the bend's outside; 90°: the front.
+    scene.addElbow(center, onBendCircle(0.0), towardsScanner, 47.0 * kPi / 180.0, r, columns, 0.01);
+    scene.addElbow(center, onBendCircle(50.0), towardsScanner, 30.0 * kPi / 180.0, r, {90.0}, 0.03);
+    if (legSeen) scene.addScanColumns({0, 0, R + 0.05}, {0, 0, R + 0.15}, r, towardsScanner, {-60.0, 0.0, 60.0}, 0.0, 0.05);
+    return scene;
+  };
+  // A bend seen on its first half votes its radius and start less sharply than a whole one.
+  const JointsResult result = bendScene(/*legSeen=*/true).connect();
+  EXPECT_EQ(result.diagnostics.completedPipes, 1u);
+  ASSERT_EQ(result.pipes.size(), 3u);
+  const PipeSegment& leg = result.pipes[2];  // Completed pipes come after the input pipes.
+  EXPECT_GT(std::fabs((leg.end - leg.start).normalized().z()), 0.999);
+  EXPECT_NEAR(leg.start.x(), 0.0, 0.02);
+  EXPECT_NEAR(leg.start.y(), 0.0, 0.01);
+  ASSERT_EQ(result.joints.size(), 1u);
+  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
+  EXPECT_NEAR(result.joints[0].bendRadius, R, 0.15 * R);
+
+  // The bend alone does not show it left the pipe's line.
+  EXPECT_EQ(bendScene(/*legSeen=*/false).connect().diagnostics.completedPipes, 0u);
+}
+
 TEST(Joints, NoLegIsCompletedFromABendThatLeavesNoDoubtItIsNone) {
   const double r = 0.05, R = 0.15;
   {

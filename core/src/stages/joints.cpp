@@ -1619,12 +1619,13 @@ class Completer {
   /// end's extension it starts: for each R, every point votes for the starts that put it on the
   /// torus with its normal radial (the paper's R vote, with one pipe in place of two). The most
   /// voted torus must be covered along its arc as a completion is along its axis, also past where
-  /// it has left the pipe's line by a radius (before, a floor or flange by the end fills it), and
-  /// hold little clutter; the end's pipe must not carry on straight past where the bend leaves it
-  /// (a gap, or a bend that was not). The leg runs from the corner over the sections its points
-  /// cover past the tangent point, and at least a diameter (a fragment takes no joint); it must
-  /// hold too few points for completeAt (which tried it), run into no other pipe, and take the
-  /// elbow as every completion does.
+  /// it has left the pipe's line by a radius (before, a floor or flange by the end fills it), where
+  /// it and the leg beyond hold half a completion's points (a bend that thins out as it turns away
+  /// from the scanner shows the turn in the leg's few points), and hold little clutter; the end's
+  /// pipe must not carry on straight past where the bend leaves it (a gap, or a bend that was not).
+  /// The leg runs from the corner over the sections its points cover past the tangent point, and at
+  /// least a diameter (a fragment takes no joint); it must hold too few points for completeAt
+  /// (which tried it), run into no other pipe, and take the elbow as every completion does.
   std::optional<Completion> legBeyondBend(const PipeEnd& end, const Eigen::Vector3d& along, double bend,
                                           const std::vector<std::uint32_t>& nearby) const {
     const double r = end.radius;
@@ -1780,8 +1781,6 @@ class Completer {
       return static_cast<double>(part) >= params_.minCompletionCoverage * static_cast<double>(whole);
     };
     const bool supported = support >= params_.minCompletionPoints && atLeastShare(covered, arcSections);
-    const bool leavesThePipe = departed < bend && 2 * departedSupport >= params_.minCompletionPoints &&
-                               atLeastShare(departedCovered, arcSections - departedFrom);
     const bool clear = static_cast<double>(clutter) <= kMaxClutterShare * static_cast<double>(support);
     // The bend lies next to the end the scan saw: seen far more thinly than that end, its points are
     // something else's (a mug's rim, a thinner neighbour's end).
@@ -1795,7 +1794,7 @@ class Completer {
                               kMinBendDensityShare * static_cast<double>(endPoints) / endStretch;
     const bool carriesOn =
         atLeastShare(static_cast<std::size_t>(std::count(straightOn.begin(), straightOn.end(), 1)), kBehindSections);
-    if (!supported || !leavesThePipe || !clear || carriesOn || !seenAsTheEnd) return std::nullopt;
+    if (!supported || !clear || carriesOn || !seenAsTheEnd) return std::nullopt;
 
     // The leg: the sections its points cover from the tangent point on, at least a diameter.
     const auto sections =
@@ -1815,6 +1814,11 @@ class Completer {
     std::size_t legPoints = 0;
     for (const auto& points : bySection) legPoints += points.size();
     if (legPoints >= params_.minCompletionPoints) return std::nullopt;
+    // The bend leaves the end's line: points past where it has left by a radius, on the arc or on
+    // the leg beyond it, and the arc covered there.
+    const bool leavesThePipe = departed < bend && 2 * (departedSupport + legPoints) >= params_.minCompletionPoints &&
+                               atLeastShare(departedCovered, arcSections - departedFrom);
+    if (!leavesThePipe) return std::nullopt;
     const auto occupied = [&](std::size_t k) { return !bySection[k].empty(); };
     std::size_t first = 0;
     while (first < sections && !occupied(first)) ++first;
