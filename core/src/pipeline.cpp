@@ -212,6 +212,8 @@ PipeNetwork Pipeline::network() const {
   const std::vector<PipeSegment>& segments = joined ? joints_->pipes : merge_->segments;
   int id = 1;
   for (const auto& segment : segments) {
+    // Without the joints stage, a pipe that must take a joint to stay has not been confirmed.
+    if (!joined && segment.mustJoin) continue;
     Pipe pipe;
     pipe.id = id++;
     pipe.radius = segment.radius;

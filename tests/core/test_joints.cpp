@@ -1315,6 +1315,27 @@ TEST(Joints, ABendThatLeavesItsPipeIntoAFewPointsOfItsLegIsCompleted) {
   EXPECT_EQ(bendScene(/*legSeen=*/false).connect().diagnostics.completedPipes, 0u);
 }
 
+TEST(Joints, AWeaklySupportedPipeStaysOnlyWhenItTakesAJoint) {
+  // A pipe along +x turns up through an elbow (R = 3r) into an upright pipe; another upright pipe
+  // stands alone 3 m off. Both uprights come from weakly supported circles.
+  const double r = 0.05, R = 0.15;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  scene.addElbow({-R, 0, R}, {-R, 0, 0}, -Eigen::Vector3d::UnitY(), kPi / 2, r);
+  const int upright = scene.addPipe({0, 0, R}, {0, 0, 1.2}, r);
+  const int alone = scene.addPipe({3, 2, 0}, {3, 2, 1.2}, r);
+  scene.pipes()[static_cast<std::size_t>(upright)].mustJoin = true;
+  scene.pipes()[static_cast<std::size_t>(alone)].mustJoin = true;
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.unjoinedPipes, 1u);
+  ASSERT_EQ(result.pipes.size(), 2u);
+  for (const PipeSegment& pipe : result.pipes) EXPECT_LT(pipe.start.x(), 1.0);
+  ASSERT_EQ(result.joints.size(), 1u);
+  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
+  EXPECT_EQ(result.joints[0].pipeIds, (std::vector<int>{1, 2}));
+  ASSERT_EQ(result.runs.size(), 1u);
+}
+
 TEST(Joints, NoLegIsCompletedFromABendThatLeavesNoDoubtItIsNone) {
   const double r = 0.05, R = 0.15;
   {

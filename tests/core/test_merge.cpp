@@ -34,6 +34,20 @@ TEST(Merge, OverlappingDuplicatesFromTwoTilesBecomeOnePipe) {
   EXPECT_EQ(pipe.inliers, (std::vector<std::uint32_t>{1, 2, 3, 4}));
 }
 
+TEST(Merge, APipeMustTakeAJointOnlyWhenEachOfItsPiecesMust) {
+  PipeSegment weak = segment({0, 0, 0}, {1, 0, 0}, 0.05, {1});
+  weak.mustJoin = true;
+  PipeSegment weakToo = segment({1.02, 0, 0}, {2, 0, 0}, 0.05, {2});
+  weakToo.mustJoin = true;
+  PipeSegment firm = segment({1.02, 0, 0}, {2, 0, 0}, 0.05, {2});
+  const auto both = mergeSegments({weak, weakToo}, {});
+  ASSERT_EQ(both.segments.size(), 1u);
+  EXPECT_TRUE(both.segments[0].mustJoin);
+  const auto vouched = mergeSegments({weak, firm}, {});
+  ASSERT_EQ(vouched.segments.size(), 1u);
+  EXPECT_FALSE(vouched.segments[0].mustJoin);
+}
+
 TEST(Merge, AbuttingPiecesWithSmallGapMergeOppositeOrientationsToo) {
   const auto result = mergeSegments({segment({0, 0, 0}, {1, 0, 0}, 0.1), segment({2, 0, 0}, {1.03, 0, 0}, 0.1)}, {});
   ASSERT_EQ(result.segments.size(), 1u);

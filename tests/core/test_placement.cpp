@@ -436,6 +436,31 @@ TEST(Placement, ASquarePostSeenInThreeScanColumnsIsNoPipeWhateverNormalsTheyTake
   expectNoCylinderOnAPost(cloud);
 }
 
+TEST(Placement, ACircleWithFewerCandidatesThanAskedMakesACylinderThatMustTakeAJoint) {
+  Rng rng(11);
+  PointCloud cloud;
+  const TrueCylinder truth{{0.0, 0.0, 0.0}, Eigen::Vector3d::UnitZ(), 1.0, 0.05};
+  addScannedCylinder(cloud, truth, Eigen::Vector3d::UnitX(), rng);
+  const DirectionsResult directions = oneDirection(cloud, truth.axis);
+  PlacementParams params;
+  const PlacementResult firm = placeCylinders({cloud, directions, 1}, params);
+  const Cylinder* found = match(firm, truth);
+  ASSERT_NE(found, nullptr);
+  EXPECT_FALSE(found->mustJoin);
+
+  // Asked for more candidates than its circle gathers, the pipe is found only on condition...
+  params.minCandidates = found->candidates + 1;
+  params.minJoinedCandidates = found->candidates / 2;
+  const PlacementResult weak = placeCylinders({cloud, directions, 1}, params);
+  const Cylinder* onCondition = match(weak, truth);
+  ASSERT_NE(onCondition, nullptr);
+  EXPECT_TRUE(onCondition->mustJoin);
+  EXPECT_LT(axisOffset(*onCondition, truth), 0.002);
+  // ...and not at all when no condition is offered.
+  params.minJoinedCandidates = 0;
+  EXPECT_EQ(match(placeCylinders({cloud, directions, 1}, params), truth), nullptr);
+}
+
 TEST(Placement, DirectionsAreIndependentAndPointsExclusive) {
   Rng rng(19);
   PointCloud cloud;

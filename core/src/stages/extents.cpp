@@ -246,6 +246,7 @@ std::vector<PipeSegment> segmentsOf(const PointCloud& cloud, const Cylinder& cyl
                                    pass.begin() + static_cast<std::ptrdiff_t>(run.last), true);
     segment.confidence = static_cast<double>(passed) / static_cast<double>(run.last - run.first);  // ≥ minConfidence
     segment.cylinderIndex = cylinderIndex;
+    segment.mustJoin = cylinder.mustJoin;
     segments.push_back(std::move(segment));
   }
   return segments;

@@ -2643,8 +2643,15 @@ std::vector<PipeSegment> joinSeenBends(const JointsInput& input, const JointsPar
 
 }  // namespace
 
-JointsResult connectPipes(const JointsInput& input, const JointsParams& params, Progress& progress) {
-  const auto started = std::chrono::steady_clock::now();
+namespace {
+
+/// A network joined once, and which of the input pipes that must take a joint took none.
+struct JoinedOnce {
+  JointsResult result;
+  std::vector<std::size_t> unjoined;  // Indices into the input pipes, ascending.
+};
+
+JoinedOnce joinOnce(const JointsInput& input, const JointsParams& params, Progress& progress) {
   const double cellSize = std::max(params.minSearchDistance, 0.25);
   std::vector<PipeSegment> pipes = input.pipes;
   const GentleKinks kinks = splitAtGentleKinks(input.cloud, pipes, networkDirections(input.pipes), cellSize, params);
@@ -2709,7 +2716,8 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   pipes.insert(pipes.end(), legsBetweenBends.begin(), legsBetweenBends.end());
   progress.report("joints", 0.8);
 
-  JointsResult result;
+  JoinedOnce joined;
+  JointsResult& result = joined.result;
   result.diagnostics = resolution.diagnostics;
   result.diagnostics.completedPipes = completed;
   result.diagnostics.legsBetweenEnds = legsBetween;
@@ -2740,6 +2748,17 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
       if (middleInsideTube(pipes[static_cast<std::size_t>(p)], stretch)) absorbed[static_cast<std::size_t>(p)] = 1;
     }
   }
+  // Input pipes from weakly supported circles that no chosen joint took (absorbed ones go anyway).
+  std::vector<char> inJoint(pipes.size(), 0);
+  for (std::size_t h : chosen) {
+    const Hypothesis& hypothesis = hypotheses[h];
+    inJoint[static_cast<std::size_t>(hypothesis.a.pipe)] = 1;
+    inJoint[static_cast<std::size_t>(hypothesis.type == JointType::Tee ? hypothesis.mainPipe : hypothesis.b.pipe)] = 1;
+  }
+  for (std::size_t p = 0; p < input.pipes.size(); ++p) {
+    if (pipes[p].mustJoin && !inJoint[p] && !absorbed[p]) joined.unjoined.push_back(p);
+  }
+
   // Pipe ids: input order, absorbed fragments left out.
   std::vector<int> idOf(static_cast<std::size_t>(pipeCount), 0);
   int pipeIds = 0;
@@ -2784,16 +2803,36 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   }
 
   // Runs by the rule every edit of the network uses too.
-  PipeNetwork joined;
-  for (int id = 1; id <= pipeIds; ++id) joined.pipes.push_back(Pipe{id});
-  joined.joints = result.joints;
-  assignRuns(joined);
-  result.runs = std::move(joined.runs);
+  PipeNetwork network;
+  for (int id = 1; id <= pipeIds; ++id) network.pipes.push_back(Pipe{id});
+  network.joints = result.joints;
+  assignRuns(network);
+  result.runs = std::move(network.runs);
+  return joined;
+}
 
-  progress.report("joints", 1.0);
-  result.diagnostics.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-  return result;
+}  // namespace
+
+JointsResult connectPipes(const JointsInput& input, const JointsParams& params, Progress& progress) {
+  const auto started = std::chrono::steady_clock::now();
+  // A pipe from a weakly supported circle stays only when it takes a joint: without those that
+  // took none the network is joined again (their points free for the others), until all left do.
+  std::vector<PipeSegment> pipes = input.pipes;
+  std::size_t dropped = 0;
+  for (;;) {
+    JoinedOnce joined = joinOnce({input.cloud, pipes}, params, progress);
+    if (joined.unjoined.empty()) {
+      JointsResult& result = joined.result;
+      result.diagnostics.unjoinedPipes = dropped;
+      progress.report("joints", 1.0);
+      result.diagnostics.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+      return std::move(result);
+    }
+    dropped += joined.unjoined.size();
+    for (auto p = joined.unjoined.rbegin(); p != joined.unjoined.rend(); ++p) {
+      pipes.erase(pipes.begin() + static_cast<std::ptrdiff_t>(*p));
+    }
+  }
 }
 
 }  // namespace piperun

@@ -123,6 +123,8 @@ PipeSegment combine(const std::vector<const PipeSegment*>& members) {
   merged.rms = std::sqrt(weightedSquaredRms / totalInliers);
   merged.confidence = weightedConfidence / std::max(totalLength, 1e-12);
   merged.cylinderIndex = members.front()->cylinderIndex;
+  // A piece found on firm support elsewhere (another tile, round or stretch) vouches for the pipe.
+  merged.mustJoin = std::all_of(members.begin(), members.end(), [](const PipeSegment* member) { return member->mustJoin; });
   for (const PipeSegment* member : members) {
     merged.inliers.insert(merged.inliers.end(), member->inliers.begin(), member->inliers.end());
   }

@@ -80,6 +80,8 @@ constexpr double kNoiseBands = 2.5;       // a noisy scan's inlier band, in stan
 constexpr double kMaxBandFactor = 3.0;    // ...at most this many times inlierDistance...
 constexpr double kMinWidening = 1.05;     // ...and taken only when wider than the band by this factor
 constexpr int kMaxWidenings = 3;          // (the noise measured within a band grows with it)
+constexpr double kJoinedShareFactor = 3.0;  // a circle short of minCandidates needs this many times the
+                                            // candidates per inlier that minCandidateShare asks
 
 // ---------------------------------------------------------------------------------------------
 // A hash grid: items grouped by an integer cell key, a cell's items found in constant time.
@@ -500,9 +502,15 @@ struct Mode {
 };
 
 struct ModeSearch {
-  std::vector<Mode> circles;      // modes with at least minCandidates candidates
+  std::vector<Mode> circles;      // modes with at least minCircleCandidates() candidates
   std::vector<int> candidateMode; // index into circles, -1 for none
 };
+
+/// The fewest candidates a circle's mode may hold: those with fewer than minCandidates make pipes
+/// that must take a joint.
+int minCircleCandidates(const PlacementParams& params) {
+  return params.minJoinedCandidates > 0 ? std::min(params.minCandidates, params.minJoinedCandidates) : params.minCandidates;
+}
 
 ModeSearch findModes(const std::vector<Candidate>& candidates, const PlacementParams& params) {
   ModeSearch search;
@@ -528,7 +536,7 @@ ModeSearch findModes(const std::vector<Candidate>& candidates, const PlacementPa
   };
 
   // Seeds: histogram cells holding at least as many candidates as each of their 26 neighbours.
-  const std::size_t seedMin = static_cast<std::size_t>(std::max(3, params.minCandidates / 5));
+  const std::size_t seedMin = static_cast<std::size_t>(std::max(3, minCircleCandidates(params) / 5));
   constexpr std::size_t kCellsPerChunk = 1024;
   std::vector<std::vector<Eigen::Vector3d>> seedParts((grid.cellCount() + kCellsPerChunk - 1) / kCellsPerChunk);
   forEachChunk(grid.cellCount(), kCellsPerChunk, [&](std::size_t chunk, std::size_t first, std::size_t last) {
@@ -606,7 +614,7 @@ ModeSearch findModes(const std::vector<Candidate>& candidates, const PlacementPa
   }
   std::vector<int> circleOf(kept.size(), -1);
   for (std::size_t m = 0; m < kept.size(); ++m) {
-    if (kept[m].support < params.minCandidates) continue;
+    if (kept[m].support < minCircleCandidates(params)) continue;
     circleOf[m] = static_cast<int>(search.circles.size());
     Mode circle = kept[m];
     circle.at = circle.at.cwiseQuotient(scale);
@@ -870,6 +878,14 @@ DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDir
       if (!refineAndGather()) return;
     }
     if (static_cast<int>(inliers.size()) < params.minInliers) return;
+    // A weakly supported circle is taken only on a clean scan, and where its candidates are dense
+    // for its inliers: noise, outliers and the faces of posts make modes of their own, their
+    // candidates spread thin over many points.
+    if (mode.support < params.minCandidates &&
+        (band > params.inlierDistance ||
+         mode.support < kJoinedShareFactor * params.minCandidateShare * static_cast<double>(inliers.size()))) {
+      return;
+    }
     const InlierSearch::Surroundings around = search.surroundings(fit, inliers, band);
     if (static_cast<double>(around.shell) > params.maxShellShare * static_cast<double>(inliers.size())) return;
     // A fit that needs normals across scan columns has its shape from those few columns, which are
@@ -1076,6 +1092,7 @@ PlacementResult placeCylinders(const PlacementInput& input, const PlacementParam
       sum2 += offset * offset;
     }
     cylinder.rms = std::sqrt(sum2 / static_cast<double>(cylinder.inliers.size()));
+    cylinder.mustJoin = cylinder.candidates < params.minCandidates;
     finalIndex[f] = static_cast<int>(result.cylinders.size());
     result.cylinders.push_back(std::move(cylinder));
   }

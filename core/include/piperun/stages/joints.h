@@ -76,7 +76,7 @@ struct JointsInput {
 };
 
 /// The joined network in the cloud's frame. The pipes keep their input order, less the fragments
-/// an elbow absorbed, followed by the legs found beyond gentle bends that one pipe was fitted
+/// an elbow absorbed and the pipes that had to take a joint and took none, followed by the legs found beyond gentle bends that one pipe was fitted
 /// across, then the pipes completed beyond free ends or found as branches (round by round), then
 /// the legs between two seen bends, with ids from 1 in that order (elbows move their ends to the tangent points, and two pipes
 /// overlapping at a gentle bend end at its corner, each axis refitted on its side); joint ids
@@ -104,6 +104,8 @@ struct JointsResult {
     std::size_t thinRunElbows = 0;         ///< Elbows onto pipes carried on over a stretch seen thinly.
     std::size_t legsBetweenBends = 0;      ///< Legs between two seen bends, each with its two elbows (appended after
                                            ///< the completed pipes).
+    std::size_t unjoinedPipes = 0;         ///< Input pipes that had to take a joint (PipeSegment::mustJoin) and took
+                                           ///< none: left out, the rest joined again without them.
     double seconds = 0.0;
   } diagnostics;
 };

@@ -25,7 +25,12 @@ struct PlacementParams {
                                     ///< less than max(2 mm, this × radius).
   double centerBandwidth = 0.01;    ///< Mean-shift kernel width for the centre (m)...
   double radiusBandwidth = 0.006;   ///< ...and for the radius (m).
-  int minCandidates = 25;           ///< A circle needs at least this many candidates in its mode.
+  int minCandidates = 25;           ///< A circle needs at least this many candidates in its mode...
+  int minJoinedCandidates = 15;     ///< ...or this many (up to minCandidates; 0: none) when its pipe takes a joint:
+                                    ///< a thin pipe seen in a few columns gathers few, and so does clutter, but
+                                    ///< clutter seldom meets a pipe's end as an elbow or tee does. Such a circle
+                                    ///< also needs three times minCandidateShare, and a fit in the standard band
+                                    ///< (none on a scan noisy enough to widen it).
   double inlierDistance = 0.012;    ///< A point is an inlier when within this of the cylinder surface (m; widened to
                                     ///< 2.5 robust standard deviations of a noisier fit's offsets, up to 3 × this)...
   double inlierNormalAngleDeg = 30; ///< ...and its normal in the plane (re-estimated there from its neighbours) within
@@ -61,6 +66,7 @@ struct Cylinder {
   double radius = 0.0;
   double rms = 0.0;                                     ///< RMS surface distance of the inliers (m).
   int candidates = 0;                                   ///< Circle candidates in its mode (and in its duplicates').
+  bool mustJoin = false;  ///< Fewer candidates than minCandidates: a pipe only if it takes a joint.
   int directionIndex = -1;                              ///< Index into DirectionsResult::directions.
   std::vector<std::uint32_t> inliers;                   ///< Ascending; a point is an inlier of one cylinder at most.
 };
