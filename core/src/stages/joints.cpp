@@ -89,13 +89,13 @@ constexpr double kOccludedCoreRadii = 0.5;
 // lines pass each other at least this far from parallel, and it runs along one of the network's
 // directions within this.
 constexpr double kSquareLegMinAngleDeg = 60.0;
+constexpr double kSquareLegDirectionDeg = 3.0;
 // A stretch a pipe runs on thinly to an elbow (see reachThinRuns) holds a point on its surface in at
 // least this share of its sections of this length (m), and at most this many points per metre near
 // its axis (outliers: a few per cubic metre of room).
 constexpr double kMinThinCoverage = 0.5;
 constexpr double kThinSectionLength = 0.25;
 constexpr double kMaxThinCorePoints = 1.0;
-constexpr double kSquareLegDirectionDeg = 3.0;
 
 /// Whether point i's normal is within the support angle of the unit `radial` (normals are unoriented).
 bool normalAgrees(const PointCloud& cloud, std::uint32_t i, const Eigen::Vector3d& radial,
@@ -2640,10 +2640,6 @@ std::vector<PipeSegment> joinSeenBends(const JointsInput& input, const JointsPar
   }
   return chosenLegs;
 }
-
-}  // namespace
-
-namespace {
 
 /// A network joined once, and which of the input pipes that must take a joint took none.
 struct JoinedOnce {
