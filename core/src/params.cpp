@@ -123,7 +123,7 @@ const std::vector<Field>& fields() {
       PIPERUN_FIELD("joints", "min_completion_bend_deg", "deg", Stage::Joints, joints.minCompletionBendDeg, "...and turns at least this far from the end's axis"),
       PIPERUN_FIELD("joints", "min_branch_radius", "m", Stage::Joints, joints.minBranchRadius, "Pipes look along their body for a missed branch (checked as a completed pipe) from this radius up to their own (0: off)"),
       PIPERUN_FIELD("joints", "occluded_search_diameters", "", Stage::Joints, joints.occludedSearchDiameters, "Two ends no joint took look this far for a proposed elbow across a hidden corner, when its bridged stretches cross no pipe and hold no points near their axes (at most search_diameters: off)"),
-      PIPERUN_FIELD("joints", "max_thin_stretch", "m", Stage::Joints, joints.maxThinStretch, "An end no joint took makes a proposed elbow with a pipe whose end faces its corner from up to this far, when that pipe was seen running on thinly to the corner (half its 25 cm sections hold a point on its surface; 0: off)"),
+      PIPERUN_FIELD("joints", "max_thin_stretch", "m", Stage::Joints, joints.maxThinStretch, "An end no joint took makes a proposed elbow with a pipe whose end faces its corner from up to this far, when that pipe was seen running on thinly to the corner (half its 25 cm sections hold a point on its surface), or hardly or not at all where the two centre lines meet within a quarter radius (0: off)"),
   };
   return table;
 }

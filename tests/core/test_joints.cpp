@@ -850,13 +850,14 @@ TEST(Joints, ALegBetweenTwoElbowsThatNoPipeCoversIsCompleted) {
 /// A riser (r = 5 cm) seen up to its tangent point below a corner at the origin, where a long
 /// level pipe leaves along +x; the level pipe was found only from 3 m on (the stages kept its dense
 /// part), and between them the scan saw it in one line of points along its top, every `step`
-/// (none when 0), too thin for any pipe. Its bend was not seen.
-ConstructedScene pipeRunningOnThinly(double step) {
+/// (none when 0), too thin for any pipe. Its bend was not seen. The level pipe runs `sideways`
+/// off the riser's line along y.
+ConstructedScene pipeRunningOnThinly(double step, double sideways = 0.0) {
   const double r = 0.05, R = 0.15;
   ConstructedScene scene;
   scene.addPipe({0, 0, -1.5}, {0, 0, -R}, r);
-  scene.addPipe({3.0, 0, 0}, {4.5, 0, 0}, r);
-  if (step > 0.0) scene.addScanColumns({R, 0, 0}, {3.0, 0, 0}, r, Eigen::Vector3d::UnitZ(), {0.0}, 0.0, step);
+  scene.addPipe({3.0, sideways, 0}, {4.5, sideways, 0}, r);
+  if (step > 0.0) scene.addScanColumns({R, sideways, 0}, {3.0, sideways, 0}, r, Eigen::Vector3d::UnitZ(), {0.0}, 0.0, step);
   return scene;
 }
 
@@ -864,6 +865,7 @@ TEST(Joints, AnElbowIsProposedOntoAPipeSeenRunningOnThinlyToItsCorner) {
   const double R = 0.15;
   const JointsResult result = pipeRunningOnThinly(0.1).connect();
   EXPECT_EQ(result.diagnostics.thinRunElbows, 1u);
+  EXPECT_EQ(result.diagnostics.hiddenRunElbows, 0u);
   ASSERT_EQ(result.joints.size(), 1u);
   const Joint& elbow = result.joints[0];
   EXPECT_EQ(elbow.type, JointType::Elbow);
@@ -875,21 +877,51 @@ TEST(Joints, AnElbowIsProposedOntoAPipeSeenRunningOnThinlyToItsCorner) {
   ASSERT_EQ(result.pipes.size(), 2u);
   EXPECT_NEAR(result.pipes[1].start.x(), R, 0.01);  // Carried on to the tangent point.
   EXPECT_NEAR(result.pipes[1].start.z(), 0.0, 1e-9);
+  // Seen thinly, the stretch may run off the riser's line as far as the joints allow (half a radius).
+  EXPECT_EQ(pipeRunningOnThinly(0.1, 0.02).connect().diagnostics.thinRunElbows, 1u);
 
   JointsParams off;
   off.maxThinStretch = 0.0;
   EXPECT_TRUE(pipeRunningOnThinly(0.1).connect(off).joints.empty());
 }
 
-TEST(Joints, NoElbowIsProposedOntoAPipeWhoseStretchToTheCornerWasNotSeenOrIsInTheWay) {
-  // Nothing seen between the two: nothing says the level pipe runs on to the corner.
-  EXPECT_TRUE(pipeRunningOnThinly(0.0).connect().joints.empty());
-  // One point every 60 cm: a fraction of its 25 cm sections, stray points as much as a pipe.
-  EXPECT_TRUE(pipeRunningOnThinly(0.6).connect().joints.empty());
+TEST(Joints, AnElbowIsProposedOntoAPipeWhoseStretchWasNotSeenWhereTheirLinesMeetExactly) {
+  const double R = 0.15;
+  // Nothing seen between the two, or one point every 60 cm (stray points as much as a pipe): the
+  // riser ends right below the level pipe's line, which only an elbow explains.
+  for (const double step : {0.0, 0.6}) {
+    const JointsResult result = pipeRunningOnThinly(step).connect();
+    EXPECT_EQ(result.diagnostics.hiddenRunElbows, 1u);
+    EXPECT_EQ(result.diagnostics.thinRunElbows, 0u);
+    ASSERT_EQ(result.joints.size(), 1u);
+    const Joint& elbow = result.joints[0];
+    EXPECT_EQ(elbow.type, JointType::Elbow);
+    EXPECT_NEAR(elbow.bendRadius, R, 0.01);
+    EXPECT_LT(elbow.confidence, 0.1);  // At most the share of the stretch seen.
+    EXPECT_EQ(elbow.status, JointStatus::Proposed);
+    ASSERT_EQ(result.pipes.size(), 2u);
+    EXPECT_NEAR(result.pipes[1].start.x(), R, 0.01);
+  }
+}
+
+TEST(Joints, NoElbowIsProposedOntoAPipeWhoseUnseenStretchMissesTheCornerOrIsInTheWay) {
+  // The level pipe's line passes 2 cm (0.4 radii) beside the riser's: within the joints' skew, but
+  // nothing was seen to say the two meet.
+  EXPECT_TRUE(pipeRunningOnThinly(0.0, 0.02).connect().joints.empty());
   // A post stands on the stretch: the pipe does not run through it.
   ConstructedScene scene = pipeRunningOnThinly(0.1);
   scene.addPost(1.5, 0.0, 0.02, -0.2, 0.2);
   EXPECT_TRUE(scene.connect().joints.empty());
+}
+
+TEST(Joints, NoElbowOntoAPipeRunningOnUnseenStartsMoreThanARadiusBackAlongThePipeSeenToItsEnd) {
+  // Points of a wide bend (R = 9r) at the corner vote for it; it would start 30 cm back down the
+  // riser, which was seen straight up to 15 cm below the corner: not this corner's bend.
+  ConstructedScene scene = pipeRunningOnThinly(0.0);
+  scene.addBend(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitX(), 0.45, 0.05);
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.hiddenRunElbows, 0u);
+  for (const Joint& joint : result.joints) EXPECT_LT(joint.bendRadius, 0.3);
 }
 
 TEST(Joints, ALegBetweenTwoSeenBendsIsJoinedThoughTooLittleOfItWasSeen) {

@@ -96,6 +96,9 @@ constexpr double kSquareLegDirectionDeg = 3.0;
 constexpr double kMinThinCoverage = 0.5;
 constexpr double kThinSectionLength = 0.25;
 constexpr double kMaxThinCorePoints = 1.0;
+// A stretch not seen thinly is carried on only where the two centre lines meet within this many
+// radii of the thinner pipe (a quarter of the skew the joints allow).
+constexpr double kMaxHiddenSkewRadii = 0.25;
 
 /// Whether point i's normal is within the support angle of the unit `radial` (normals are unoriented).
 bool normalAgrees(const PointCloud& cloud, std::uint32_t i, const Eigen::Vector3d& radial,
@@ -2365,7 +2368,12 @@ std::vector<PipeSegment> bridgeOccludedCorners(const JointsInput& input, const J
 /// it cuts no other pipe. (Its points are looked at in the preprocessed cloud, which keeps fewer of
 /// them than the scan: isolated points go as outliers.) The best-supported go first, an end takes
 /// one. The elbow's confidence is capped at the share of the stretch's 4 cm sections seen:
-/// proposed, for review, when as thin as such stretches are. Returns the stretches carried on.
+/// proposed, for review, when as thin as such stretches are. A stretch seen less than that, or not
+/// at all (hidden behind a pipe running in front of it, or out of the scanner's sight), is carried
+/// on as well when the two centre lines meet within kMaxHiddenSkewRadii: a pipe seen up to its
+/// tangent point below another's line, which meets it that exactly, turns into it. Either way the
+/// elbow may start at most a radius back along the near pipe, seen straight up to its end. Returns
+/// the stretches carried on.
 std::vector<PipeSegment> reachThinRuns(const JointsInput& input, const JointsParams& params,
                                        const std::vector<char>& explained, double cellSize, Resolution& resolution) {
   std::vector<PipeSegment> stretches;
@@ -2412,10 +2420,16 @@ std::vector<PipeSegment> reachThinRuns(const JointsInput& input, const JointsPar
   std::vector<PipeSegment> thin(candidates.size());
   std::vector<double> seen(candidates.size(), 0.0);
   std::vector<char> viable(candidates.size(), 0);
+  std::vector<char> hidden(candidates.size(), 0);
   tbb::parallel_for(std::size_t{0}, candidates.size(), [&](std::size_t h) {
     Hypothesis& candidate = candidates[h];
     builder.reconstruct(candidate, nearby[h]);
     if (!candidate.valid) return;
+    // The near pipe was seen straight up to its end: a bend voted for by other points that would
+    // start more than a radius back along it is not this corner's.
+    const PipeEnd& nearEnd = farEnds[h] == 0 ? candidate.b : candidate.a;
+    const Eigen::Vector3d& nearTangent = farEnds[h] == 0 ? candidate.newB : candidate.newA;
+    if ((nearEnd.point - nearTangent).dot(nearEnd.outward) > nearEnd.radius) return;
     const PipeEnd& far = farEnds[h] == 0 ? candidate.a : candidate.b;
     const auto stretch = stretchBeyond(far, farEnds[h] == 0 ? candidate.newA : candidate.newB);
     if (!stretch || cutsAnotherPipe(*stretch, {candidate.a.pipe, candidate.b.pipe}, pipes, params)) return;
@@ -2444,7 +2458,10 @@ std::vector<PipeSegment> reachThinRuns(const JointsInput& input, const JointsPar
     const auto share = [](const std::vector<char>& sections) {
       return static_cast<double>(std::count(sections.begin(), sections.end(), 1)) / static_cast<double>(sections.size());
     };
-    if (static_cast<double>(core) > kMaxThinCorePoints * length || share(coarse) < kMinThinCoverage) return;
+    if (static_cast<double>(core) > kMaxThinCorePoints * length) return;
+    const bool thinly = share(coarse) >= kMinThinCoverage;
+    if (!thinly && candidate.skew > kMaxHiddenSkewRadii * std::min(candidate.a.radius, candidate.b.radius)) return;
+    hidden[h] = thinly ? 0 : 1;
     seen[h] = share(fine);
     viable[h] = 1;
   });
@@ -2456,7 +2473,7 @@ std::vector<PipeSegment> reachThinRuns(const JointsInput& input, const JointsPar
   chooseElbows(candidates, std::move(order), pipes, resolution, [&](std::size_t h) {
     stretches.push_back(std::move(thin[h]));
     candidates[h].confidence = std::min(candidates[h].confidence, seen[h]);
-    ++resolution.diagnostics.thinRunElbows;
+    ++(hidden[h] ? resolution.diagnostics.hiddenRunElbows : resolution.diagnostics.thinRunElbows);
   });
   return stretches;
 }

@@ -101,7 +101,8 @@ struct JointsResult {
     std::size_t kinkLegs = 0;              ///< ...and legs found beyond a bend one pipe was fitted across (appended
                                            ///< after the input pipes, before the completed ones).
     std::size_t occludedElbows = 0;        ///< Elbows across corners hidden farther than the search distance.
-    std::size_t thinRunElbows = 0;         ///< Elbows onto pipes carried on over a stretch seen thinly.
+    std::size_t thinRunElbows = 0;         ///< Elbows onto pipes carried on over a stretch seen thinly...
+    std::size_t hiddenRunElbows = 0;       ///< ...or over one hardly seen or not at all, their lines meeting exactly.
     std::size_t legsBetweenBends = 0;      ///< Legs between two seen bends, each with its two elbows (appended after
                                            ///< the completed pipes).
     std::size_t unjoinedPipes = 0;         ///< Input pipes that had to take a joint (PipeSegment::mustJoin) and took
