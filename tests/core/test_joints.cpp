@@ -914,14 +914,22 @@ TEST(Joints, NoElbowIsProposedOntoAPipeWhoseUnseenStretchMissesTheCornerOrIsInTh
   EXPECT_TRUE(scene.connect().joints.empty());
 }
 
-TEST(Joints, NoElbowOntoAPipeRunningOnUnseenStartsMoreThanARadiusBackAlongThePipeSeenToItsEnd) {
-  // Points of a wide bend (R = 9r) at the corner vote for it; it would start 30 cm back down the
-  // riser, which was seen straight up to 15 cm below the corner: not this corner's bend.
+TEST(Joints, TheRiserSeenUpToItsEndBoundsTheElbowOntoAPipeRunningOnUnseen) {
+  // A scan column along the inside of a wider bend (R = 24 cm) at the corner votes for it; it would
+  // start 9 cm back down the riser, which was seen straight up to 15 cm below the corner. The bend is
+  // voted for up to where it starts a radius back along the riser (20 cm): nothing votes there, and
+  // it ends the riser where it was seen to end.
   ConstructedScene scene = pipeRunningOnThinly(0.0);
-  scene.addBend(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitX(), 0.45, 0.05);
+  const double wide = 0.24;
+  scene.addElbow({wide, 0, -wide}, {0, 0, -wide}, Eigen::Vector3d::UnitY(), 0.5 * kPi, 0.05, {180.0}, 0.02);
   const JointsResult result = scene.connect();
-  EXPECT_EQ(result.diagnostics.hiddenRunElbows, 0u);
-  for (const Joint& joint : result.joints) EXPECT_LT(joint.bendRadius, 0.3);
+  EXPECT_EQ(result.diagnostics.hiddenRunElbows, 1u);
+  ASSERT_EQ(result.joints.size(), 1u);
+  EXPECT_LE(result.joints[0].bendRadius, 0.2 + 1e-9);
+  EXPECT_GE(result.joints[0].bendRadius, 0.14);
+  ASSERT_EQ(result.pipes.size(), 2u);
+  EXPECT_NEAR(result.pipes[0].end.z(), -result.joints[0].bendRadius, 1e-9);
+  EXPECT_GE(result.pipes[0].end.z(), -0.2 - 1e-9);  // At most a radius back from where it was seen.
 }
 
 TEST(Joints, ALegBetweenTwoSeenBendsIsJoinedThoughTooLittleOfItWasSeen) {

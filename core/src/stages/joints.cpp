@@ -285,6 +285,8 @@ struct Hypothesis {
   double reach = 0.0;       // Points within this of `center` are gathered for the hypothesis.
   Eigen::Vector3d center = Eigen::Vector3d::Zero();
   bool mainSeenOneSide = false;  // Tee: the main's end stops short of the junction.
+  // Elbow: the largest bend radius voted for (a pipe seen straight up to its end bounds it).
+  double maxBendRadius = std::numeric_limits<double>::infinity();
 
   // Completed by reconstruct():
   double geometric = 0.0;   // How well the criteria hold, in [0, 1].
@@ -580,7 +582,7 @@ class JointBuilder {
     // Not bounded by the ends: they stop short of the tangent points where occlusion cut them, and
     // overshoot into the elbow where its surface stays within the cylinder's inlier band.
     const double minBend = params_.minBendRadii * r;
-    const double maxBend = params_.maxBendRadii * r;
+    const double maxBend = std::max(minBend, std::min(params_.maxBendRadii * r, h.maxBendRadius));
 
     const auto onElbow = [&](const Eigen::Vector3d& p, double bendRadius, Eigen::Vector3d& radial) {
       const Eigen::Vector3d center = h.corner + bendRadius / std::sin(halfAngle) * bisector;
@@ -2372,8 +2374,9 @@ std::vector<PipeSegment> bridgeOccludedCorners(const JointsInput& input, const J
 /// at all (hidden behind a pipe running in front of it, or out of the scanner's sight), is carried
 /// on as well when the two centre lines meet within kMaxHiddenSkewRadii: a pipe seen up to its
 /// tangent point below another's line, which meets it that exactly, turns into it. Either way the
-/// elbow may start at most a radius back along the near pipe, seen straight up to its end. Returns
-/// the stretches carried on.
+/// bend is voted for only up to the radius that starts it a radius back along the near pipe, seen
+/// straight up to its end (other points near the corner vote for wider bends). Returns the
+/// stretches carried on.
 std::vector<PipeSegment> reachThinRuns(const JointsInput& input, const JointsParams& params,
                                        const std::vector<char>& explained, double cellSize, Resolution& resolution) {
   std::vector<PipeSegment> stretches;
@@ -2401,10 +2404,13 @@ std::vector<PipeSegment> reachThinRuns(const JointsInput& input, const JointsPar
     const bool aNear = alongA <= builder.searchDistance(h.a.radius);
     const bool bNear = alongB <= builder.searchDistance(h.b.radius);
     if (aNear == bNear) continue;  // Both near: the resolution weighed it; both far: nothing reaches it.
-    // Only the bend's surroundings vote for its radius; the stretch is looked at on its own.
+    // Only the bend's surroundings vote for its radius; the stretch is looked at on its own. The
+    // near pipe was seen straight up to its end: the bend starts at most a radius back along it.
     const double larger = std::max(h.a.radius, h.b.radius);
     h.center = h.corner;
     h.reach = params.maxBendRadii * larger / std::tan(0.5 * (kPi - h.bendAngle)) + 2.0 * larger + params.supportDistance;
+    const PipeEnd& nearEnd = aNear ? h.a : h.b;
+    h.maxBendRadius = ((aNear ? alongA : alongB) + nearEnd.radius) * std::tan(0.5 * (kPi - h.bendAngle));
     farEnds.push_back(aNear ? 1 : 0);
     candidates.push_back(std::move(h));
   }
@@ -2425,11 +2431,6 @@ std::vector<PipeSegment> reachThinRuns(const JointsInput& input, const JointsPar
     Hypothesis& candidate = candidates[h];
     builder.reconstruct(candidate, nearby[h]);
     if (!candidate.valid) return;
-    // The near pipe was seen straight up to its end: a bend voted for by other points that would
-    // start more than a radius back along it is not this corner's.
-    const PipeEnd& nearEnd = farEnds[h] == 0 ? candidate.b : candidate.a;
-    const Eigen::Vector3d& nearTangent = farEnds[h] == 0 ? candidate.newB : candidate.newA;
-    if ((nearEnd.point - nearTangent).dot(nearEnd.outward) > nearEnd.radius) return;
     const PipeEnd& far = farEnds[h] == 0 ? candidate.a : candidate.b;
     const auto stretch = stretchBeyond(far, farEnds[h] == 0 ? candidate.newA : candidate.newB);
     if (!stretch || cutsAnotherPipe(*stretch, {candidate.a.pipe, candidate.b.pipe}, pipes, params)) return;
