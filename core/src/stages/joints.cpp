@@ -1645,6 +1645,15 @@ class Completer {
     const double radiusStep = std::max(kMinBendRadiusStep, kBendRadiusStepRadii * r);
     const auto radii = static_cast<std::size_t>(std::floor((params_.maxBendRadii * r - minBend) / radiusStep)) + 1;
     const double minStart = -cornerBehindEnd(r, bend);
+    // Every point a torus's support can count lies within a tube's radius and the band of the bend
+    // plane, on the leg's side of the end's line and past the earliest start: with fewer such
+    // points than a completion needs, no torus is supported (and none is voted for).
+    const double tube = r + band;
+    const auto possible = std::count_if(nearby.begin(), nearby.end(), [&](std::uint32_t i) {
+      const Eigen::Vector3d w = input_.cloud.positions[i].cast<double>() - end.point;
+      return std::fabs(w.dot(normal)) <= tube && w.dot(toward) >= -tube && w.dot(outward) >= minStart - tube;
+    });
+    if (static_cast<std::size_t>(possible) < params_.minCompletionPoints) return std::nullopt;
     const double startStep = 0.5 * band;
     const auto starts = static_cast<std::size_t>(std::ceil((builder_.searchDistance(r) - minStart) / startStep)) + 1;
 
