@@ -61,6 +61,7 @@
 #include <limits>
 #include <optional>
 #include <tuple>
+#include <utility>
 
 namespace piperun {
 
@@ -299,6 +300,11 @@ struct Hypothesis {
   std::vector<Eigen::Vector3d> axis;
   std::vector<std::uint32_t> supportPoints;
   bool valid = false;
+
+  /// The two pipes it joins: a tee's main, then its branch; an elbow's or boundary's a, then b.
+  std::pair<int, int> joinedPipes() const {
+    return type == JointType::Tee ? std::pair{mainPipe, a.pipe} : std::pair{a.pipe, b.pipe};
+  }
 };
 
 /// Where each pipe end lies once the elbows chosen so far have moved it to their tangent points:
@@ -2416,10 +2422,10 @@ std::vector<PipeSegment> reachThinRuns(const JointsInput& input, const JointsPar
     // Only the bend's surroundings vote for its radius; the stretch is looked at on its own. The
     // near pipe was seen straight up to its end: the bend starts at most a radius back along it.
     const double larger = std::max(h.a.radius, h.b.radius);
+    const double radiusPerTangent = std::tan(0.5 * (kPi - h.bendAngle));  // Bend radius per tangent length.
     h.center = h.corner;
-    h.reach = params.maxBendRadii * larger / std::tan(0.5 * (kPi - h.bendAngle)) + 2.0 * larger + params.supportDistance;
-    const PipeEnd& nearEnd = aNear ? h.a : h.b;
-    h.maxBendRadius = ((aNear ? alongA : alongB) + nearEnd.radius) * std::tan(0.5 * (kPi - h.bendAngle));
+    h.reach = params.maxBendRadii * larger / radiusPerTangent + 2.0 * larger + params.supportDistance;
+    h.maxBendRadius = ((aNear ? alongA : alongB) + (aNear ? h.a : h.b).radius) * radiusPerTangent;
     farEnds.push_back(aNear ? 1 : 0);
     candidates.push_back(std::move(h));
   }
@@ -2774,9 +2780,8 @@ JoinedOnce joinOnce(const JointsInput& input, const JointsParams& params, Progre
   // Input pipes from weakly supported circles that no chosen joint took (absorbed ones go anyway).
   std::vector<char> inJoint(pipes.size(), 0);
   for (std::size_t h : chosen) {
-    const Hypothesis& hypothesis = hypotheses[h];
-    inJoint[static_cast<std::size_t>(hypothesis.a.pipe)] = 1;
-    inJoint[static_cast<std::size_t>(hypothesis.type == JointType::Tee ? hypothesis.mainPipe : hypothesis.b.pipe)] = 1;
+    const auto [first, second] = hypotheses[h].joinedPipes();
+    inJoint[static_cast<std::size_t>(first)] = inJoint[static_cast<std::size_t>(second)] = 1;
   }
   for (std::size_t p = 0; p < input.pipes.size(); ++p) {
     if (pipes[p].mustJoin && !inJoint[p] && !absorbed[p]) joined.unjoined.push_back(p);
@@ -2795,11 +2800,9 @@ JoinedOnce joinOnce(const JointsInput& input, const JointsParams& params, Progre
   // Joints, ordered by the pipes they join; elbows trim or extend their pipes to the tangent points.
   std::vector<std::tuple<int, int, int, std::size_t>> keyed;  // first pipe id, second pipe id, type, hypothesis
   for (std::size_t h : chosen) {
-    const Hypothesis& hypothesis = hypotheses[h];
-    const int first = hypothesis.type == JointType::Tee ? hypothesis.mainPipe : hypothesis.a.pipe;
-    const int second = hypothesis.type == JointType::Tee ? hypothesis.a.pipe : hypothesis.b.pipe;
+    const auto [first, second] = hypotheses[h].joinedPipes();
     keyed.emplace_back(idOf[static_cast<std::size_t>(first)], idOf[static_cast<std::size_t>(second)],
-                       static_cast<int>(hypothesis.type), h);
+                       static_cast<int>(hypotheses[h].type), h);
   }
   std::sort(keyed.begin(), keyed.end());
   int nextId = pipeIds + 1;
