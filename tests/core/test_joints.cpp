@@ -965,17 +965,55 @@ TEST(Joints, ALegBetweenTwoSeenBendsIsJoinedThoughTooLittleOfItWasSeen) {
   EXPECT_EQ(scene.connect(off).diagnostics.legsBetweenBends, 0u);
 }
 
-TEST(Joints, NoLegJoinsTwoPipesWhoseBendsWereNotSeenOrWhereSomethingStandsInItsWay) {
+/// The two pipes of legBetweenTwoElbows, a glimpse of the leg and no point on either bend; the
+/// upper pipe of radius `upperRadius`, leaning `leanDeg` off upright towards the lower pipe's side.
+ConstructedScene legHiddenWithItsBends(double upperRadius, double leanDeg) {
+  const double r = 0.05, R = 0.15, corner = 0.9, length = 1.35;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  scene.addPipe({0, 0.43, 0}, {0, 0.47, 0}, r, false);
+  const double lean = leanDeg * kPi / 180.0;
+  const Eigen::Vector3d upward(-std::sin(lean), 0.0, std::cos(lean));
+  const Eigen::Vector3d bottom = Eigen::Vector3d(0, corner, 0) + R * upward;
+  scene.addPipe(bottom, bottom + length * upward, upperRadius);
+  // A pipe along the leg's direction, off both lines (the leg runs along one of the network's).
+  scene.addPipe({3, 0.3, 0.8}, {3, 1.5, 0.8}, r);
+  return scene;
+}
+
+TEST(Joints, ALegHiddenWithItsBendsIsProposedBetweenPipesAsThickTurningSquareTowardsEachOther) {
+  // Nothing was seen of either bend, only a 4 cm glimpse of the leg. The two pipes are as thick and
+  // their lines pass each other square: their common perpendicular joins them, as a run turning
+  // square twice behind something, for review.
   const double r = 0.05, R = 0.15, corner = 0.9;
-  {
-    // The same pipes and glimpse with no point on either bend: the lines alone do not say that the
-    // pipes turn towards each other.
-    ConstructedScene scene;
-    scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
-    scene.addPipe({0, 0.43, 0}, {0, 0.47, 0}, r, false);
-    scene.addPipe({0, corner, R}, {0, corner, 1.5}, r);
-    scene.addPipe({3, 0, 0}, {3, 1.2, 0}, r);
-    const JointsResult result = scene.connect();
+  const JointsResult result = legHiddenWithItsBends(r, 0.0).connect();
+  EXPECT_EQ(result.diagnostics.hiddenLegs, 1u);
+  EXPECT_EQ(result.diagnostics.legsBetweenBends, 0u);
+  ASSERT_EQ(result.pipes.size(), 4u);
+  const PipeSegment& leg = result.pipes[3];
+  EXPECT_NEAR(leg.start.x(), 0.0, 1e-9);
+  EXPECT_NEAR(leg.start.z(), 0.0, 1e-9);
+  // No points vote for the bends: long-radius elbows (R = 3r), as the pipes' ends allow; the leg's
+  // own ends, drawn at the corners, bound nothing.
+  EXPECT_NEAR(std::min(leg.start.y(), leg.end.y()), R, 1e-9);
+  EXPECT_NEAR(std::max(leg.start.y(), leg.end.y()), corner - R, 1e-9);
+  ASSERT_EQ(result.joints.size(), 2u);
+  for (const Joint& joint : result.joints) {
+    EXPECT_EQ(joint.type, JointType::Elbow);
+    EXPECT_NEAR(joint.bendRadius, R, 1e-9);
+    // The share of the leg's fifteen sections seen: the glimpse's one.
+    EXPECT_NEAR(joint.confidence, 1.0 / 15.0, 1e-9);
+    EXPECT_EQ(joint.status, JointStatus::Proposed);
+  }
+}
+
+TEST(Joints, NoLegJoinsTwoPipesWhoseBendsWereNotSeenOrWhereSomethingStandsInItsWay) {
+  const double r = 0.05, corner = 0.9;
+  // With no point on either bend the lines alone do not say that the pipes turn towards each other
+  // when the upper pipe is thinner (a neighbour, not the same run) or leans 10° off square.
+  for (const auto& [upperRadius, leanDeg] : {std::pair{0.04, 0.0}, std::pair{r, 10.0}}) {
+    const JointsResult result = legHiddenWithItsBends(upperRadius, leanDeg).connect();
+    EXPECT_EQ(result.diagnostics.hiddenLegs, 0u);
     EXPECT_EQ(result.diagnostics.legsBetweenBends, 0u);
     EXPECT_EQ(result.pipes.size(), 3u);
   }

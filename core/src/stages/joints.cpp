@@ -35,7 +35,8 @@
 // 5. Ends still free: two look farther for each other across a corner hidden behind something
 //    (bridgeOccludedCorners), one reaches a pipe seen running on thinly to its corner from metres
 //    away (reachThinRuns), and two whose bends were seen turning square towards each other's line
-//    are joined by the leg between the bends, little of which was seen (joinSeenBends).
+//    are joined by the leg between the bends, little of which was seen (joinSeenBends); so are
+//    two pipes alike whose lines pass square, though neither bend was seen.
 // 6. Runs: connected components of the pipes over accepted joints.
 
 #include "piperun/stages/joints.h"
@@ -91,6 +92,10 @@ constexpr double kOccludedCoreRadii = 0.5;
 // directions within this.
 constexpr double kSquareLegMinAngleDeg = 60.0;
 constexpr double kSquareLegDirectionDeg = 3.0;
+// A leg neither of whose bends was seen joins two ends only where their lines pass each other
+// square within kSquareLegDirectionDeg and the pipes are this alike in radius (a run keeps its size
+// through its elbows; a neighbour running beside it need not).
+constexpr double kHiddenLegRadiusRatio = 0.9;
 // A stretch a pipe runs on thinly to an elbow (see reachThinRuns) holds a point on its surface in at
 // least this share of its sections of this length (m), and at most this many points per metre near
 // its axis (outliers: a few per cubic metre of room).
@@ -262,6 +267,7 @@ struct PipeEnd {
   Eigen::Vector3d point = Eigen::Vector3d::Zero();
   Eigen::Vector3d outward = Eigen::Vector3d::Zero();  // Unit, pointing away from the pipe's body.
   double radius = 0.0;
+  bool seenToEnd = true;  // The pipe was seen up to here (a leg drawn between two corners was not).
   int key() const { return 2 * pipe + side; }
 };
 
@@ -584,6 +590,9 @@ class JointBuilder {
     const double tangentPerRadius = 1.0 / std::tan(halfAngle);
     const double toEndA = (h.a.point - h.corner).dot(armA);
     const double toEndB = (h.b.point - h.corner).dot(armB);
+    const auto seenTo = [](const PipeEnd& end, double toEnd) {
+      return end.seenToEnd ? toEnd : std::numeric_limits<double>::infinity();
+    };
     const double larger = std::max(h.a.radius, h.b.radius);
     // Not bounded by the ends: they stop short of the tangent points where occlusion cut them, and
     // overshoot into the elbow where its surface stays within the cylinder's inlier band.
@@ -624,7 +633,8 @@ class JointBuilder {
       }
     }
     double bendRadius =
-        std::clamp(std::min(std::min(toEndA, toEndB) / tangentPerRadius, kLongElbowRadii * r), minBend, maxBend);
+        std::clamp(std::min(std::min(seenTo(h.a, toEndA), seenTo(h.b, toEndB)) / tangentPerRadius, kLongElbowRadii * r),
+                   minBend, maxBend);
     if (!votes.empty()) {
       const double peakRadius = histogram.peak().first;
       // Refine: the mean of the votes within two bins of the peak.
@@ -2501,6 +2511,7 @@ struct SquareLeg {
   PipeSegment pipe;
   PipeEnd from;
   PipeEnd to;
+  bool mayBeHidden = false;  // The ends' lines pass square and their pipes are alike: no bend need be seen.
 };
 
 /// The legs that may join pairs of the free `ends`: where two ends' lines pass each other askew
@@ -2547,6 +2558,8 @@ std::vector<SquareLeg> squareLegCandidates(const std::vector<PipeEnd>& ends, con
     leg.pipe.radius = radius;
     leg.from = a;
     leg.to = b;
+    leg.mayBeHidden = std::fabs(a.outward.dot(b.outward)) <= std::sin(radians(kSquareLegDirectionDeg)) &&
+                      std::min(a.radius, b.radius) >= kHiddenLegRadiusRatio * std::max(a.radius, b.radius);
   }
   return legs;
 }
@@ -2557,7 +2570,8 @@ std::vector<SquareLeg> squareLegCandidates(const std::vector<PipeEnd>& ends, con
 /// still free whose lines pass each other askew and near square are joined by the lines' common
 /// perpendicular (squareLegCandidates) with an elbow at each corner, when both bends are seen (their
 /// tori hold at least a fifth of the points their pipes' density gives an arc, and that is at least
-/// ten points) and everything the joints bridge (the leg between its tangent points and the
+/// ten points), or when the lines pass square and the pipes are alike (SquareLeg::mayBeHidden: a
+/// leg hidden whole, bends included, behind something), and everything the joints bridge (the leg between its tangent points and the
 /// stretches from the ends to theirs) keeps out of every other pipe and holds no points near its
 /// axis. The best-supported pair of bends goes first; a leg cuts no leg chosen before it. The
 /// elbows' confidence is capped at the share of the leg's sections seen: a leg that little of was
@@ -2585,8 +2599,10 @@ std::vector<PipeSegment> joinSeenBends(const JointsInput& input, const JointsPar
   for (std::size_t k = 0; k < candidates.size(); ++k) {
     const SquareLeg& leg = candidates[k];
     std::vector<Hypothesis> made;
-    builder.tryEndPair(leg.from, endOf(augmented, legPipe(k), 0), made);
-    builder.tryEndPair(endOf(augmented, legPipe(k), 1), leg.to, made);
+    PipeEnd legFrom = endOf(augmented, legPipe(k), 0), legTo = endOf(augmented, legPipe(k), 1);
+    legFrom.seenToEnd = legTo.seenToEnd = false;
+    builder.tryEndPair(leg.from, legFrom, made);
+    builder.tryEndPair(legTo, leg.to, made);
     if (made.size() == 2 && made[0].type == JointType::Elbow && made[1].type == JointType::Elbow) {
       elbows[k] = std::move(made);
     }
@@ -2612,6 +2628,7 @@ std::vector<PipeSegment> joinSeenBends(const JointsInput& input, const JointsPar
   std::vector<PipeSegment> between(candidates.size());
   std::vector<double> coverage(candidates.size(), 0.0);
   std::vector<char> viable(candidates.size(), 0);
+  std::vector<char> hidden(candidates.size(), 0);  // A bend was not seen.
   tbb::parallel_for(std::size_t{0}, candidates.size(), [&](std::size_t k) {
     if (elbows[k].empty()) return;
     const SquareLeg& leg = candidates[k];
@@ -2619,7 +2636,9 @@ std::vector<PipeSegment> joinSeenBends(const JointsInput& input, const JointsPar
     Hypothesis& far = elbows[k][1];
     builder.reconstruct(near, nearby[3 * k]);
     builder.reconstruct(far, nearby[3 * k + 1]);
-    if (!near.valid || !far.valid || !bendSeen(near, leg.from) || !bendSeen(far, leg.to)) return;
+    if (!near.valid || !far.valid) return;
+    hidden[k] = !bendSeen(near, leg.from) || !bendSeen(far, leg.to);
+    if (hidden[k] && !leg.mayBeHidden) return;
     PipeSegment& stretch = between[k];
     stretch = leg.pipe;
     stretch.start = near.newB;
@@ -2669,7 +2688,7 @@ std::vector<PipeSegment> joinSeenBends(const JointsInput& input, const JointsPar
     chosen.confidence = coverage[k];
     chosen.inliers = std::move(between[k].inliers);
     chosenLegs.push_back(std::move(chosen));
-    ++resolution.diagnostics.legsBetweenBends;
+    ++(hidden[k] ? resolution.diagnostics.hiddenLegs : resolution.diagnostics.legsBetweenBends);
   }
   return chosenLegs;
 }

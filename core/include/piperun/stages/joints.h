@@ -49,8 +49,8 @@ struct JointsParams {
   double maxCompletionLength = 1.0;    ///< An end no accepted joint took looks for a pipe the earlier stages missed
                                        ///< beyond an elbow, along one of the network's directions, up to this long
                                        ///< (m; 0: off, and so are the branch search, the search for the leg beyond a
-                                       ///< gentle bend one pipe was fitted across and the legs between two seen
-                                       ///< bends): short legs between elbows and tails into equipment have too few
+                                       ///< gentle bend one pipe was fitted across and the legs between two bends,
+                                       ///< seen or hidden): short legs between elbows and tails into equipment have too few
                                        ///< points to stand out on the Gaussian sphere. Branches found off a pipe's
                                        ///< body are at most this long too.
   std::size_t minCompletionPoints = 12;  ///< Such a pipe needs this many points on its surface...
@@ -78,7 +78,7 @@ struct JointsInput {
 /// The joined network in the cloud's frame. The pipes keep their input order, less the fragments
 /// an elbow absorbed and the pipes that had to take a joint and took none, followed by the legs found beyond gentle bends that one pipe was fitted
 /// across, then the pipes completed beyond free ends or found as branches (round by round), then
-/// the legs between two seen bends, with ids from 1 in that order (elbows move their ends to the tangent points, and two pipes
+/// the legs between two bends (seen or hidden), with ids from 1 in that order (elbows move their ends to the tangent points, and two pipes
 /// overlapping at a gentle bend end at its corner, each axis refitted on its side); joint ids
 /// continue after the last pipe id.
 /// Runs are the connected components of the pipes over accepted joints, every pipe in exactly one
@@ -104,7 +104,8 @@ struct JointsResult {
     std::size_t thinRunElbows = 0;         ///< Elbows onto pipes carried on over a stretch seen thinly...
     std::size_t hiddenRunElbows = 0;       ///< ...or over one hardly seen or not at all, their lines meeting exactly.
     std::size_t legsBetweenBends = 0;      ///< Legs between two seen bends, each with its two elbows (appended after
-                                           ///< the completed pipes).
+                                           ///< the completed pipes)...
+    std::size_t hiddenLegs = 0;            ///< ...and legs a bend of which was not seen, between pipes turning square.
     std::size_t unjoinedPipes = 0;         ///< Input pipes that had to take a joint (PipeSegment::mustJoin) and took
                                            ///< none: left out, the rest joined again without them.
     double seconds = 0.0;
