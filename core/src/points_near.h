@@ -12,7 +12,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -94,24 +93,28 @@ inline std::vector<std::uint32_t> pointsNearSegment(const HashGrid& grid, double
                                                     const Eigen::Vector3d& a, const Eigen::Vector3d& b, double reach) {
   const Eigen::Vector3d axis = b - a;
   const double length = axis.norm();
-  const int steps = std::max(1, static_cast<int>(std::ceil(length / cellSize)));
-  // Cubes around samples of the segment cover the capsule; a cell is read once.
-  std::vector<std::tuple<int, int, int>> cells;
-  for (int k = 0; k <= steps; ++k) {
-    const Eigen::Vector3d sample = a + axis * (static_cast<double>(k) / steps);
-    grid.forEachCellInCube(sample, reach + 0.5 * length / steps,
-                           [&](const Eigen::Vector3i& cell) { cells.emplace_back(cell.x(), cell.y(), cell.z()); });
-  }
-  std::sort(cells.begin(), cells.end());
-  cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
+  const auto squaredDistance = [&](const Eigen::Vector3d& p) {
+    const double t = length > 0.0 ? std::clamp((p - a).dot(axis) / (length * length), 0.0, 1.0) : 0.0;
+    return (p - a - t * axis).squaredNorm();
+  };
+  // The cells of the capsule's bounding box whose centre lies within the reach and half a cell's
+  // diagonal of the segment: every cell that can hold a point within the reach, each read once.
+  const Eigen::Vector3d margin = Eigen::Vector3d::Constant(reach);
+  const Eigen::Vector3i low = grid.cellOf(a.cwiseMin(b) - margin);
+  const Eigen::Vector3i high = grid.cellOf(a.cwiseMax(b) + margin);
+  const double cellReach = reach + 0.5 * std::sqrt(3.0) * cellSize;
   std::vector<std::uint32_t> near;
-  for (const auto& [x, y, z] : cells) {
-    const auto* bucket = grid.find(Eigen::Vector3i(x, y, z));
-    if (!bucket) continue;
-    for (std::uint32_t i : *bucket) {
-      const Eigen::Vector3d p = cloud.positions[i].cast<double>();
-      const double t = length > 0.0 ? std::clamp((p - a).dot(axis) / (length * length), 0.0, 1.0) : 0.0;
-      if ((p - a - t * axis).squaredNorm() <= reach * reach) near.push_back(i);
+  for (int x = low.x(); x <= high.x(); ++x) {
+    for (int y = low.y(); y <= high.y(); ++y) {
+      for (int z = low.z(); z <= high.z(); ++z) {
+        const Eigen::Vector3d center = (Eigen::Vector3d(x, y, z).array() + 0.5).matrix() * cellSize;
+        if (squaredDistance(center) > cellReach * cellReach) continue;
+        const auto* bucket = grid.find(Eigen::Vector3i(x, y, z));
+        if (!bucket) continue;
+        for (std::uint32_t i : *bucket) {
+          if (squaredDistance(cloud.positions[i].cast<double>()) <= reach * reach) near.push_back(i);
+        }
+      }
     }
   }
   std::sort(near.begin(), near.end());

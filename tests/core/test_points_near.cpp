@@ -1,0 +1,79 @@
+#include "points_near.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <random>
+#include <vector>
+
+namespace piperun {
+namespace {
+
+/// Random points in a 6 m box around the origin, some of them negative on every axis.
+PointCloud randomCloud(std::size_t count, std::uint32_t seed) {
+  std::mt19937 random(seed);
+  std::uniform_real_distribution<float> coordinate(-3.0F, 3.0F);
+  PointCloud cloud;
+  for (std::size_t i = 0; i < count; ++i) cloud.positions.emplace_back(coordinate(random), coordinate(random), coordinate(random));
+  return cloud;
+}
+
+/// The points within `reach` of the segment from a to b, by looking at every point.
+std::vector<std::uint32_t> nearByEveryPoint(const PointCloud& cloud, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                            double reach) {
+  const Eigen::Vector3d axis = b - a;
+  const double length = axis.norm();
+  std::vector<std::uint32_t> near;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3d p = cloud.positions[i].cast<double>();
+    const double t = length > 0.0 ? std::clamp((p - a).dot(axis) / (length * length), 0.0, 1.0) : 0.0;
+    if ((p - a - t * axis).squaredNorm() <= reach * reach) near.push_back(static_cast<std::uint32_t>(i));
+  }
+  return near;
+}
+
+TEST(PointsNear, ASegmentFindsEveryPointWithinItsReachAndNoOther) {
+  const PointCloud cloud = randomCloud(20000, 7);
+  const double cellSize = 0.25;
+  HashGrid grid(cellSize);
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    grid.insert(grid.cellOf(cloud.positions[i].cast<double>()), static_cast<std::uint32_t>(i));
+  }
+  struct Case {
+    Eigen::Vector3d a, b;
+    double reach;
+  };
+  // Diagonal and axis-aligned, reaching wider and narrower than a cell, a point, and one past the
+  // points' box.
+  const std::vector<Case> cases = {
+      {{-2.5, -2.0, -1.0}, {2.0, 2.5, 1.5}, 0.1},  {{-2.5, -2.0, -1.0}, {2.0, 2.5, 1.5}, 0.6},
+      {{0.0, -3.0, 0.3}, {0.0, 3.0, 0.3}, 0.05},   {{1.1, 1.1, 1.1}, {1.1, 1.1, 1.1}, 0.4},
+      {{2.5, 2.5, 2.5}, {4.0, 2.5, 2.5}, 0.7},     {{-0.13, 0.2, -0.26}, {-0.12, 0.21, -0.24}, 0.3},
+  };
+  for (const Case& c : cases) {
+    const auto expected = nearByEveryPoint(cloud, c.a, c.b, c.reach);
+    ASSERT_FALSE(expected.empty());
+    EXPECT_EQ(pointsNearSegment(grid, cellSize, cloud, c.a, c.b, c.reach), expected);
+  }
+}
+
+TEST(PointsNear, SpheresHoldTheirPointsInIndexOrder) {
+  const PointCloud cloud = randomCloud(5000, 3);
+  const std::vector<std::pair<Eigen::Vector3d, double>> spheres = {
+      {{0.0, 0.0, 0.0}, 0.5}, {{2.9, -2.9, 0.0}, 0.8}, {{0.2, 0.1, 0.0}, 0.3}};
+  const auto inside = pointsInSpheres(cloud, spheres, 0.25, [](std::size_t i) { return i % 3 != 0; });
+  ASSERT_EQ(inside.size(), spheres.size());
+  for (std::size_t s = 0; s < spheres.size(); ++s) {
+    std::vector<std::uint32_t> expected;
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      if (i % 3 != 0 && (cloud.positions[i].cast<double>() - spheres[s].first).norm() <= spheres[s].second) {
+        expected.push_back(static_cast<std::uint32_t>(i));
+      }
+    }
+    ASSERT_FALSE(expected.empty());
+    EXPECT_EQ(inside[s], expected);
+  }
+}
+
+}  // namespace
+}  // namespace piperun
