@@ -34,6 +34,10 @@ constexpr std::size_t kCellsPerChunk = 256;
 /// Cells per axis at most, so keys (x · ny + y) · nz + z fit 63 bits.
 constexpr double kMaxCellsPerAxis = 1 << 20;
 
+/// The rows of a grid are indexed in a table of every row when there are at most this many per point
+/// (4 bytes each), by hashing the occupied ones otherwise.
+constexpr std::uint64_t kMaxRowSlotsPerPoint = 4;
+
 /// Up to this many candidates the k nearest are placed by rank (quadratic, branch-free), beyond
 /// it by a partial sort.
 constexpr std::size_t kMaxRanked = 48;
@@ -160,20 +164,34 @@ class CellGrid {
            static_cast<std::uint64_t>(c.z());
   }
 
-  /// The cells of each row (x · ny + y) that has any, found by row number.
+  /// The cells of each row (x · ny + y) that has any, found by row number: through a table of every
+  /// row when it takes no more than kMaxRowSlotsPerPoint entries per point (one read per row, where a
+  /// hash probe missed the cache; blocks look up nine rows whenever they move to the next row),
+  /// otherwise through a hash table of the occupied rows.
   void indexRows() {
     const auto nz = static_cast<std::uint64_t>(counts_.z());
+    const auto rowCount = static_cast<std::uint64_t>(counts_.x()) * static_cast<std::uint64_t>(counts_.y());
+    const bool dense = rowCount <= kMaxRowSlotsPerPoint * std::max<std::uint64_t>(cells_.items.size(), 1);
+    if (dense) rowSlots_.assign(static_cast<std::size_t>(rowCount), 0);
     for (std::size_t c = 0; c < cells_.keys.size();) {
       const std::uint64_t row = cells_.keys[c] / nz;
       std::size_t end = c + 1;
       while (end < cells_.keys.size() && cells_.keys[end] / nz == row) ++end;
-      rowIds_.insert(row);  // ids follow the rows, in order
+      if (dense) {
+        rowSlots_[static_cast<std::size_t>(row)] = static_cast<std::uint32_t>(rows_.size() + 1);
+      } else {
+        rowIds_.insert(row);  // ids follow the rows, in order
+      }
       rows_.push_back({static_cast<std::uint32_t>(c), static_cast<std::uint32_t>(end)});
       c = end;
     }
   }
 
   Row findRow(std::uint64_t row) const {
+    if (!rowSlots_.empty()) {
+      const std::uint32_t slot = rowSlots_[static_cast<std::size_t>(row)];
+      return slot == 0 ? Row{} : rows_[slot - 1];
+    }
     const std::int64_t id = rowIds_.find(row);
     return id < 0 ? Row{} : rows_[static_cast<std::size_t>(id)];
   }
@@ -183,7 +201,8 @@ class CellGrid {
   Cube counts_;
   KeyGroups cells_;                   // the points by cell
   std::vector<float> x_, y_, z_;       // their coordinates, in the same order
-  CellTable rowIds_;                   // row number → index into rows_
+  std::vector<std::uint32_t> rowSlots_;  // row number → index into rows_ + 1 (0: no cell), when dense...
+  CellTable rowIds_;                   // ...otherwise row number → index into rows_
   std::vector<Row> rows_;              // the cells of each occupied row
 };
 
