@@ -24,6 +24,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
@@ -296,6 +297,15 @@ std::vector<std::uint64_t> parseSeeds(const std::string& text) {
   return seeds;
 }
 
+/// The run of median wall time (of an even count, the faster of the middle two).
+json medianRun(std::vector<json> rows) {
+  const auto middle = rows.begin() + static_cast<std::ptrdiff_t>((rows.size() - 1) / 2);
+  std::nth_element(rows.begin(), middle, rows.end(), [](const json& a, const json& b) {
+    return a["seconds"].get<double>() < b["seconds"].get<double>();
+  });
+  return *middle;
+}
+
 std::vector<std::string> parsePresets(const std::string& text) {
   std::vector<std::string> presets;
   std::istringstream items(text);
@@ -312,6 +322,7 @@ std::vector<std::string> parsePresets(const std::string& text) {
 struct BenchOptions {
   std::string presets = "small,medium";
   std::string seeds = "1";
+  int repeat = 1;
   bool baseline = false;
   bool scaling = false;
   int threads = 0;
@@ -333,23 +344,30 @@ json runComparison(const char* argv0, const BenchOptions& options) {
   std::vector<std::string> summaryLines;
   printTableHeader();
   for (const auto& preset : presets) {
-    std::vector<json> ours, pcl;
+    std::vector<json> ours, pcl;  // per seed: its median run (by wall time) of each method
     for (const auto seed : seeds) {
-      const json ourRow = measureInChild(argv0, options.request(preset, seed, "ours"));
-      std::optional<json> pclRow;
-      if (options.baseline) pclRow = measureInChild(argv0, options.request(preset, seed, "pcl"));
-      std::optional<double> speedup;
-      if (pclRow && succeeded(*pclRow) && succeeded(ourRow)) {
-        speedup = (*pclRow)["seconds"].get<double>() / ourRow["seconds"].get<double>();
+      // The two methods alternate, so that a machine slowing down or speeding up over the runs
+      // weighs on both alike; each seed counts with the median of its runs.
+      std::vector<json> ourRuns, pclRuns;
+      for (int repetition = 0; repetition < options.repeat; ++repetition) {
+        const json ourRow = measureInChild(argv0, options.request(preset, seed, "ours"));
+        std::optional<json> pclRow;
+        if (options.baseline) pclRow = measureInChild(argv0, options.request(preset, seed, "pcl"));
+        std::optional<double> speedup;
+        if (pclRow && succeeded(*pclRow) && succeeded(ourRow)) {
+          speedup = (*pclRow)["seconds"].get<double>() / ourRow["seconds"].get<double>();
+        }
+        printRow(ourRow, speedup);
+        runs.push_back(ourRow);
+        if (succeeded(ourRow)) ourRuns.push_back(ourRow);
+        if (pclRow) {
+          printRow(*pclRow, std::nullopt);
+          runs.push_back(*pclRow);
+          if (succeeded(*pclRow)) pclRuns.push_back(*pclRow);
+        }
       }
-      printRow(ourRow, speedup);
-      runs.push_back(ourRow);
-      if (succeeded(ourRow)) ours.push_back(ourRow);
-      if (pclRow) {
-        printRow(*pclRow, std::nullopt);
-        runs.push_back(*pclRow);
-        if (succeeded(*pclRow)) pcl.push_back(*pclRow);
-      }
+      if (!ourRuns.empty()) ours.push_back(medianRun(std::move(ourRuns)));
+      if (!pclRuns.empty()) pcl.push_back(medianRun(std::move(pclRuns)));
     }
     if (ours.empty()) continue;
     json summary = {{"preset", preset},
@@ -422,6 +440,10 @@ int run(int argc, char** argv) {
   app.add_option("--presets", options.presets, "Comma-separated scene presets: small, medium, large")
       ->capture_default_str();
   app.add_option("--seeds", options.seeds, "Scene seeds: 1, 1-10 or 1,4,7")->capture_default_str();
+  app.add_option("--repeat", options.repeat,
+                 "Runs of each method per scene, alternating; the summary takes each scene's median run")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   app.add_flag("--baseline", options.baseline, "Also run the PCL RANSAC baseline on every scene");
   app.add_flag("--scaling", options.scaling, "Run PipeRun alone on small, medium and large (first seed)");
   app.add_option("--threads", options.threads, "Worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
