@@ -6,6 +6,7 @@
 #include "piperun/point_cloud.h"
 
 #include "cell_table.h"
+#include "segment_distance.h"
 
 #include <Eigen/Core>
 
@@ -22,6 +23,7 @@ class HashGrid {
  public:
   explicit HashGrid(double cellSize) : cell_(cellSize) {}
 
+  double cellSize() const { return cell_; }
   Eigen::Vector3i cellOf(const Eigen::Vector3d& p) const { return (p / cell_).array().floor().cast<int>(); }
   void insert(const Eigen::Vector3i& cell, std::uint32_t value) {
     const std::uint32_t id = cellIds_.insert(cellKey(cell));
@@ -89,16 +91,11 @@ std::vector<std::vector<std::uint32_t>> pointsInSpheres(const PointCloud& cloud,
 
 /// The points of `cloud` filed in `grid` (by position) within `reach` of the segment from a to b,
 /// in index order.
-inline std::vector<std::uint32_t> pointsNearSegment(const HashGrid& grid, double cellSize, const PointCloud& cloud,
-                                                    const Eigen::Vector3d& a, const Eigen::Vector3d& b, double reach) {
-  const Eigen::Vector3d axis = b - a;
-  const double length = axis.norm();
-  const auto squaredDistance = [&](const Eigen::Vector3d& p) {
-    const double t = length > 0.0 ? std::clamp((p - a).dot(axis) / (length * length), 0.0, 1.0) : 0.0;
-    return (p - a - t * axis).squaredNorm();
-  };
+inline std::vector<std::uint32_t> pointsNearSegment(const HashGrid& grid, const PointCloud& cloud, const Eigen::Vector3d& a,
+                                                    const Eigen::Vector3d& b, double reach) {
   // The cells of the capsule's bounding box whose centre lies within the reach and half a cell's
   // diagonal of the segment: every cell that can hold a point within the reach, each read once.
+  const double cellSize = grid.cellSize();
   const Eigen::Vector3d margin = Eigen::Vector3d::Constant(reach);
   const Eigen::Vector3i low = grid.cellOf(a.cwiseMin(b) - margin);
   const Eigen::Vector3i high = grid.cellOf(a.cwiseMax(b) + margin);
@@ -108,11 +105,11 @@ inline std::vector<std::uint32_t> pointsNearSegment(const HashGrid& grid, double
     for (int y = low.y(); y <= high.y(); ++y) {
       for (int z = low.z(); z <= high.z(); ++z) {
         const Eigen::Vector3d center = (Eigen::Vector3d(x, y, z).array() + 0.5).matrix() * cellSize;
-        if (squaredDistance(center) > cellReach * cellReach) continue;
+        if (pointSegmentDistance(center, a, b) > cellReach) continue;
         const auto* bucket = grid.find(Eigen::Vector3i(x, y, z));
         if (!bucket) continue;
         for (std::uint32_t i : *bucket) {
-          if (squaredDistance(cloud.positions[i].cast<double>()) <= reach * reach) near.push_back(i);
+          if (pointSegmentDistance(cloud.positions[i].cast<double>(), a, b) <= reach) near.push_back(i);
         }
       }
     }

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <random>
+#include <utility>
 #include <vector>
 
 namespace piperun {
@@ -21,13 +22,9 @@ PointCloud randomCloud(std::size_t count, std::uint32_t seed) {
 /// The points within `reach` of the segment from a to b, by looking at every point.
 std::vector<std::uint32_t> nearByEveryPoint(const PointCloud& cloud, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                                             double reach) {
-  const Eigen::Vector3d axis = b - a;
-  const double length = axis.norm();
   std::vector<std::uint32_t> near;
   for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const Eigen::Vector3d p = cloud.positions[i].cast<double>();
-    const double t = length > 0.0 ? std::clamp((p - a).dot(axis) / (length * length), 0.0, 1.0) : 0.0;
-    if ((p - a - t * axis).squaredNorm() <= reach * reach) near.push_back(static_cast<std::uint32_t>(i));
+    if (pointSegmentDistance(cloud.positions[i].cast<double>(), a, b) <= reach) near.push_back(static_cast<std::uint32_t>(i));
   }
   return near;
 }
@@ -53,7 +50,7 @@ TEST(PointsNear, ASegmentFindsEveryPointWithinItsReachAndNoOther) {
   for (const Case& c : cases) {
     const auto expected = nearByEveryPoint(cloud, c.a, c.b, c.reach);
     ASSERT_FALSE(expected.empty());
-    EXPECT_EQ(pointsNearSegment(grid, cellSize, cloud, c.a, c.b, c.reach), expected);
+    EXPECT_EQ(pointsNearSegment(grid, cloud, c.a, c.b, c.reach), expected);
   }
 }
 

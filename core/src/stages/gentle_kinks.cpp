@@ -411,7 +411,7 @@ GentleKinks splitAtGentleKinks(const PointCloud& cloud, std::vector<PipeSegment>
       if ((cloud.positions[i].cast<double>() - end).dot(outward) >= -kMaxOvershoot - pipe.radius) candidates.push_back(i);
     }
     const double reach = pipe.radius + params.supportDistance + legReach * std::sin(radians(kMaxKinkDeg));
-    const auto near = pointsNearSegment(unexplained, cellSize, cloud, end - kMaxOvershoot * outward,
+    const auto near = pointsNearSegment(unexplained, cloud, end - kMaxOvershoot * outward,
                                         end + params.maxCompletionLength * outward, reach);
     candidates.insert(candidates.end(), near.begin(), near.end());
     std::sort(candidates.begin(), candidates.end());

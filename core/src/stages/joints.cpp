@@ -2141,7 +2141,7 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
     }
     tbb::parallel_for(std::size_t{0}, mains.size(), [&](std::size_t m) {
       const PipeSegment& main = input.pipes[static_cast<std::size_t>(mains[m])];
-      const auto near = pointsNearSegment(pointGrid, cellSize, input.cloud, main.start, main.end, completer.branchReach(mains[m]));
+      const auto near = pointsNearSegment(pointGrid, input.cloud, main.start, main.end, completer.branchReach(mains[m]));
       branches[m] = completer.branchesOf(mains[m], directions, near);
     });
   }
@@ -2462,7 +2462,7 @@ std::vector<PipeSegment> reachThinRuns(const JointsInput& input, const JointsPar
     thin[h] = *stretch;
     const double length = (stretch->end - stretch->start).norm();
     const Eigen::Vector3d axis = (stretch->end - stretch->start) / length;
-    const auto near = pointsNearSegment(pointGrid, cellSize, input.cloud, stretch->start, stretch->end,
+    const auto near = pointsNearSegment(pointGrid, input.cloud, stretch->start, stretch->end,
                                         stretch->radius + params.supportDistance);
     // Seen all along, in long sections, and how much of it in the usual short ones; stray points
     // near the axis are few. No normal is asked for: on a thin, far pipe they stray.
@@ -2571,9 +2571,9 @@ std::vector<SquareLeg> squareLegCandidates(const std::vector<PipeEnd>& ends, con
 /// perpendicular (squareLegCandidates) with an elbow at each corner, when both bends are seen (their
 /// tori hold at least a fifth of the points their pipes' density gives an arc, and that is at least
 /// ten points), or when the lines pass square and the pipes are alike (SquareLeg::mayBeHidden: a
-/// leg hidden whole, bends included, behind something), and everything the joints bridge (the leg between its tangent points and the
-/// stretches from the ends to theirs) keeps out of every other pipe and holds no points near its
-/// axis. The best-supported pair of bends goes first; a leg cuts no leg chosen before it. The
+/// leg hidden whole, bends included, behind something), and everything the joints bridge (the leg
+/// between its tangent points and the stretches from the ends to theirs) keeps out of every other
+/// pipe and holds no points near its axis. The best-supported pair of bends goes first; a leg cuts no leg chosen before it. The
 /// elbows' confidence is capped at the share of the leg's sections seen: a leg that little of was
 /// seen is proposed, for review. Returns the legs chosen, which follow `input.pipes` in
 /// `resolution`.

@@ -50,9 +50,9 @@ struct JointsParams {
                                        ///< beyond an elbow, along one of the network's directions, up to this long
                                        ///< (m; 0: off, and so are the branch search, the search for the leg beyond a
                                        ///< gentle bend one pipe was fitted across and the legs between two bends,
-                                       ///< seen or hidden): short legs between elbows and tails into equipment have too few
-                                       ///< points to stand out on the Gaussian sphere. Branches found off a pipe's
-                                       ///< body are at most this long too.
+                                       ///< seen or hidden): short legs between elbows and tails into equipment have
+                                       ///< too few points to stand out on the Gaussian sphere. Branches found off a
+                                       ///< pipe's body are at most this long too.
   std::size_t minCompletionPoints = 12;  ///< Such a pipe needs this many points on its surface...
   double minCompletionCoverage = 0.5;  ///< ...in this share of its sections at least, and must take the elbow.
   double minCompletionBendDeg = 8.0;   ///< Such a pipe turns at least this far from the end's axis: normals scatter a
