@@ -163,6 +163,32 @@ TEST(Extents, NoiseBlobsAndSliversAreDropped) {
   EXPECT_LT(std::abs(result.segments[0].end.x() - 1.5), 0.02);
 }
 
+TEST(Extents, StrayPointsOnTheLineBeyondAnEndDoNotCarryItOn) {
+  // Single stray points on the cylinder's surface past the pipe's end, each within the closing of
+  // the next, at angles far enough apart to span an arc, and a coverage threshold low enough for
+  // one point to pass (as the local density of a sparse stretch sets it on a noisy scan): the
+  // closing joins them to the pipe, as 20 % outliers did over a metre past an elbow.
+  ScannedPipe pipe(1.5, [](double) { return true; });
+  Rng rng(4);
+  const std::pair<double, double> strays[] = {{1.62, -1.0}, {1.70, 0.8}, {1.90, -0.3}, {2.10, 1.2}, {2.30, -0.9}};
+  for (const auto& [x, phi] : strays) pipe.addSurfacePoint(x, phi, rng);
+  pipe.refreshInliers();
+  ExtentsParams lowThreshold;
+  lowThreshold.minPointsPerMetre = 20.0;  // under one point a section
+  const ExtentsResult result = computeExtents({pipe.cloud, pipe.placement}, lowThreshold);
+  ASSERT_EQ(result.segments.size(), 1u);
+  EXPECT_LT(std::abs(result.segments[0].start.x() - 0.0), 0.02);
+  // The last closing length (40 cm) before the end must hold points in over a third of its
+  // sections: the end goes back over the lone points until it does.
+  EXPECT_LT(result.segments[0].end.x(), 1.75);
+
+  // A pipe's own last stretch seen through a gap shorter than its run keeps its end.
+  const ScannedPipe glimpsed(2.0, [](double x) { return x < 1.5 || x > 1.6; });
+  const ExtentsResult whole = computeExtents({glimpsed.cloud, glimpsed.placement}, ExtentsParams{});
+  ASSERT_EQ(whole.segments.size(), 1u);
+  EXPECT_LT(std::abs(whole.segments[0].end.x() - 2.0), 0.02);
+}
+
 TEST(Extents, SmallPipeFromOneSideAndShortPieces) {
   // A 1.5 cm pipe shows only three or four points across from one station.
   const ScannedPipe small(1.0, [](double x) { return x < 0.45 || x > 0.5; }, 0.015);
