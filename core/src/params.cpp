@@ -86,7 +86,7 @@ const std::vector<Field>& fields() {
       PIPERUN_FIELD("extents", "min_density_ratio", "", Stage::Extents, extents.minDensityRatio, "Automatic axis coverage: share of the cylinder's median section density"),
       PIPERUN_FIELD("extents", "density_window", "m", Stage::Extents, extents.densityWindow, "...of the sections within this distance along the axis, when sparser than the whole cylinder"),
       PIPERUN_FIELD("extents", "min_arc_deg", "deg", Stage::Extents, extents.minArcDeg, "Cross-section coverage: angle around the axis a section (pooled to 6 points) must span"),
-      PIPERUN_FIELD("extents", "closing_sections", "", Stage::Extents, extents.closingSections, "1-D closing fills gaps up to this many sections"),
+      PIPERUN_FIELD("extents", "closing_sections", "", Stage::Extents, extents.closingSections, "1-D closing fills gaps up to this many sections; a run's end goes back over single stray points while its last this many sections hold points in under 35 % of them"),
       PIPERUN_FIELD("extents", "bridge_sections", "", Stage::Extents, extents.bridgeSections, "...and gaps up to this many between runs at least as long as the gap"),
       PIPERUN_FIELD("extents", "opening_sections", "", Stage::Extents, extents.openingSections, "1-D opening drops pieces shorter than this many sections"),
       PIPERUN_FIELD("extents", "min_confidence", "", Stage::Extents, extents.minConfidence, "Pieces where fewer than this share of the sections passed both coverage tests are opened again at their longest gaps; the part with most inliers stays when it keeps the share and holds over half of them"),
