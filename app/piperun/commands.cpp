@@ -418,7 +418,7 @@ int runReconstruct(const ReconstructOptions& options) {
   };
   const auto accepted = std::count_if(network.joints.begin(), network.joints.end(),
                                       [](const Joint& j) { return j.status == JointStatus::Accepted; });
-  if (pipeline.isFresh(Stage::Joints)) std::printf("joints: %zu elbows, %zu tees, %zu boundary joints (%zu accepted, %zu proposed), %zu runs, %zu %s completed beyond free ends (%zu between two ends), %zu %s found off pipes, %zu %s split and %zu %s found at gentle bends, %zu %s across hidden corners, %zu %s onto pipes running on thinly and %zu hardly seen, %zu %s between seen bends and %zu between unseen, %zu weakly supported %s left out for taking no joint  [%.2f s]\n",
+  if (pipeline.isFresh(Stage::Joints)) std::printf("joints: %zu elbows, %zu tees, %zu boundary joints (%zu accepted, %zu proposed), %zu runs, %zu %s completed beyond free ends (%zu between two ends), %zu %s found off pipes, %zu %s split and %zu %s found at gentle bends, %zu %s across hidden corners, %zu %s onto pipes running on thinly and %zu hardly seen, %zu %s between seen bends and %zu between unseen, %zu hidden %s from an end to a main, %zu weakly supported %s left out for taking no joint  [%.2f s]\n",
               static_cast<std::size_t>(countJoints(JointType::Elbow)), static_cast<std::size_t>(countJoints(JointType::Tee)),
               static_cast<std::size_t>(countJoints(JointType::Boundary)), static_cast<std::size_t>(accepted),
               network.joints.size() - static_cast<std::size_t>(accepted), network.runs.size(),
@@ -439,6 +439,8 @@ int runReconstruct(const ReconstructOptions& options) {
               pipeline.jointsResult()->diagnostics.legsBetweenBends,
               pipeline.jointsResult()->diagnostics.legsBetweenBends == 1 ? "leg" : "legs",
               pipeline.jointsResult()->diagnostics.hiddenLegs,
+              pipeline.jointsResult()->diagnostics.hiddenBranches,
+              pipeline.jointsResult()->diagnostics.hiddenBranches == 1 ? "leg" : "legs",
               pipeline.jointsResult()->diagnostics.unjoinedPipes,
               pipeline.jointsResult()->diagnostics.unjoinedPipes == 1 ? "pipe" : "pipes", pipeline.stageSeconds(Stage::Joints));
   std::printf("(per-tile stage times are summed over tiles, which run in parallel)\n");

@@ -1025,6 +1025,52 @@ TEST(Joints, NoLegJoinsTwoPipesWhoseBendsWereNotSeenOrWhereSomethingStandsInItsW
   }
 }
 
+/// Medium seed 1: a 24 mm riser rises beside a 57 mm main and turns square towards it, its leg,
+/// its elbow and the tee on the main hidden but for a glimpse of the leg and, when `bendSeen`, a
+/// few points of the bend (ten: too few to complete a leg from). A pipe far off runs along the leg's direction.
+ConstructedScene riserBesideAMain(bool bendSeen) {
+  const double r = 0.024, R = 2.0 * r, top = 0.9;
+  ConstructedScene scene;
+  scene.addPipe({0, 0, 0}, {0, 0, 2}, 0.057);
+  scene.addPipeSeenFromAfar({0.45, 0, 0}, {0.45, 0, top}, r, Eigen::Vector3d::UnitY(), 0.0, /*listed=*/true);
+  scene.addPipe({1, 2, 0}, {2.2, 2, 0}, 0.05);
+  if (bendSeen) scene.addElbow({0.45 - R, 0, top}, {0.45, 0, top}, -Eigen::Vector3d::UnitY(), kPi / 2, r, {0, 45}, 0.018);
+  // A 2 cm glimpse of the leg, nine points.
+  scene.addPipeSeenFromAfar({0.25, 0, top + R}, {0.23, 0, top + R}, r, Eigen::Vector3d::UnitY(), 0.0, false, 0.01);
+  return scene;
+}
+
+TEST(Joints, ALegHiddenFromItsBendToAMainBesideItIsProposedWithItsTee) {
+  // The leg starts where a short-radius elbow's would (R = 2r past the riser's end) and runs
+  // square into the main's body: an elbow and a tee, proposed for review.
+  const double r = 0.024, R = 2.0 * r, top = 0.9;
+  const JointsResult result = riserBesideAMain(true).connect();
+  EXPECT_EQ(result.diagnostics.hiddenBranches, 1u);
+  ASSERT_EQ(result.pipes.size(), 4u);
+  const PipeSegment& leg = result.pipes[3];
+  EXPECT_NEAR(leg.start.z(), top + R, 1e-9);
+  EXPECT_NEAR(leg.end.z(), top + R, 1e-9);
+  EXPECT_NEAR(leg.end.x(), 0.057, 1e-9);  // At the main's wall.
+  ASSERT_EQ(result.joints.size(), 2u);
+  const auto elbow = std::find_if(result.joints.begin(), result.joints.end(),
+                                  [](const Joint& joint) { return joint.type == JointType::Elbow; });
+  const auto tee = std::find_if(result.joints.begin(), result.joints.end(),
+                                [](const Joint& joint) { return joint.type == JointType::Tee; });
+  ASSERT_TRUE(elbow != result.joints.end() && tee != result.joints.end());
+  EXPECT_EQ(tee->pipeIds, (std::vector<int>{1, 4}));  // The main first, then the leg.
+  EXPECT_LT((tee->axis.front() - Eigen::Vector3d(0, 0, top + R)).norm(), 1e-6);
+  EXPECT_EQ(elbow->pipeIds, (std::vector<int>{2, 4}));
+  EXPECT_NEAR(elbow->bendRadius, R, 0.1 * R);
+  for (const Joint& joint : result.joints) EXPECT_EQ(joint.status, JointStatus::Proposed);
+  EXPECT_EQ(result.runs.size(), 4u);  // Proposed joints join no runs until accepted.
+
+  // With nothing seen of the bend, the riser's end may as well be where something hides it on its
+  // way up: no leg is drawn.
+  const JointsResult unseen = riserBesideAMain(false).connect();
+  EXPECT_EQ(unseen.diagnostics.hiddenBranches, 0u);
+  EXPECT_TRUE(unseen.joints.empty());
+}
+
 TEST(Joints, ALegBeyondACompletedLegIsCompletedInTheNextRound) {
   // Pipe 1 comes along +x to a corner at the origin and turns up (R = 3r, r = 5 cm) into a 60 cm
   // leg, which turns along +y into a 60 cm tail ending freely: both are points only, as legs too

@@ -92,6 +92,7 @@ constexpr double kOccludedCoreRadii = 0.5;
 // directions within this.
 constexpr double kSquareLegMinAngleDeg = 60.0;
 constexpr double kSquareLegDirectionDeg = 3.0;
+constexpr double kShortElbowRadii = 2.0;  // A short-radius elbow's bend radius, in pipe radii.
 // A leg neither of whose bends was seen joins two ends only where their lines pass each other
 // square within kSquareLegDirectionDeg and the pipes are this alike in radius (a run keeps its size
 // through its elbows; a neighbour running beside it need not).
@@ -1255,7 +1256,6 @@ class Completer {
   static constexpr int kMaxGapSections = 3;   // ...and ends at a gap longer than this, unless...
   static constexpr std::size_t kMaxBridgeSections = 20;  // ...a run as long follows a gap up to this.
   static constexpr std::size_t kBehindSections = 5;  // Sections looked at behind the corner (see completeAt).
-  static constexpr double kShortElbowRadii = 2.0;    // A short-radius elbow's bend radius, in pipe radii.
   static constexpr double kMaxClutterShare = 0.5;  // Clutter (see isClutter), against points on the surface.
   static constexpr double kFaceNormalAngleDeg = 30.0;  // Normals this close to the axis: a face across it.
   static constexpr double kMaxFlatShare = 0.4;          // Normals sharing one direction (see flatShare)...
@@ -2564,6 +2564,14 @@ std::vector<SquareLeg> squareLegCandidates(const std::vector<PipeEnd>& ends, con
   return legs;
 }
 
+/// Whether an elbow's bend off an end of `pipe` was seen, at the density of that pipe.
+bool bendSeen(const Hypothesis& elbow, const PipeSegment& pipe) {
+  const double expected =
+      static_cast<double>(pipe.inliers.size()) / (pipe.end - pipe.start).norm() * elbow.bendRadius * elbow.bendAngle;
+  return expected >= kMinBendlessEvidence &&
+         static_cast<double>(elbow.supportPoints.size()) >= kMaxBendlessSupport * expected;
+}
+
 /// Legs between two seen bends. Two pipes may each be seen turning square off their ends, one
 /// towards the other's line, while the leg between the bends holds too few points for any
 /// completion (a thin or far leg, or one mostly in shadow). After the hidden corners, two ends
@@ -2615,14 +2623,6 @@ std::vector<PipeSegment> joinSeenBends(const JointsInput& input, const JointsPar
   }
   const auto nearby = pointsInSpheres(input.cloud, spheres, cellSize, [](std::size_t) { return true; });
 
-  // Whether an elbow's bend off the end `end` was seen, at the density of the end's pipe.
-  const auto bendSeen = [&](const Hypothesis& elbow, const PipeEnd& end) {
-    const PipeSegment& pipe = pipes[static_cast<std::size_t>(end.pipe)];
-    const double expected = static_cast<double>(pipe.inliers.size()) / (pipe.end - pipe.start).norm() *
-                            elbow.bendRadius * elbow.bendAngle;
-    return expected >= kMinBendlessEvidence &&
-           static_cast<double>(elbow.supportPoints.size()) >= kMaxBendlessSupport * expected;
-  };
   // The leg between its tangent points, the share of its sections seen, and whether both bends
   // were seen and nothing stands in the way of what the elbows bridge.
   std::vector<PipeSegment> between(candidates.size());
@@ -2637,7 +2637,8 @@ std::vector<PipeSegment> joinSeenBends(const JointsInput& input, const JointsPar
     builder.reconstruct(near, nearby[3 * k]);
     builder.reconstruct(far, nearby[3 * k + 1]);
     if (!near.valid || !far.valid) return;
-    hidden[k] = !bendSeen(near, leg.from) || !bendSeen(far, leg.to);
+    hidden[k] = !bendSeen(near, pipes[static_cast<std::size_t>(leg.from.pipe)]) ||
+                !bendSeen(far, pipes[static_cast<std::size_t>(leg.to.pipe)]);
     if (hidden[k] && !leg.mayBeHidden) return;
     PipeSegment& stretch = between[k];
     stretch = leg.pipe;
@@ -2689,6 +2690,185 @@ std::vector<PipeSegment> joinSeenBends(const JointsInput& input, const JointsPar
     chosen.inliers = std::move(between[k].inliers);
     chosenLegs.push_back(std::move(chosen));
     ++(hidden[k] ? resolution.diagnostics.hiddenLegs : resolution.diagnostics.legsBetweenBends);
+  }
+  return chosenLegs;
+}
+
+/// Legs hidden between an end and a main. A pipe may turn square off its end into a short leg that
+/// meets a thicker pipe's body at a tee, the leg seen in glimpses at most (behind the main, in a
+/// station's shadow): too little for a completion. After the legs between bends, an end still free
+/// is joined to another pipe, at least as thick, by a leg along one of the network's `directions`
+/// square to both: where the end's line passes square to the main's axis (within
+/// kSquareLegDirectionDeg), their common perpendicular, its corner within the search distance
+/// ahead of the end; where the end's pipe runs beside the main, the perpendicular from where a
+/// short-radius elbow's corner would be (the end seen up to its tangent point). The leg's foot lies
+/// two of its radii inside the main's body, and it is long enough for an elbow and the main's
+/// radius and no longer than a completion. The elbow and the tee are reconstructed as every joint
+/// is; the bend must have been seen at the density of the end's pipe (as a short-radius elbow's,
+/// beside the main), a section of the leg seen too, and nothing stand where they bridge (see
+/// nothingInTheWay). Their confidence is capped at the share of the leg seen: proposed, for review.
+/// The best-supported go first, an end takes one. Returns the legs.
+std::vector<PipeSegment> joinHiddenBranches(const JointsInput& input, const JointsParams& params,
+                                            const std::vector<char>& explained, double cellSize,
+                                            Resolution& resolution) {
+  std::vector<PipeSegment> chosenLegs;
+  if (params.maxCompletionLength <= 0.0) return chosenLegs;
+  const auto& pipes = input.pipes;
+  const JointBuilder searching(input, params, explained);
+  const std::vector<Eigen::Vector3d> directions = networkDirections(pipes);
+  const auto alongNetwork = [&](const Eigen::Vector3d& axis) {
+    return std::any_of(directions.begin(), directions.end(), [&](const Eigen::Vector3d& direction) {
+      return std::fabs(direction.dot(axis)) >= std::cos(radians(kSquareLegDirectionDeg));
+    });
+  };
+  struct Candidate {
+    PipeEnd end;
+    int main = -1;
+    PipeSegment leg;  // From the corner on the end's line to the main's wall.
+    bool beside = false;  // The end's pipe runs beside the main (else square to it).
+  };
+  std::vector<Candidate> candidates;
+  for (const PipeEnd& end : freeEnds(pipes, params, resolution)) {
+    for (int main = 0; main < static_cast<int>(pipes.size()); ++main) {
+      const PipeSegment& mainPipe = pipes[static_cast<std::size_t>(main)];
+      if (main == end.pipe || isFragment(mainPipe, params) || resolution.arcPieces[static_cast<std::size_t>(main)] ||
+          mainPipe.radius < end.radius || end.radius > params.maxBranchRatio * mainPipe.radius) {
+        continue;
+      }
+      const Eigen::Vector3d mainAxis = unitAxis(mainPipe);
+      const double mainLength = (mainPipe.end - mainPipe.start).norm();
+      const double cosine = std::fabs(end.outward.dot(mainAxis));
+      Eigen::Vector3d corner;
+      double alongMain = 0.0;
+      const bool beside = cosine >= std::cos(radians(kSquareLegDirectionDeg));
+      if (cosine <= std::sin(radians(kSquareLegDirectionDeg))) {
+        // Square to the main: the lines' common perpendicular.
+        const auto parameters = closestLineParameters(end.point, end.outward, mainPipe.start, mainAxis);
+        if (!parameters) continue;
+        const double alongEnd = parameters->first;
+        if (alongEnd < -1.25 * end.radius || alongEnd > searching.searchDistance(end.radius)) continue;
+        corner = end.point + alongEnd * end.outward;
+        alongMain = parameters->second;
+      } else if (beside) {
+        // Beside the main: the end was seen up to a short-radius elbow's tangent point.
+        corner = end.point + kShortElbowRadii * end.radius * end.outward;
+        alongMain = (corner - mainPipe.start).dot(mainAxis);
+      } else {
+        continue;
+      }
+      if (alongMain < 2.0 * end.radius || alongMain > mainLength - 2.0 * end.radius) continue;
+      const Eigen::Vector3d foot = mainPipe.start + alongMain * mainAxis;
+      const double length = (foot - corner).norm();
+      if (length < params.minBendRadii * end.radius + mainPipe.radius + kSectionLength ||
+          length > params.maxCompletionLength + mainPipe.radius || !alongNetwork((foot - corner) / length)) {
+        continue;
+      }
+      Candidate& candidate = candidates.emplace_back();
+      candidate.end = end;
+      candidate.main = main;
+      candidate.leg.start = corner;
+      candidate.leg.end = foot + mainPipe.radius * (corner - foot) / length;
+      candidate.leg.radius = end.radius;
+      candidate.beside = beside;
+    }
+  }
+  if (candidates.empty()) return chosenLegs;
+
+  std::vector<PipeSegment> augmented = pipes;
+  for (const Candidate& candidate : candidates) augmented.push_back(candidate.leg);
+  const JointsInput augmentedInput{input.cloud, augmented};
+  const JointBuilder builder(augmentedInput, params, explained);
+  const auto legPipe = [&](std::size_t k) { return static_cast<int>(pipes.size() + k); };
+  // Per candidate: the elbow at the end, then the tee on the main.
+  std::vector<std::vector<Hypothesis>> joints(candidates.size());
+  std::vector<std::pair<Eigen::Vector3d, double>> spheres;  // Per candidate: the elbow's, the tee's, the leg's.
+  for (std::size_t k = 0; k < candidates.size(); ++k) {
+    const Candidate& candidate = candidates[k];
+    std::vector<Hypothesis> made;
+    PipeEnd legFrom = endOf(augmented, legPipe(k), 0), legTo = endOf(augmented, legPipe(k), 1);
+    legFrom.seenToEnd = legTo.seenToEnd = false;
+    builder.tryEndPair(candidate.end, legFrom, made);
+    builder.tryTee(legTo, candidate.main, made);
+    if (made.size() == 2 && made[0].type == JointType::Elbow && made[1].type == JointType::Tee) {
+      joints[k] = std::move(made);
+    }
+    for (std::size_t j = 0; j < 2; ++j) {
+      spheres.emplace_back(joints[k].empty() ? candidate.leg.start : joints[k][j].center,
+                           joints[k].empty() ? 0.0 : joints[k][j].reach);
+    }
+    spheres.emplace_back(0.5 * (candidate.leg.start + candidate.leg.end),
+                         0.5 * (candidate.leg.end - candidate.leg.start).norm() + 2.0 * candidate.leg.radius);
+  }
+  const auto nearby = pointsInSpheres(input.cloud, spheres, cellSize, [](std::size_t) { return true; });
+
+  std::vector<PipeSegment> between(candidates.size());
+  std::vector<double> coverage(candidates.size(), 0.0);
+  std::vector<char> viable(candidates.size(), 0);
+  tbb::parallel_for(std::size_t{0}, candidates.size(), [&](std::size_t k) {
+    if (joints[k].empty()) return;
+    const Candidate& candidate = candidates[k];
+    Hypothesis& elbow = joints[k][0];
+    Hypothesis& tee = joints[k][1];
+    builder.reconstruct(elbow, nearby[3 * k]);
+    builder.reconstruct(tee, nearby[3 * k + 1]);
+    if (!elbow.valid || !tee.valid) return;
+    // Its bend was seen (a leg beside the main starts where a short-radius elbow's would: its
+    // points are looked for there).
+    Hypothesis assumed = elbow;
+    if (candidate.beside) assumed.bendRadius = kShortElbowRadii * candidate.end.radius;
+    if (!bendSeen(assumed, pipes[static_cast<std::size_t>(candidate.end.pipe)])) return;
+    PipeSegment& stretch = between[k];
+    stretch = candidate.leg;
+    stretch.start = elbow.newB;
+    if ((stretch.end - stretch.start).dot(unitAxis(candidate.leg)) < kSectionLength) return;
+    coverage[k] = builder.straightCoverage(stretch.start, stretch.end, stretch.radius, nearby[3 * k + 2], stretch.inliers);
+    const auto inTheClear = [&](const std::optional<PipeSegment>& piece, const std::vector<std::uint32_t>& points) {
+      return !piece || nothingInTheWay(input.cloud, *piece, {candidate.end.pipe, candidate.main}, pipes, params, points);
+    };
+    // (The main's own surface, where the leg meets it, stands in no leg's way.)
+    PipeSegment clearOfMain = stretch;
+    clearOfMain.end -= params.supportDistance * unitAxis(candidate.leg);
+    viable[k] = coverage[k] > 0.0 && inTheClear(stretchBeyond(candidate.end, elbow.newA), nearby[3 * k]) &&
+                inTheClear(clearOfMain, nearby[3 * k + 2]);
+  });
+
+  std::vector<std::size_t> order;
+  for (std::size_t k = 0; k < candidates.size(); ++k) {
+    if (viable[k]) order.push_back(k);
+  }
+  const auto support = [&](std::size_t k) { return std::min(joints[k][0].confidence, joints[k][1].confidence); };
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return support(x) > support(y); });
+  MovedEnds movedEnds(augmented);
+  for (std::size_t h : resolution.chosen) {
+    if (resolution.hypotheses[h].type == JointType::Elbow) movedEnds.move(resolution.hypotheses[h]);
+  }
+  auto& takenBy = resolution.takenBy;
+  for (std::size_t k : order) {
+    const Candidate& candidate = candidates[k];
+    if (takenBy[static_cast<std::size_t>(candidate.end.key())] >= 0 || !movedEnds.leaveLength(joints[k][0]) ||
+        cutsAnotherPipe(between[k], {}, chosenLegs, params)) {
+      continue;
+    }
+    const int pipe = static_cast<int>(pipes.size() + chosenLegs.size());
+    takenBy.resize(2 * static_cast<std::size_t>(pipe + 1), -1);
+    resolution.arcPieces.push_back(0);
+    movedEnds.move(joints[k][0]);
+    for (Hypothesis& joint : joints[k]) {
+      for (PipeEnd* end : {&joint.a, &joint.b}) {
+        if (end->pipe == legPipe(k)) end->pipe = pipe;
+      }
+      joint.confidence = std::min(joint.confidence, coverage[k]);
+      const auto index = static_cast<int>(resolution.hypotheses.size());
+      takenBy[static_cast<std::size_t>(joint.a.key())] = index;
+      if (joint.type == JointType::Elbow) takenBy[static_cast<std::size_t>(joint.b.key())] = index;
+      resolution.chosen.push_back(resolution.hypotheses.size());
+      resolution.hypotheses.push_back(std::move(joint));
+    }
+    PipeSegment chosen = candidate.leg;
+    chosen.confidence = coverage[k];
+    chosen.inliers = std::move(between[k].inliers);
+    chosenLegs.push_back(std::move(chosen));
+    ++resolution.diagnostics.hiddenBranches;
   }
   return chosenLegs;
 }
@@ -2762,6 +2942,9 @@ JoinedOnce joinOnce(const JointsInput& input, const JointsParams& params, Progre
   const std::vector<PipeSegment> legsBetweenBends =
       joinSeenBends({input.cloud, pipes}, params, explained, cellSize, resolution);
   pipes.insert(pipes.end(), legsBetweenBends.begin(), legsBetweenBends.end());
+  const std::vector<PipeSegment> hiddenBranches =
+      joinHiddenBranches({input.cloud, pipes}, params, explained, cellSize, resolution);
+  pipes.insert(pipes.end(), hiddenBranches.begin(), hiddenBranches.end());
   progress.report("joints", 0.8);
 
   JoinedOnce joined;
