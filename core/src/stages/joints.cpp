@@ -2514,17 +2514,19 @@ struct SquareLeg {
   bool mayBeHidden = false;  // The ends' lines pass square and their pipes are alike: no bend need be seen.
 };
 
+/// Whether `axis` runs along one of `directions` within kSquareLegDirectionDeg.
+bool alongOneOf(const std::vector<Eigen::Vector3d>& directions, const Eigen::Vector3d& axis) {
+  return std::any_of(directions.begin(), directions.end(), [&](const Eigen::Vector3d& direction) {
+    return std::fabs(direction.dot(axis)) >= std::cos(radians(kSquareLegDirectionDeg));
+  });
+}
+
 /// The legs that may join pairs of the free `ends`: where two ends' lines pass each other askew
 /// and near square, their common perpendicular, when it runs along one of the network's
 /// `directions`, is long enough for an elbow at each corner and no longer than a completion, and
 /// each corner lies on its end's line within the search distance ahead of it.
 std::vector<SquareLeg> squareLegCandidates(const std::vector<PipeEnd>& ends, const std::vector<Eigen::Vector3d>& directions,
                                            const JointsParams& params, const JointBuilder& builder) {
-  const auto alongNetwork = [&](const Eigen::Vector3d& axis) {
-    return std::any_of(directions.begin(), directions.end(), [&](const Eigen::Vector3d& direction) {
-      return std::fabs(direction.dot(axis)) >= std::cos(radians(kSquareLegDirectionDeg));
-    });
-  };
   // Ahead of the end, or behind it by as much as a pipe fitted into a square elbow overshoots the
   // corner (see tryEndPair).
   const auto cornerInReach = [&](const PipeEnd& end, double along) {
@@ -2549,7 +2551,7 @@ std::vector<SquareLeg> squareLegCandidates(const std::vector<PipeEnd>& ends, con
     const double length = (cornerB - cornerA).norm();
     const double radius = 0.5 * (a.radius + b.radius);
     if (length < 2.0 * params.minBendRadii * radius + kSectionLength || length > params.maxCompletionLength ||
-        !alongNetwork((cornerB - cornerA) / length)) {
+        !alongOneOf(directions, (cornerB - cornerA) / length)) {
       continue;
     }
     SquareLeg& leg = legs.emplace_back();
@@ -2716,11 +2718,6 @@ std::vector<PipeSegment> joinHiddenBranches(const JointsInput& input, const Join
   const auto& pipes = input.pipes;
   const JointBuilder searching(input, params, explained);
   const std::vector<Eigen::Vector3d> directions = networkDirections(pipes);
-  const auto alongNetwork = [&](const Eigen::Vector3d& axis) {
-    return std::any_of(directions.begin(), directions.end(), [&](const Eigen::Vector3d& direction) {
-      return std::fabs(direction.dot(axis)) >= std::cos(radians(kSquareLegDirectionDeg));
-    });
-  };
   struct Candidate {
     PipeEnd end;
     int main = -1;
@@ -2760,7 +2757,7 @@ std::vector<PipeSegment> joinHiddenBranches(const JointsInput& input, const Join
       const Eigen::Vector3d foot = mainPipe.start + alongMain * mainAxis;
       const double length = (foot - corner).norm();
       if (length < params.minBendRadii * end.radius + mainPipe.radius + kSectionLength ||
-          length > params.maxCompletionLength + mainPipe.radius || !alongNetwork((foot - corner) / length)) {
+          length > params.maxCompletionLength + mainPipe.radius || !alongOneOf(directions, (foot - corner) / length)) {
         continue;
       }
       Candidate& candidate = candidates.emplace_back();
