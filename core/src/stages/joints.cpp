@@ -2574,6 +2574,42 @@ bool bendSeen(const Hypothesis& elbow, const PipeSegment& pipe) {
          static_cast<double>(elbow.supportPoints.size()) >= kMaxBendlessSupport * expected;
 }
 
+/// The spheres whose points a leg's two joints and the leg itself are built with, appended to
+/// `spheres`: each joint's (an empty one where the joints could not be made), then one around the leg.
+void addLegSpheres(const std::vector<Hypothesis>& joints, const PipeSegment& leg,
+                   std::vector<std::pair<Eigen::Vector3d, double>>& spheres) {
+  for (std::size_t j = 0; j < 2; ++j) {
+    spheres.emplace_back(joints.empty() ? leg.start : joints[j].center, joints.empty() ? 0.0 : joints[j].reach);
+  }
+  spheres.emplace_back(0.5 * (leg.start + leg.end), 0.5 * (leg.end - leg.start).norm() + 2.0 * leg.radius);
+}
+
+/// Adds a chosen leg's `joints` to `resolution` (elbows moving their ends in `movedEnds`), their
+/// ends on the candidate pipe `candidatePipe` now on the leg, which goes after the `inputPipes`
+/// and the legs chosen before it; their confidence is capped at the share of the leg seen.
+void adoptLeg(std::vector<Hypothesis>& joints, int candidatePipe, PipeSegment leg, double coverage,
+              std::size_t inputPipes, MovedEnds& movedEnds, Resolution& resolution,
+              std::vector<PipeSegment>& chosenLegs) {
+  const int pipe = static_cast<int>(inputPipes + chosenLegs.size());
+  auto& takenBy = resolution.takenBy;
+  takenBy.resize(2 * static_cast<std::size_t>(pipe + 1), -1);
+  resolution.arcPieces.push_back(0);
+  for (Hypothesis& joint : joints) {
+    if (joint.type == JointType::Elbow) movedEnds.move(joint);
+    for (PipeEnd* end : {&joint.a, &joint.b}) {
+      if (end->pipe == candidatePipe) end->pipe = pipe;
+    }
+    joint.confidence = std::min(joint.confidence, coverage);
+    const auto index = static_cast<int>(resolution.hypotheses.size());
+    takenBy[static_cast<std::size_t>(joint.a.key())] = index;
+    if (joint.type != JointType::Tee) takenBy[static_cast<std::size_t>(joint.b.key())] = index;
+    resolution.chosen.push_back(resolution.hypotheses.size());
+    resolution.hypotheses.push_back(std::move(joint));
+  }
+  leg.confidence = coverage;
+  chosenLegs.push_back(std::move(leg));
+}
+
 /// Legs between two seen bends. Two pipes may each be seen turning square off their ends, one
 /// towards the other's line, while the leg between the bends holds too few points for any
 /// completion (a thin or far leg, or one mostly in shadow). After the hidden corners, two ends
@@ -2616,12 +2652,7 @@ std::vector<PipeSegment> joinSeenBends(const JointsInput& input, const JointsPar
     if (made.size() == 2 && made[0].type == JointType::Elbow && made[1].type == JointType::Elbow) {
       elbows[k] = std::move(made);
     }
-    for (std::size_t j = 0; j < 2; ++j) {
-      spheres.emplace_back(elbows[k].empty() ? leg.pipe.start : elbows[k][j].center,
-                           elbows[k].empty() ? 0.0 : elbows[k][j].reach);
-    }
-    spheres.emplace_back(0.5 * (leg.pipe.start + leg.pipe.end),
-                         0.5 * (leg.pipe.end - leg.pipe.start).norm() + 2.0 * leg.pipe.radius);
+    addLegSpheres(elbows[k], leg.pipe, spheres);
   }
   const auto nearby = pointsInSpheres(input.cloud, spheres, cellSize, [](std::size_t) { return true; });
 
@@ -2673,24 +2704,9 @@ std::vector<PipeSegment> joinSeenBends(const JointsInput& input, const JointsPar
         cutsAnotherPipe(between[k], {}, chosenLegs, params)) {
       continue;
     }
-    const int pipe = static_cast<int>(pipes.size() + chosenLegs.size());
-    takenBy.resize(2 * static_cast<std::size_t>(pipe + 1), -1);
-    resolution.arcPieces.push_back(0);
-    for (Hypothesis& elbow : elbows[k]) {
-      movedEnds.move(elbow);
-      for (PipeEnd* end : {&elbow.a, &elbow.b}) {
-        if (end->pipe == legPipe(k)) end->pipe = pipe;
-      }
-      elbow.confidence = std::min(elbow.confidence, coverage[k]);
-      takenBy[static_cast<std::size_t>(elbow.a.key())] = takenBy[static_cast<std::size_t>(elbow.b.key())] =
-          static_cast<int>(resolution.hypotheses.size());
-      resolution.chosen.push_back(resolution.hypotheses.size());
-      resolution.hypotheses.push_back(std::move(elbow));
-    }
     PipeSegment chosen = leg.pipe;
-    chosen.confidence = coverage[k];
     chosen.inliers = std::move(between[k].inliers);
-    chosenLegs.push_back(std::move(chosen));
+    adoptLeg(elbows[k], legPipe(k), std::move(chosen), coverage[k], pipes.size(), movedEnds, resolution, chosenLegs);
     ++(hidden[k] ? resolution.diagnostics.hiddenLegs : resolution.diagnostics.legsBetweenBends);
   }
   return chosenLegs;
@@ -2789,12 +2805,7 @@ std::vector<PipeSegment> joinHiddenBranches(const JointsInput& input, const Join
     if (made.size() == 2 && made[0].type == JointType::Elbow && made[1].type == JointType::Tee) {
       joints[k] = std::move(made);
     }
-    for (std::size_t j = 0; j < 2; ++j) {
-      spheres.emplace_back(joints[k].empty() ? candidate.leg.start : joints[k][j].center,
-                           joints[k].empty() ? 0.0 : joints[k][j].reach);
-    }
-    spheres.emplace_back(0.5 * (candidate.leg.start + candidate.leg.end),
-                         0.5 * (candidate.leg.end - candidate.leg.start).norm() + 2.0 * candidate.leg.radius);
+    addLegSpheres(joints[k], candidate.leg, spheres);
   }
   const auto nearby = pointsInSpheres(input.cloud, spheres, cellSize, [](std::size_t) { return true; });
 
@@ -2846,25 +2857,9 @@ std::vector<PipeSegment> joinHiddenBranches(const JointsInput& input, const Join
         cutsAnotherPipe(between[k], {}, chosenLegs, params)) {
       continue;
     }
-    const int pipe = static_cast<int>(pipes.size() + chosenLegs.size());
-    takenBy.resize(2 * static_cast<std::size_t>(pipe + 1), -1);
-    resolution.arcPieces.push_back(0);
-    movedEnds.move(joints[k][0]);
-    for (Hypothesis& joint : joints[k]) {
-      for (PipeEnd* end : {&joint.a, &joint.b}) {
-        if (end->pipe == legPipe(k)) end->pipe = pipe;
-      }
-      joint.confidence = std::min(joint.confidence, coverage[k]);
-      const auto index = static_cast<int>(resolution.hypotheses.size());
-      takenBy[static_cast<std::size_t>(joint.a.key())] = index;
-      if (joint.type == JointType::Elbow) takenBy[static_cast<std::size_t>(joint.b.key())] = index;
-      resolution.chosen.push_back(resolution.hypotheses.size());
-      resolution.hypotheses.push_back(std::move(joint));
-    }
     PipeSegment chosen = candidate.leg;
-    chosen.confidence = coverage[k];
     chosen.inliers = std::move(between[k].inliers);
-    chosenLegs.push_back(std::move(chosen));
+    adoptLeg(joints[k], legPipe(k), std::move(chosen), coverage[k], pipes.size(), movedEnds, resolution, chosenLegs);
     ++resolution.diagnostics.hiddenBranches;
   }
   return chosenLegs;
