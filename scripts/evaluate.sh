@@ -2,10 +2,13 @@
 # Reconstructs generated scenes over several seeds and prints the accuracy of each and the mean.
 #   scripts/evaluate.sh [--preset small] [--seeds "1 2 3"] [--noise M] [--outliers F]
 #                       [--stations K] [--pipes-only] [--until merge|joints] [--set key=value]...
-#                       [--joints]
+#                       [--joints] [--runs N]
 # --pipes-only compares only straight pipes (the pipe-axis figures before joints); --until merge
 # stops the reconstruction before the joints stage (the same pipes, no joints); --joints also lists,
 # seed by seed, every truth elbow and tee missed and every spurious joint (piperun eval --joints).
+# --runs N reconstructs each scene N times, with the pipeline seeds seed, seed + 100, … (the random
+# draws of directions and placement change, the scene does not): the figures then move by a few
+# joints from run to run (docs/QUALITY.md), and each run's totals are printed with their mean.
 # Needs a build (scripts/build.sh). Prints one line per seed, then
 #   mean: precision=… recall=… f1=… radius_err_mm=… (median of the seeds' medians)
 #   observable: share=… recall_observable=… (the share of the truth the scan shows, and the recall
@@ -22,6 +25,7 @@ stations=0
 sets=()
 eval_flags=()
 list_joints=0
+runs=1
 while [ $# -gt 0 ]; do
   case "$1" in
     --preset) preset=$2; shift 2 ;;
@@ -33,6 +37,7 @@ while [ $# -gt 0 ]; do
     --until) sets+=(--until "$2"); shift 2 ;;
     --pipes-only) eval_flags+=(--pipes-only); shift ;;
     --joints) list_joints=1; shift ;;
+    --runs) runs=$2; shift 2 ;;
     *) echo "evaluate.sh: unknown option $1" >&2; exit 1 ;;
   esac
 done
@@ -41,20 +46,26 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 results="$work/results.txt"
 : >"$results"
+case "$runs" in '' | *[!0-9]* | 0) echo "evaluate.sh: --runs needs a positive count" >&2; exit 1 ;; esac
 for seed in $seeds; do
   "$PIPERUN" -q generate --preset "$preset" --seed "$seed" --noise "$noise" --outliers "$outliers" \
     --stations "$stations" --labels -o "$work/scene.ply" --truth "$work/truth.json" >/dev/null
-  start=$(date +%s.%N)
-  "$PIPERUN" -q reconstruct "$work/scene.ply" -o "$work/net.json" --seed "$seed" "${sets[@]}" >/dev/null
-  end=$(date +%s.%N)
-  "$PIPERUN" eval "${eval_flags[@]}" --joints --scan "$work/scene.ply" "$work/truth.json" "$work/net.json" >"$work/eval.txt"
-  line=$(tail -1 "$work/eval.txt")
-  if [ "$list_joints" -eq 1 ]; then
-    grep -E '^(joint .* missed|spurious )' "$work/eval.txt" | sed "s/^/seed=$seed /" || true
-  fi
-  seconds=$(awk -v a="$start" -v b="$end" 'BEGIN { printf "%.2f", b - a }')
-  echo "seed=$seed $line seconds=$seconds"
-  echo "$line seconds=$seconds" >>"$results"
+  for ((run = 0; run < runs; ++run)); do
+    pipeline_seed=$((seed + 100 * run))
+    label="seed=$seed"
+    [ "$runs" -gt 1 ] && label="$label run=$run pipeline_seed=$pipeline_seed"
+    start=$(date +%s.%N)
+    "$PIPERUN" -q reconstruct "$work/scene.ply" -o "$work/net.json" --seed "$pipeline_seed" "${sets[@]}" >/dev/null
+    end=$(date +%s.%N)
+    "$PIPERUN" eval "${eval_flags[@]}" --joints --scan "$work/scene.ply" "$work/truth.json" "$work/net.json" >"$work/eval.txt"
+    line=$(tail -1 "$work/eval.txt")
+    if [ "$list_joints" -eq 1 ]; then
+      grep -E '^(joint .* missed|spurious )' "$work/eval.txt" | sed "s/^/$label /" || true
+    fi
+    seconds=$(awk -v a="$start" -v b="$end" 'BEGIN { printf "%.2f", b - a }')
+    echo "$label $line seconds=$seconds"
+    echo "run=$run $line seconds=$seconds" >>"$results"
+  done
 done
 field() { sed -E "s/.*[[:space:]]$1=([-0-9.]+).*/\1/;s/^$1=([-0-9.]+).*/\1/" "$results"; }
 mean() { field "$1" | awk '{ sum += $1 } END { printf "%.3f", sum / NR }'; }
@@ -70,4 +81,17 @@ median_bend=$(paste -d' ' <(field bend_radius_err) <(sed -E 's/.*elbows=([0-9]+)
 if [ ${#eval_flags[@]} -eq 0 ]; then
   echo "joints: elbows=$(total elbows) tees=$(total tees) spurious_joints=$(total spurious_joints) bend_radius_err=$median_bend"
   echo "observable joints: elbows=$(total observable_elbows) tees=$(total observable_tees)"
+  if [ "$runs" -gt 1 ]; then
+    # Each run's totals over the scenes, then their mean per run (the spread is the pipeline's
+    # sensitivity to its random draws).
+    all="$results"
+    for ((run = 0; run < runs; ++run)); do
+      results="$work/run$run.txt"
+      grep "^run=$run " "$all" >"$results"
+      echo "run $run: elbows=$(total elbows) tees=$(total tees) spurious_joints=$(total spurious_joints) f1=$(mean f1)"
+    done
+    results="$all"
+    per_run() { sed -E "s/.*[[:space:]]$1=([0-9]+)\/([0-9]+).*/\1 \2/" "$results" | awk -v runs="$runs" '{ a += $1; b += $2 } END { printf "%.1f/%d", a / runs, b / runs }'; }
+    echo "mean of $runs runs: elbows=$(per_run elbows) tees=$(per_run tees) spurious_joints=$(per_run spurious_joints) f1=$(mean f1)"
+  fi
 fi
