@@ -71,7 +71,7 @@ field() { sed -E "s/.*[[:space:]]$1=([-0-9.]+).*/\1/;s/^$1=([-0-9.]+).*/\1/" "$r
 mean() { field "$1" | awk '{ sum += $1 } END { printf "%.3f", sum / NR }'; }
 # Median of the seeds' median radius errors (mawk has no sort, so sort(1) orders them).
 median_radius=$(field radius_err_mm | sort -n | awk '{ v[NR] = $1 } END { printf "%.1f", NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }')
-echo "mean: precision=$(mean precision) recall=$(mean recall) f1=$(mean f1) radius_err_mm=$median_radius seconds=$(mean seconds) seeds=$(wc -l <"$results")"
+echo "mean: precision=$(mean precision) recall=$(mean recall) f1=$(mean f1) radius_err_mm=$median_radius seconds=$(mean seconds) seeds=$(( $(wc -l <"$results") / runs ))$([ "$runs" -gt 1 ] && echo " runs=$runs")"
 echo "observable: share=$(mean observable) recall_observable=$(mean recall_observable)"
 # Joint totals over the seeds ("found/truth"), and the median of the seeds' bend-radius errors
 # (seeds without a matched elbow left out).
