@@ -211,6 +211,19 @@ case "$CASE" in
     run 0 export "$WORK/n.json" -o "$WORK/n.obj"
     cmp -s "$WORK/r.obj" "$WORK/n.obj" || fail "reconstruct --export differs from export of the saved network"
     ;;
+  evaluate-runs)
+    # scripts/evaluate.sh --runs: each scene under several pipeline seeds, each run's totals and their mean.
+    script="$DOCS/../scripts/evaluate.sh"
+    OUT=$(PIPERUN="$PIPERUN" bash "$script" --seeds 4 --runs 2 2>&1) || fail "evaluate.sh --runs 2 failed: $OUT"
+    expect_out "^seed=4 run=0 pipeline_seed=4 precision="
+    expect_out "^seed=4 run=1 pipeline_seed=104 precision="
+    expect_out "^mean: .* seeds=1 runs=2$"
+    expect_out "^run 0: elbows=[0-9]+/[0-9]+ tees=[0-9]+/[0-9]+ spurious_joints=[0-9]+/[0-9]+ f1=[0-9.]+$"
+    expect_out "^run 1: elbows=[0-9]+/[0-9]+ "
+    expect_out "^mean of 2 runs: elbows=[0-9]+\.[0-9]/[0-9]+ tees=[0-9]+\.[0-9]/[0-9]+ spurious_joints=[0-9]+\.[0-9]/[0-9]+ f1=[0-9.]+$"
+    OUT=$(PIPERUN="$PIPERUN" bash "$script" --seeds 4 --runs 0 2>&1) && fail "evaluate.sh took --runs 0: $OUT"
+    expect_out "needs a positive count"
+    ;;
   *)
     fail "unknown case"
     ;;
