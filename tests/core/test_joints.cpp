@@ -30,6 +30,7 @@ class ConstructedScene {
     segment.end = end;
     segment.radius = radius;
     segment.confidence = 1.0;
+    segment.rms = fitRms();
     const int steps = static_cast<int>((end - start).norm() / 0.005);
     for (int k = 0; k <= steps; ++k) {
       const Eigen::Vector3d center = start + (end - start) * (static_cast<double>(k) / steps);
@@ -58,6 +59,7 @@ class ConstructedScene {
     segment.end = end;
     segment.radius = radius;
     segment.confidence = 1.0;
+    segment.rms = fitRms();
     const int steps = static_cast<int>((end - start).norm() / step);
     for (int k = 0; k <= steps; ++k) {
       const Eigen::Vector3d center = start + (end - start) * (static_cast<double>(k) / steps);
@@ -106,6 +108,7 @@ class ConstructedScene {
     OfFaces,         ///< Each face's own.
     Rounded,         ///< Away from the post's axis, as over neighbourhoods wider than a thin post's faces.
     TowardsScanner,  ///< All towards a far scanner, as on a thin post seen from afar.
+    Scattered,       ///< Level, at angles spread all round, as over neighbourhoods spanning faces and edges.
   };
 
   /// The faces of a vertical square post with the given outward normals (the ones a scanner sees).
@@ -118,9 +121,12 @@ class ConstructedScene {
       for (double z = bottom; z <= top; z += 0.005) {
         for (double across = -half; across <= half; across += 0.005) {
           const Eigen::Vector3d fromAxis = half * normal + across * side;
-          addPoint(Eigen::Vector3d(x, y, z) + fromAxis, estimated == PostNormals::Rounded          ? fromAxis.normalized()
-                                                        : estimated == PostNormals::TowardsScanner ? towardsScanner
-                                                                                                   : normal);
+          const double scattered = 2.39996 * static_cast<double>(cloud_.positions.size());  // golden angle steps
+          addPoint(Eigen::Vector3d(x, y, z) + fromAxis,
+                   estimated == PostNormals::Rounded          ? fromAxis.normalized()
+                   : estimated == PostNormals::TowardsScanner ? towardsScanner
+                   : estimated == PostNormals::Scattered      ? Eigen::Vector3d(std::cos(scattered), std::sin(scattered), 0.0)
+                                                              : normal);
         }
       }
     }
@@ -180,6 +186,7 @@ class ConstructedScene {
     segment.end = end;
     segment.radius = radius;
     segment.confidence = 1.0;
+    segment.rms = fitRms();
     const Eigen::Vector3d axis = (end - start).normalized();
     for (std::size_t i = 0; i < cloud_.positions.size(); ++i) {
       const Eigen::Vector3d fromStart = cloud_.positions[i].cast<double>() - start;
@@ -194,6 +201,16 @@ class ConstructedScene {
   }
 
   JointsResult connect(const JointsParams& params = {}) const { return connectPipes({cloud_, pipes_}, params); }
+  /// Adds the points of `other` (not its pipes).
+  void addPointsOf(const ConstructedScene& other) {
+    for (std::size_t i = 0; i < other.cloud_.positions.size(); ++i) {
+      cloud_.positions.push_back(other.cloud_.positions[i]);
+      cloud_.normals.push_back(other.cloud_.normals[i]);
+    }
+  }
+  /// The fit RMS a listed pipe gets: placement's over a scan of this noise (at least a clean scan's
+  /// 2 mm: the joints stage compares legs with it).
+  double fitRms() const { return std::max(noise_, 0.002); }
   std::vector<PipeSegment>& pipes() { return pipes_; }
   const PointCloud& cloud() const { return cloud_; }
 
@@ -1267,6 +1284,48 @@ TEST(Joints, ALegSeenInAFewScanColumnsWithLeaningNormalsIsCompleted) {
   expectUprightLegCompletedAtTheOrigin(scene.connect());
 }
 
+TEST(Joints, ALegWhoseNormalsAreSquareToItButPointAnywhereAroundItIsCompleted) {
+  // A 1.25" pipe comes along +x to a corner at the origin and rises (R = 2r) into a 60 cm leg seen
+  // in three scan columns 30° apart around it, a point every 2 cm: a sparse thin pipe's neighbourhoods run along it, so
+  // its normals lie square to it but 70° off the radial, turning column by column. They are taken
+  // on the surface because the leg's points sit on its circle as closely as the pipe's own fit;
+  // from a pipe whose fit RMS is unknown (0) nothing is completed.
+  const double r = 0.0211, R = 2.0 * r;
+  for (const bool knownNoise : {true, false}) {
+    ConstructedScene scene = cornerScene(r, R);
+    if (!knownNoise) {
+      for (PipeSegment& pipe : scene.pipes()) pipe.rms = 0.0;
+    }
+    scene.addScanColumns({0, 0, R}, {0, 0, R + 0.6}, r, -Eigen::Vector3d::UnitY(), {-30.0, 0.0, 30.0}, 70.0, 0.02);
+    const JointsResult result = scene.connect();
+    if (knownNoise) {
+      expectUprightLegCompletedAtTheOrigin(result);
+    } else {
+      EXPECT_EQ(result.diagnostics.completedPipes, 0u);
+    }
+  }
+}
+
+TEST(Joints, ALegTakenForSquareNormalsMustSitOnItsCircleAsCloselyAsAPipeDoes) {
+  // The leg of the test above, its points 5 mm off their places at random: no closer to its circle
+  // than a post's faces are to a rail-sized one, so normals square to it are no evidence. It is
+  // completed when its normals are radial, or when the pipe's own fit shows the same noise.
+  const double r = 0.0211, R = 2.0 * r;
+  for (const double lean : {70.0, 0.0}) {
+    ConstructedScene noisy(0.005);
+    noisy.addScanColumns({0, 0, R}, {0, 0, R + 0.6}, r, -Eigen::Vector3d::UnitY(), {-30.0, 0.0, 30.0}, lean, 0.02);
+    // The leg's points come from the noisy scene, the rest from the clean one.
+    ConstructedScene combined = cornerScene(r, R);
+    combined.addPointsOf(noisy);
+    const JointsResult result = combined.connect();
+    if (lean > 0.0) {
+      EXPECT_EQ(result.diagnostics.completedPipes, 0u) << "normals 70° off the radial";
+    } else {
+      expectUprightLegCompletedAtTheOrigin(result);
+    }
+  }
+}
+
 TEST(Joints, ALegSeenFromAfarCompletesFromItsCornerNotFromTheMirrorOne) {
   // A 4" pipe comes along +x to a corner at the origin and rises (R = 2r) into a leg seen from far
   // off along +x, towards the pipe's end, every normal towards the scanner. Only the column down
@@ -1508,20 +1567,22 @@ TEST(Joints, TwoRailsEndingAtASquarePostAreNoUTurn) {
   }
 }
 
-TEST(Joints, APostWithRoundedNormalsIsNotCompletedAsAPipe) {
+TEST(Joints, APostWithRoundedOrScatteredNormalsIsNotCompletedAsAPipe) {
   // A 4 cm square post seen across an edge, whose normals turn smoothly around it (as normals
-  // estimated over neighbourhoods as wide as the post do): neither a flat face nor two faces by its
-  // normals, and on the rail's radius on average (its faces run from 0.95 r to 1.34 r off its
-  // axis); but its faces lie inside the circle and its edge outside.
+  // estimated over neighbourhoods as wide as the post do), or lie level but point anywhere around
+  // it (as a sparse thin pipe's do): neither a flat face nor two faces by its normals, and on the
+  // rail's radius on average (its faces run from 0.95 r to 1.34 r off its axis); but its faces lie
+  // inside the circle and its edge outside.
   const double r = 0.0211;
-  ConstructedScene scene;
-  scene.addPipe({-1.5, 0, 1.1}, {-0.02, 0, 1.1}, r);
-  scene.addPostFaces(0.0, 0.0, 0.04, 0.0, 1.1 - r, {Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, -1, 0)},
-                     ConstructedScene::PostNormals::Rounded);
-  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
-  const JointsResult result = scene.connect();
-  EXPECT_EQ(result.diagnostics.completedPipes, 0u);
-  EXPECT_TRUE(result.joints.empty());
+  for (const auto normals : {ConstructedScene::PostNormals::Rounded, ConstructedScene::PostNormals::Scattered}) {
+    ConstructedScene scene;
+    scene.addPipe({-1.5, 0, 1.1}, {-0.02, 0, 1.1}, r);
+    scene.addPostFaces(0.0, 0.0, 0.04, 0.0, 1.1 - r, {Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, -1, 0)}, normals);
+    scene.addPipe({3, 0, 0}, {3, 0, 1.2}, r);
+    const JointsResult result = scene.connect();
+    EXPECT_EQ(result.diagnostics.completedPipes, 0u);
+    EXPECT_TRUE(result.joints.empty());
+  }
 }
 
 TEST(Joints, ASquarePostAtAPipeEndIsNotCompletedAsAPipe) {

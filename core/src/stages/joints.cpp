@@ -1009,7 +1009,7 @@ class Completer {
  public:
   /// `fromBends`: complete legs from their bends alone (see legBeyondBend), and no straight legs.
   Completer(const JointsInput& input, const JointsParams& params, const JointBuilder& builder, bool fromBends)
-      : input_(input), params_(params), builder_(builder), fromBends_(fromBends) {}
+      : input_(input), params_(params), builder_(builder), fromBends_(fromBends), scanNoise_(medianFitRms(input.pipes)) {}
 
   /// The radius of the sphere around an end that holds every point a completion may use.
   double reach(const PipeEnd& end) const {
@@ -1271,6 +1271,16 @@ class Completer {
   static constexpr int kMinSectorPoints = 5;            // Out-of-roundness over 10° sectors of this many points...
   static constexpr double kMaxOutOfRoundRadii = 0.02;   // ...may be this share of the radius...
   static constexpr double kMinOutOfRound = 0.0025;      // ...or this (m): a placed axis is a little off.
+  // Legs taken for normals square to their axis (see straightBeyond): a normal within this of square...
+  static constexpr double kSquareNormalAngleDeg = 10.0;
+  // ...and where more than this share of a leg's points were taken so, its band points' RMS off the
+  // circle at most this many times the scan's noise (the median fit RMS of its pipes, or the end's
+  // pipe's when lower) and this (m), and its out-of-roundness at most this (m). A rail-sized circle
+  // down a handrail's 5 cm square post has its faces 3.6-5.9 mm RMS off it and 2.0-2.4 mm out of round.
+  static constexpr double kMaxSquareNormalShare = 0.3;
+  static constexpr double kSquareNormalNoiseFactor = 1.75;
+  static constexpr double kMaxSquareNormalBandRms = 0.004;
+  static constexpr double kMaxSquareNormalOutOfRound = 0.0015;
   static constexpr double kMinRadiusTolerance = 0.0015;  // The mean offset of the points from the radius (m)...
   static constexpr double kRadiusToleranceRadii = 0.03;  // ...may be this share of the radius, or the above.
 
@@ -1299,6 +1309,7 @@ class Completer {
     std::size_t minPoints = 0;
     double minCoverage = 0.0;
     bool between = false;
+    double noise = 0.0;  // The scan's noise, when points with square normals count too (0: they do not).
   };
 
   /// A straight with a completion's window and the support it needs; the caller places it.
@@ -1571,12 +1582,28 @@ class Completer {
     return std::fabs(offsets.mean) <= tolerance;
   }
 
+  /// The completion of `end` along `along`: from its bend (see legBeyondBend) when completing from
+  /// bends, else a straight leg from points whose normals agree with its surface, and failing that
+  /// from points whose normals are square to its axis as well (see straightBeyond).
   std::optional<Completion> completeAlong(const PipeEnd& end, const Eigen::Vector3d& along,
                                           const std::vector<std::uint32_t>& nearby) const {
     const double cosine = end.outward.dot(along);
     const double bend = std::acos(std::clamp(cosine, -1.0, 1.0));
     if (bend < radians(params_.minCompletionBendDeg) || bend > radians(params_.maxElbowAngleDeg)) return std::nullopt;
     if (fromBends_) return legBeyondBend(end, along, bend, nearby);
+    auto completion = straightBeyond(end, along, nearby, false);
+    if (!completion) completion = straightBeyond(end, along, nearby, true);
+    return completion;
+  }
+
+  /// The straight leg of completeAlong. On a sparse thin pipe a point's neighbourhood runs along the
+  /// pipe, so its normal is square to the axis but may point anywhere around it: with
+  /// `squareNormals`, such points vote for the corner and count on the surface as well, and the leg
+  /// must then sit on its circle as closely as the scan's pipes do (see completeAt).
+  std::optional<Completion> straightBeyond(const PipeEnd& end, const Eigen::Vector3d& along,
+                                           const std::vector<std::uint32_t>& nearby, bool squareNormals) const {
+    const double cosine = end.outward.dot(along);
+    const double bend = std::acos(std::clamp(cosine, -1.0, 1.0));
     const double sine = std::sin(bend);
     // In the plane across `along`: `across` points from the end's line towards the corners, `aside`
     // is the bend plane's normal. The new pipe's axis passes at (t sin θ, 0) for a corner t past the end.
@@ -1605,7 +1632,9 @@ class Completer {
           continue;
         }
         const Eigen::Vector3d radial = (alpha - root) * across + c * aside;
-        if (normalAgrees(input_.cloud, i, radial / r, kCompletionNormalAngleDeg)) histogram.vote(corner);
+        if (normalAgrees(input_.cloud, i, radial / r, kCompletionNormalAngleDeg) || (squareNormals && squareTo(i, along))) {
+          histogram.vote(corner);
+        }
       }
     }
     // A column down the leg's front fits both roots with its normal, so it votes for a mirror corner
@@ -1618,6 +1647,8 @@ class Completer {
     straight.aside = aside;
     straight.radius = r;
     straight.firstAlong = firstAlong;
+    // The scan's noise, as its pipes' fits show it: a post taken for a pipe fits worse.
+    if (squareNormals) straight.noise = std::min(scanNoise_, input_.pipes[static_cast<std::size_t>(end.pipe)].rms);
     // Up to a short-radius elbow's tangent point (R = 2r, the tightest fitting) the bend may still
     // run, its torus inside the tube's start and outside it: no clutter is counted there.
     straight.clutterFrom = kShortElbowRadii * r * sine / (1.0 + cosine);
@@ -1952,6 +1983,7 @@ class Completer {
     std::vector<std::size_t> clutterBySection(sections, 0);
     // Every point within the band, whatever its normal: the whole arc the scanner saw.
     std::vector<std::vector<std::uint32_t>> bandBySection(sections);
+    std::vector<std::uint32_t> squareNormalPoints;  // On the surface by a normal square to the axis alone.
     // Sections behind the corner holding a point on the surface: a post the pipe ends at, or the
     // main of a tee, carries on through the corner.
     const double behindStart = straight.behindStart;
@@ -1965,8 +1997,10 @@ class Completer {
       const Eigen::Vector3d radial = d - distanceAlong * along;
       const double distance = radial.norm();
       const bool withinBand = std::fabs(distance - r) <= band;
-      const bool onSurface =
+      const bool radialNormal =
           withinBand && normalAgrees(input_.cloud, i, radial / std::max(distance, 1e-12), kCompletionNormalAngleDeg);
+      const bool squareNormal = withinBand && !radialNormal && straight.noise > 0.0 && squareTo(i, along);
+      const bool onSurface = radialNormal || squareNormal;
       if (isBehind) {
         if (onSurface) behind[static_cast<std::size_t>(pastBehindStart / kSectionLength)] = 1;
         continue;
@@ -1981,7 +2015,9 @@ class Completer {
       }
       if (withinBand) bandBySection[section].push_back(i);
       if (onSurface) bySection[section].push_back(i);
+      if (squareNormal) squareNormalPoints.push_back(i);
     }
+    std::sort(squareNormalPoints.begin(), squareNormalPoints.end());
     const auto occupied = [&](std::size_t k) { return !bySection[k].empty(); };
     std::size_t first = 0;
     while (first < sections && !occupied(first)) ++first;
@@ -2024,8 +2060,17 @@ class Completer {
     // the surface are the rays down its front, which the face of a post matches as well.
     if (!onRadius(onSurface, r) || !onRadius(overBand, r)) return std::nullopt;
     // ...and around it: a square post's faces sit inside the circle and its corners outside.
-    if (outOfRoundness(pipe.inliers, corner, along, across, aside, r) >
-        std::max(kMinOutOfRound, kMaxOutOfRoundRadii * r)) {
+    const double outOfRound = outOfRoundness(pipe.inliers, corner, along, across, aside, r);
+    if (outOfRound > std::max(kMinOutOfRound, kMaxOutOfRoundRadii * r)) return std::nullopt;
+    // A leg taken largely for normals square to its axis (a sparse thin pipe's, whose neighbourhoods
+    // run along it) must sit on its circle as closely as the scan's pipes do: a post's faces give
+    // such normals too, and sit off the circle. On a scan noisier than a post's faces are off the
+    // circle, nothing tells them apart: the cap refuses such legs.
+    if (std::count_if(pipe.inliers.begin(), pipe.inliers.end(), [&](std::uint32_t i) {
+          return std::binary_search(squareNormalPoints.begin(), squareNormalPoints.end(), i);
+        }) > kMaxSquareNormalShare * static_cast<double>(pipe.inliers.size()) &&
+        (overBand.rms > std::min(kSquareNormalNoiseFactor * straight.noise, kMaxSquareNormalBandRms) ||
+         outOfRound > kMaxSquareNormalOutOfRound)) {
       return std::nullopt;
     }
     // A flat face: normals that keep one direction and points in the band that lie on a line across
@@ -2058,10 +2103,26 @@ class Completer {
     return pipe;
   }
 
+  /// Whether point i's normal is within kSquareNormalAngleDeg of square to `axis`.
+  bool squareTo(std::uint32_t i, const Eigen::Vector3d& axis) const {
+    return !input_.cloud.normals.empty() &&
+           std::fabs(input_.cloud.normals[i].cast<double>().dot(axis)) < std::sin(radians(kSquareNormalAngleDeg));
+  }
+
+  /// The median fit RMS of `pipes` (0 when there are none).
+  static double medianFitRms(const std::vector<PipeSegment>& pipes) {
+    std::vector<double> rms;
+    for (const PipeSegment& pipe : pipes) rms.push_back(pipe.rms);
+    if (rms.empty()) return 0.0;
+    std::nth_element(rms.begin(), rms.begin() + static_cast<std::ptrdiff_t>(rms.size() / 2), rms.end());
+    return rms[rms.size() / 2];
+  }
+
   const JointsInput& input_;
   const JointsParams& params_;
   const JointBuilder& builder_;
   bool fromBends_;
+  double scanNoise_;
 };
 
 /// The pairs (e, f), e < f, of `ends` of different pipes whose points lie within reaches[e] of each
