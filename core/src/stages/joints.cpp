@@ -2671,6 +2671,35 @@ void adoptLeg(std::vector<Hypothesis>& joints, int candidatePipe, PipeSegment le
   chosenLegs.push_back(std::move(leg));
 }
 
+/// The joints at both ends of each candidate leg (the legs follow the first `inputPipes` of
+/// `augmented`): `make(k, legFrom, legTo, made)` tries them with the leg's own ends marked unseen (it
+/// is drawn between corners, not seen up to them), and they are kept when they come out as `first`
+/// and `second`. Also the points near each leg's two joints and along it: three spheres a leg, as
+/// addLegSpheres gives them.
+struct LegJoints {
+  std::vector<std::vector<Hypothesis>> joints;
+  std::vector<std::vector<std::uint32_t>> nearby;
+};
+
+template <typename Make>
+LegJoints jointsAtLegEnds(const PointCloud& cloud, const std::vector<PipeSegment>& augmented, std::size_t inputPipes,
+                          JointType first, JointType second, double cellSize, Make&& make) {
+  LegJoints legs;
+  legs.joints.resize(augmented.size() - inputPipes);
+  std::vector<std::pair<Eigen::Vector3d, double>> spheres;
+  for (std::size_t k = 0; k < legs.joints.size(); ++k) {
+    const int legPipe = static_cast<int>(inputPipes + k);
+    PipeEnd legFrom = endOf(augmented, legPipe, 0), legTo = endOf(augmented, legPipe, 1);
+    legFrom.seenToEnd = legTo.seenToEnd = false;
+    std::vector<Hypothesis> made;
+    make(k, legFrom, legTo, made);
+    if (made.size() == 2 && made[0].type == first && made[1].type == second) legs.joints[k] = std::move(made);
+    addLegSpheres(legs.joints[k], augmented[static_cast<std::size_t>(legPipe)], spheres);
+  }
+  legs.nearby = pointsInSpheres(cloud, spheres, cellSize, [](std::size_t) { return true; });
+  return legs;
+}
+
 /// Legs between two seen bends. Two pipes may each be seen turning square off their ends, one
 /// towards the other's line, while the leg between the bends holds too few points for any
 /// completion (a thin or far leg, or one mostly in shadow). After the hidden corners, two ends
@@ -2701,21 +2730,14 @@ std::vector<PipeSegment> joinSeenBends(const JointsInput& input, const JointsPar
   const JointBuilder builder(augmentedInput, params, explained);
   const auto legPipe = [&](std::size_t k) { return static_cast<int>(pipes.size() + k); };
   // Per candidate: the elbow at `from`, then the one at `to`.
-  std::vector<std::vector<Hypothesis>> elbows(candidates.size());
-  std::vector<std::pair<Eigen::Vector3d, double>> spheres;  // Per candidate: the two elbows', the leg's.
-  for (std::size_t k = 0; k < candidates.size(); ++k) {
-    const SquareLeg& leg = candidates[k];
-    std::vector<Hypothesis> made;
-    PipeEnd legFrom = endOf(augmented, legPipe(k), 0), legTo = endOf(augmented, legPipe(k), 1);
-    legFrom.seenToEnd = legTo.seenToEnd = false;
-    builder.tryEndPair(leg.from, legFrom, made);
-    builder.tryEndPair(legTo, leg.to, made);
-    if (made.size() == 2 && made[0].type == JointType::Elbow && made[1].type == JointType::Elbow) {
-      elbows[k] = std::move(made);
-    }
-    addLegSpheres(elbows[k], leg.pipe, spheres);
-  }
-  const auto nearby = pointsInSpheres(input.cloud, spheres, cellSize, [](std::size_t) { return true; });
+  const auto tryJoints = [&](std::size_t k, const PipeEnd& legFrom, const PipeEnd& legTo, auto& made) {
+    builder.tryEndPair(candidates[k].from, legFrom, made);
+    builder.tryEndPair(legTo, candidates[k].to, made);
+  };
+  LegJoints legJoints =
+      jointsAtLegEnds(input.cloud, augmented, pipes.size(), JointType::Elbow, JointType::Elbow, cellSize, tryJoints);
+  std::vector<std::vector<Hypothesis>>& elbows = legJoints.joints;
+  const std::vector<std::vector<std::uint32_t>>& nearby = legJoints.nearby;
 
   // The leg between its tangent points, the share of its sections seen, and whether both bends
   // were seen and nothing stands in the way of what the elbows bridge.
@@ -2854,21 +2876,14 @@ std::vector<PipeSegment> joinHiddenBranches(const JointsInput& input, const Join
   const JointBuilder builder(augmentedInput, params, explained);
   const auto legPipe = [&](std::size_t k) { return static_cast<int>(pipes.size() + k); };
   // Per candidate: the elbow at the end, then the tee on the main.
-  std::vector<std::vector<Hypothesis>> joints(candidates.size());
-  std::vector<std::pair<Eigen::Vector3d, double>> spheres;  // Per candidate: the elbow's, the tee's, the leg's.
-  for (std::size_t k = 0; k < candidates.size(); ++k) {
-    const Candidate& candidate = candidates[k];
-    std::vector<Hypothesis> made;
-    PipeEnd legFrom = endOf(augmented, legPipe(k), 0), legTo = endOf(augmented, legPipe(k), 1);
-    legFrom.seenToEnd = legTo.seenToEnd = false;
-    builder.tryEndPair(candidate.end, legFrom, made);
-    builder.tryTee(legTo, candidate.main, made);
-    if (made.size() == 2 && made[0].type == JointType::Elbow && made[1].type == JointType::Tee) {
-      joints[k] = std::move(made);
-    }
-    addLegSpheres(joints[k], candidate.leg, spheres);
-  }
-  const auto nearby = pointsInSpheres(input.cloud, spheres, cellSize, [](std::size_t) { return true; });
+  const auto tryJoints = [&](std::size_t k, const PipeEnd& legFrom, const PipeEnd& legTo, auto& made) {
+    builder.tryEndPair(candidates[k].end, legFrom, made);
+    builder.tryTee(legTo, candidates[k].main, made);
+  };
+  LegJoints legJoints =
+      jointsAtLegEnds(input.cloud, augmented, pipes.size(), JointType::Elbow, JointType::Tee, cellSize, tryJoints);
+  std::vector<std::vector<Hypothesis>>& joints = legJoints.joints;
+  const std::vector<std::vector<std::uint32_t>>& nearby = legJoints.nearby;
 
   std::vector<PipeSegment> between(candidates.size());
   std::vector<double> coverage(candidates.size(), 0.0);
