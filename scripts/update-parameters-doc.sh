@@ -12,6 +12,13 @@ Every parameter of `piperun reconstruct`, with its default. Give them in a JSON 
 default document) or one at a time (`--set placement.max_radius=0.5`). Lengths are metres, angles
 degrees. The stage a parameter belongs to is the first one re-run when it changes.
 
+A value outside its range (the column below: `> 0` excludes 0, `[0, 90)` takes 0 but not 90) is
+refused with an error naming the key, before the scan is read; so are `placement.min_radius` not
+below `placement.max_radius`, `preprocess.tile_overlap` not below `preprocess.tile_size`,
+`joints.min_elbow_angle_deg` not below `joints.max_elbow_angle_deg` and `joints.min_bend_radii`
+above `joints.max_bend_radii`. The studio's `set` and `rerun` refuse them the same way and keep the
+parameters they had.
+
 HEADER
   ./build/app/piperun params --markdown
   cat <<'FOOTER'

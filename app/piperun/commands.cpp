@@ -363,6 +363,7 @@ int runReconstruct(const ReconstructOptions& options) {
   if (!options.paramsFile.empty()) params = readParams(options.paramsFile);
   for (const auto& assignment : options.assignments) setParam(params, assignment);
   if (options.seed >= 0) params.seed = static_cast<std::uint64_t>(options.seed);
+  validateParams(params);  // before reading what may be a large scan
   const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
   tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
 
@@ -495,10 +496,10 @@ int runParams(const ParamsOptions& options) {
   }
   const auto descriptions = describeParams();
   if (options.markdown) {
-    std::printf("| parameter | default | unit | meaning |\n| --- | --- | --- | --- |\n");
+    std::printf("| parameter | default | unit | range | meaning |\n| --- | --- | --- | --- | --- |\n");
     for (const auto& p : descriptions) {
-      std::printf("| `%s` | %s | %s | %s |\n", p.key.c_str(), p.defaultValue.c_str(), p.unit.c_str(),
-                  p.description.c_str());
+      std::printf("| `%s` | %s | %s | %s | %s |\n", p.key.c_str(), p.defaultValue.c_str(), p.unit.c_str(),
+                  p.range.c_str(), p.description.c_str());
     }
     return kExitOk;
   }
@@ -506,8 +507,9 @@ int runParams(const ParamsOptions& options) {
   for (const auto& p : descriptions) width = std::max(width, p.key.size() + p.defaultValue.size() + 3);
   for (const auto& p : descriptions) {
     const std::string head = p.key + " = " + p.defaultValue;
-    const std::string unit = p.unit.empty() ? "" : " [" + p.unit + "]";
-    std::printf("%-*s  %s%s\n", static_cast<int>(width), head.c_str(), p.description.c_str(), unit.c_str());
+    std::string suffix = p.unit.empty() ? "" : " [" + p.unit + "]";
+    if (!p.range.empty()) suffix += (p.range[0] == '>' ? "  (" : "  (in ") + p.range + ")";
+    std::printf("%-*s  %s%s\n", static_cast<int>(width), head.c_str(), p.description.c_str(), suffix.c_str());
   }
   return kExitOk;
 }

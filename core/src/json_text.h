@@ -22,6 +22,11 @@ Json parseJsonText(const std::string& text, const std::filesystem::path& source)
     if (const auto colon = message.find(": "); colon != std::string::npos) message = message.substr(colon + 2);
     // nlohmann counts bytes from 1; the other readers report 0-based offsets.
     throw InputError(source, byteLocation(error.byte > 0 ? error.byte - 1 : 0), "invalid JSON: " + message);
+  } catch (const typename Json::out_of_range& error) {
+    // A number beyond a double's range ("number overflow parsing '1e999'"); nlohmann gives no byte.
+    std::string message = error.what();
+    if (const auto bracket = message.find("] "); bracket != std::string::npos) message = message.substr(bracket + 2);
+    throw InputError(source, "", "invalid JSON: " + message);
   }
 }
 

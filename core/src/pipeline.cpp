@@ -67,9 +67,11 @@ std::optional<Stage> stageFromName(const std::string& name) {
 Pipeline::Pipeline(std::shared_ptr<const PointCloud> input, PipelineParams params)
     : input_(std::move(input)), params_(std::move(params)) {
   if (!input_) throw std::invalid_argument("Pipeline needs an input cloud");
+  validateParams(params_);
 }
 
 void Pipeline::setParams(const PipelineParams& params) {
+  validateParams(params);
   const auto changed = firstChangedStage(params_, params);
   params_ = params;
   if (changed) invalidate(*changed);

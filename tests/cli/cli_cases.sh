@@ -138,6 +138,8 @@ case "$CASE" in
   params)
     run 0 params
     expect_out "^placement.max_radius = "
+    expect_out "^placement.center_bandwidth = 0.01 .*\[m\]  \(> 0\)$"
+    expect_out "^directions.min_support = 0.02 .*  \(in \[0, 1\]\)$"
     run 0 params --json
     echo "$OUT" >"$WORK/defaults.json"
     run 0 params --markdown
@@ -149,6 +151,15 @@ case "$CASE" in
     expect_one_line_error "/placement/max_radios: unknown parameter"
     run 1 reconstruct "$DATA/pumpA_pump_station.pcd" -o "$WORK/n.json" --set placement.nothing=3
     expect_one_line_error "unknown parameter"
+    # Values outside a parameter's range, alone or against another, are refused before any work.
+    run 1 reconstruct "$DATA/pumpA_pump_station.pcd" -o "$WORK/n.json" --set placement.center_bandwidth=0
+    expect_one_line_error "placement.center_bandwidth must be > 0 m, not 0"
+    run 1 reconstruct "$DATA/pumpA_pump_station.pcd" -o "$WORK/n.json" --set placement.max_radius=0.01
+    expect_one_line_error "placement.min_radius \(0.012\) must be below placement.max_radius \(0.01\)"
+    printf '{"preprocess": {"tile_size": 0.01}}' >"$WORK/small-tiles.json"
+    run 2 reconstruct "$DATA/pumpA_pump_station.pcd" -o "$WORK/n.json" --params "$WORK/small-tiles.json"
+    expect_one_line_error "/preprocess/tile_size: must be >= 0.5 m, not 0.01"
+    [ -e "$WORK/n.json" ] && fail "a refused parameter still wrote a network"
     ;;
   reconstruct)
     run 0 generate --preset small --seed 2 --density 0.5 -o "$WORK/scene.ply" --truth "$WORK/truth.json"

@@ -155,6 +155,14 @@ TEST_F(EditReview, RunInHalvesCarriesTheReviewAsRunDoes) {
   const std::string edited = snapshot(project_.edits.network());
 
   EXPECT_FALSE(interpreter_->prepareRun("undo"));
+  try {
+    interpreter_->prepareRun("rerun placement max_radius=0.001");
+    FAIL() << "a radius range below min_radius was taken";
+  } catch (const CommandError& error) {
+    EXPECT_NE(std::string(error.what()).find("placement.min_radius (0.012) must be below"), std::string::npos)
+        << error.what();
+  }
+  EXPECT_EQ(pipeline_->params().placement.maxRadius, PipelineParams{}.placement.maxRadius);
   const auto placement = interpreter_->prepareRun("rerun placement min_candidates=41");
   ASSERT_TRUE(placement);
   EXPECT_EQ(placement->last, Stage::Placement);

@@ -60,6 +60,73 @@ TEST(Params, AssignmentsFromTheCommandLine) {
   EXPECT_THROW(setParam(params, "rounds"), std::invalid_argument);
 }
 
+TEST(Params, ValuesOutsideTheirRangeAreRefusedNamingTheKeyAndTheRange) {
+  PipelineParams params;
+  const auto refusal = [&](const std::string& assignment) -> std::string {
+    try {
+      setParam(params, assignment);
+    } catch (const std::invalid_argument& error) {
+      return error.what();
+    }
+    return "";
+  };
+  EXPECT_EQ(refusal("placement.center_bandwidth=0"), "parameter placement.center_bandwidth must be > 0 m, not 0");
+  EXPECT_EQ(params.placement.centerBandwidth, PipelineParams{}.placement.centerBandwidth);  // left as it was
+  EXPECT_EQ(refusal("directions.min_support=1.5"), "parameter directions.min_support must lie in [0, 1], not 1.5");
+  EXPECT_EQ(refusal("rounds=0"), "parameter rounds must be >= 1, not 0");
+  // Tiles of a few centimetres would run the per-tile stages practically forever.
+  EXPECT_NE(refusal("preprocess.tile_size=0.01").find(">= 0.5 m"), std::string::npos);
+  // Each end of a range is open or closed as documented.
+  EXPECT_EQ(refusal("directions.min_pair_angle_deg=0"), "");
+  EXPECT_NE(refusal("directions.min_pair_angle_deg=90"), "");
+  EXPECT_EQ(refusal("directions.bandwidth_deg=30"), "");
+  EXPECT_NE(refusal("directions.bandwidth_deg=0"), "");
+  // A number no double holds is no number.
+  EXPECT_NE(refusal("placement.min_radius=1e999").find("is not a number"), std::string::npos);
+  EXPECT_EQ(refusal("joints.accept_confidence=1.01"), "");  // every joint proposed, for review
+}
+
+TEST(Params, DocumentValuesOutsideTheirRangeNameTheirPlace) {
+  try {
+    paramsFromJson(R"({"placement": {"center_bandwidth": -0.01}})", "p.json");
+    FAIL();
+  } catch (const InputError& error) {
+    EXPECT_EQ(error.location(), "/placement/center_bandwidth");
+    EXPECT_NE(std::string(error.what()).find("must be > 0 m"), std::string::npos) << error.what();
+  }
+  EXPECT_THROW(paramsFromJson(R"({"placement": {"min_radius": 1e999}})", "p.json"), InputError);
+}
+
+TEST(Params, BoundsThatDependOnEachOtherAreCheckedTogether) {
+  EXPECT_NO_THROW(validateParams(PipelineParams{}));
+  PipelineParams params;
+  params.placement.minRadius = 0.5;
+  params.preprocess.tileOverlap = params.preprocess.tileSize;
+  params.joints.minBendRadii = 6.0;
+  params.joints.minElbowAngleDeg = params.joints.maxElbowAngleDeg;
+  params.extents.minArcDeg = -1.0;
+  try {
+    validateParams(params);
+    FAIL();
+  } catch (const std::invalid_argument& error) {
+    const std::string message = error.what();
+    EXPECT_NE(message.find("placement.min_radius (0.5) must be below placement.max_radius (0.35)"), std::string::npos);
+    EXPECT_NE(message.find("preprocess.tile_overlap (5) must be below preprocess.tile_size (5)"), std::string::npos);
+    EXPECT_NE(message.find("joints.min_bend_radii (6) must be at most joints.max_bend_radii (5)"), std::string::npos);
+    EXPECT_NE(message.find("joints.min_elbow_angle_deg (135) must be below"), std::string::npos);
+    EXPECT_NE(message.find("extents.min_arc_deg must lie in [0, 360] deg, not -1"), std::string::npos) << message;
+  }
+}
+
+TEST(Params, EveryNumberHasARangeAndEveryDefaultLiesInIt) {
+  for (const auto& p : describeParams()) {
+    const bool flag = p.defaultValue == "true" || p.defaultValue == "false";
+    // The seed takes any value; every other number is bounded somewhere.
+    EXPECT_EQ(p.range.empty(), flag || p.key == "seed") << p.key;
+  }
+  EXPECT_NO_THROW(validateParams(PipelineParams{}));
+}
+
 TEST(Params, EveryParameterIsDescribedOnce) {
   std::set<std::string> keys;
   for (const auto& p : describeParams()) {

@@ -55,6 +55,17 @@ TEST(Pipeline, ChangingAStageMarksItAndLaterStagesStale) {
   EXPECT_NE(pipeline.mergeResult(), nullptr);
 }
 
+TEST(Pipeline, RefusesParametersOutsideTheirRangesAndKeepsItsOwn) {
+  PipelineParams bad;
+  bad.placement.centerBandwidth = 0.0;
+  EXPECT_THROW(Pipeline(sceneCloud(), bad), std::invalid_argument);
+  Pipeline pipeline(sceneCloud());
+  pipeline.run(Progress::none(), Stage::Preprocess);
+  EXPECT_THROW(pipeline.setParams(bad), std::invalid_argument);
+  EXPECT_EQ(pipeline.params().placement.centerBandwidth, PipelineParams{}.placement.centerBandwidth);
+  EXPECT_TRUE(pipeline.isFresh(Stage::Preprocess));
+}
+
 TEST(Pipeline, JointsStageConnectsThePipesIntoRunsAndRerunsAlone) {
   Pipeline pipeline(sceneCloud());
   pipeline.run();

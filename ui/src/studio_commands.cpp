@@ -189,14 +189,12 @@ void Studio::Impl::registerCommands() {
                  if (!pipeline) throw CommandError("parameters belong to scans; this document is a network");
                  if (worker.joinable()) throw CommandError("a run is in progress (Esc cancels it)");
                  PipelineParams params = pipeline->params();
-                 for (const auto& assignment : args) {
-                   try {
-                     setParam(params, assignment);
-                   } catch (const std::exception& error) {
-                     throw CommandError(error.what());
-                   }
+                 try {
+                   for (const auto& assignment : args) setParam(params, assignment);
+                   pipeline->setParams(params);
+                 } catch (const std::exception& error) {
+                   throw CommandError(error.what());
                  }
-                 pipeline->setParams(params);
                  recordPipelineState(document.project(), *pipeline);
                  selectStage(selectedStage);
                  updateOverlays();

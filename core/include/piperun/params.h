@@ -14,6 +14,7 @@ struct ParamDescription {
   std::string key;           ///< "placement.maxRadius"
   std::string defaultValue;  ///< As JSON text.
   std::string unit;          ///< "m", "deg", "" ...
+  std::string range;         ///< The values accepted: "> 0", ">= 3", "[0, 1]", "(0, 30]"; empty for any.
   std::string description;   ///< One line.
 };
 
@@ -24,7 +25,8 @@ std::vector<ParamDescription> describeParams();
 std::string paramsToJson(const PipelineParams& params, int indent = 2);
 
 /// Reads a (possibly partial) parameter document on top of `base`: keys it leaves out keep their
-/// value from `base`. Unknown keys and values of the wrong type are InputErrors naming the key.
+/// value from `base`. Unknown keys, values of the wrong type and values outside a parameter's range
+/// are InputErrors naming the key.
 PipelineParams paramsFromJson(const std::string& text, const std::filesystem::path& source,
                               const PipelineParams& base = {});
 PipelineParams readParams(const std::filesystem::path& path, const PipelineParams& base = {});
@@ -34,7 +36,12 @@ PipelineParams readParams(const std::filesystem::path& path, const PipelineParam
 std::optional<Stage> firstChangedStage(const PipelineParams& a, const PipelineParams& b);
 
 /// Applies one "section.key=value" assignment (as typed on a command line or in a script);
-/// throws std::invalid_argument naming the key when it is unknown or the value does not parse.
+/// throws std::invalid_argument naming the key when it is unknown, the value does not parse or it
+/// lies outside the parameter's range (`params` is then left as it was).
 void setParam(PipelineParams& params, const std::string& assignment);
+
+/// Checks every parameter against its range and the pairs that bound each other (min_radius below
+/// max_radius, ...); throws std::invalid_argument naming every offending key.
+void validateParams(const PipelineParams& params);
 
 }  // namespace piperun
