@@ -669,6 +669,43 @@ TEST(Joints, ASquareCornerWithNoBendIsATeeWhoseMainWasSeenOnOneSide) {
   EXPECT_NEAR(elbow.joints[0].bendRadius, 2.0 * r, 0.1 * r);
 }
 
+TEST(Joints, AMainWhoseEndTurnsAtAnElbowIsNotCarriedOnPastItToATee) {
+  // Small seed 41: a riser turns at a seen elbow 1.1 m below a level pipe's end, which lies on the
+  // riser's line. The riser does not run on past its elbow, so the corner is no tee of it.
+  const double r = 0.05;
+  const auto scene = [&](bool riserTurns) {
+    ConstructedScene built;
+    built.addPipe({0, 0, -2.0}, {0, 0, -0.6}, r);  // The riser, its top end 0.6 m below the corner.
+    if (riserTurns) {
+      built.addBend({0, 0, -0.5}, Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitY(), 2.0 * r, r);
+      built.addPipe({0, 0.1, -0.5}, {0, 1.2, -0.5}, r);
+    }
+    built.addPipe({-1.2, 0, 0}, {-r, 0, 0}, r);  // The level pipe, its end at the riser's line.
+    return built;
+  };
+  const JointsResult turning = resolveOnly(scene(true));
+  ASSERT_EQ(turning.joints.size(), 1u);
+  EXPECT_EQ(turning.joints[0].type, JointType::Elbow);
+  EXPECT_EQ(turning.joints[0].pipeIds, (std::vector<int>{1, 2}));
+
+  // With its top end free, the riser may run on hidden to the level pipe: a tee.
+  const JointsResult free = resolveOnly(scene(false));
+  ASSERT_EQ(free.joints.size(), 1u);
+  EXPECT_EQ(free.joints[0].type, JointType::Tee);
+
+  // Small seed 5: a main hidden from its end through a thinner branch's junction on to its elbow
+  // beyond keeps both: it runs on past the junction before it turns.
+  ConstructedScene onward;
+  onward.addPipe({1.5, 0, 0}, {0, 0, 0}, r);                  // The main, its end 0.1 m short of the junction.
+  onward.addPipe({-0.1, 0, -1.0}, {-0.1, 0, -0.1}, 0.6 * r);  // The branch below it.
+  onward.addBend({-0.5, 0, 0}, -Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), 2.0 * r, r);
+  onward.addPipe({-0.5, 0.1, 0}, {-0.5, 1.2, 0}, r);
+  const JointsResult both = resolveOnly(onward);
+  ASSERT_EQ(both.joints.size(), 2u);
+  EXPECT_NE(both.joints[0].type, both.joints[1].type);
+  for (const Joint& joint : both.joints) EXPECT_NE(joint.type, JointType::Boundary);
+}
+
 TEST(Joints, AReducingCornerHiddenAtTheJunctionIsATeeWhoseMainWasSeenOnOneSide) {
   // Medium seed 10: an 8.4 cm main is hidden for 26 cm before its junction and beyond it, and its
   // 5.7 cm branch for 15 cm below the main's wall. Too unequal for an elbow, the corner is a tee.

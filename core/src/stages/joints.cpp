@@ -15,7 +15,8 @@
 //    pipes are trimmed or extended to the tangent points. Tees: the branch's end is extended to
 //    the main pipe's axis. Boundary joints bridge the gap between collinear ends.
 // 3. Confidence = how well the criteria hold, blended with the point support on the joint's
-//    surface; the best-supported hypothesis takes an end first, an end takes at most one joint.
+//    surface; the best-supported hypothesis takes an end first, an end takes at most one joint,
+//    and no joint turns a main's end short of a tee that its line is carried on to past that end.
 //    A piece of an elbow's arc fitted as a cylinder makes two elbows of one: a pipe lying on the
 //    arc of a confident elbow between two other pipes waits for that elbow, and goes when it is
 //    chosen.
@@ -293,6 +294,9 @@ struct Hypothesis {
   double reach = 0.0;       // Points within this of `center` are gathered for the hypothesis.
   Eigen::Vector3d center = Eigen::Vector3d::Zero();
   bool mainSeenOneSide = false;  // Tee: the main's end stops short of the junction.
+  // Tee whose main stops short of the junction (tryTeeBeyondEnd, teeForBendlessCorner): the main's
+  // end its line is carried on from, to the junction and beyond.
+  std::optional<PipeEnd> mainEnd;
   // Elbow: the largest bend radius voted for (a pipe seen straight up to its end bounds it).
   double maxBendRadius = std::numeric_limits<double>::infinity();
 
@@ -442,6 +446,7 @@ class JointBuilder {
     if (pastEnd <= 0.0 || pastEnd > hidden || (h->corner - branch.point).norm() > hidden) return;
     if (insideAnotherPipe(input_.pipes[static_cast<std::size_t>(branch.pipe)], input_.pipes, params_)) return;
     h->mainSeenOneSide = true;
+    h->mainEnd = mainEnd;
     out.push_back(std::move(*h));
   }
 
@@ -471,6 +476,7 @@ class JointBuilder {
       const PipeEnd& branch = mainIsA ? elbow.b : elbow.a;
       auto tee = teeAt(branch, main.pipe, /*mainSeenBeyond=*/false);
       if (!tee) continue;
+      tee->mainEnd = main;
       reconstructTee(*tee, nearby);
       tee->confidence *= 0.5;
       return tee;
@@ -893,18 +899,42 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
   auto& takenBy = resolution.takenBy;
   takenBy.assign(2 * static_cast<std::size_t>(pipeCount), -1);
   const auto taken = [&](const PipeEnd& end) { return takenBy[static_cast<std::size_t>(end.key())] >= 0; };
+  // A tee whose main stops short of the junction carries the main's line on past that end, as far
+  // as the junction at least: no joint may turn the end nearer (a riser that bends at an elbow does
+  // not run on to a tee above it). By end: how far past it a chosen tee carries its line.
+  std::vector<double> carriedPast(takenBy.size(), -std::numeric_limits<double>::infinity());
+  const auto turnsAhead = [](const Hypothesis& joint, const PipeEnd& end) {  // where the joint ends its line
+    if (joint.type == JointType::Boundary) return std::numeric_limits<double>::infinity();
+    return (joint.corner - end.point).dot(end.outward);
+  };
+  const auto turnedShort = [&](const Hypothesis& joint, const PipeEnd& end) {
+    return carriedPast[static_cast<std::size_t>(end.key())] > turnsAhead(joint, end);
+  };
+  const auto carriedPastTurn = [&](const Hypothesis& tee) {
+    if (!tee.mainEnd) return false;
+    const int by = takenBy[static_cast<std::size_t>(tee.mainEnd->key())];
+    if (by < 0) return false;
+    const Hypothesis& joint = hypotheses[static_cast<std::size_t>(by)];
+    const PipeEnd& end = joint.a.key() == tee.mainEnd->key() ? joint.a : joint.b;
+    return turnsAhead(joint, end) < turnsAhead(tee, *tee.mainEnd);
+  };
   MovedEnds movedEnds(pipes);
   for (std::size_t h : order) {
     const Hypothesis& hypothesis = hypotheses[h];
     const bool twoEnds = hypothesis.type != JointType::Tee;
     const bool elbow = hypothesis.type == JointType::Elbow;
-    if (taken(hypothesis.a) || (twoEnds && taken(hypothesis.b)) ||
+    if (taken(hypothesis.a) || (twoEnds && taken(hypothesis.b)) || turnedShort(hypothesis, hypothesis.a) ||
+        (twoEnds && turnedShort(hypothesis, hypothesis.b)) || carriedPastTurn(hypothesis) ||
         (elbow && !movedEnds.leaveLength(hypothesis))) {
       ++resolution.diagnostics.conflicts;
       continue;
     }
     takenBy[static_cast<std::size_t>(hypothesis.a.key())] = static_cast<int>(h);
     if (twoEnds) takenBy[static_cast<std::size_t>(hypothesis.b.key())] = static_cast<int>(h);
+    if (hypothesis.mainEnd) {
+      double& past = carriedPast[static_cast<std::size_t>(hypothesis.mainEnd->key())];
+      past = std::max(past, turnsAhead(hypothesis, *hypothesis.mainEnd));
+    }
     if (elbow) movedEnds.move(hypothesis);
     resolution.chosen.push_back(h);
   }
