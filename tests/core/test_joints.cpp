@@ -1267,6 +1267,25 @@ TEST(Joints, AnEndIsNotCompletedByAPipeInsideAnotherPipesTube) {
   EXPECT_EQ(result.joints[0].pipeIds, (std::vector<int>{1, 2}));
 }
 
+TEST(Joints, AnEndIsNotCompletedByALegRunningThroughAPipeBesideIt) {
+  // Medium seed 13: from a 16 cm pipe's end, points of its elbow's torus and of the pipe beyond it
+  // fitted a leg 0.3 m beside that pipe, the two tubes through each other, and the leg's elbow took
+  // the end before the true one. Here a leg's points rise from pipe 1's corner with pipe 2 running
+  // up beside them: 15 cm beside, two 10 cm pipes would pass through each other, so the points are
+  // no leg; 25 cm beside, they are.
+  const double r = 0.1, R = 0.2;
+  for (const double beside : {0.15, 0.25}) {
+    SCOPED_TRACE(beside);
+    ConstructedScene scene;
+    scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+    scene.addBend(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitZ(), R, r);
+    scene.addPipe({0, 0, R}, {0, 0, 0.9}, r, /*listed=*/false);
+    scene.addPipe({0, beside, 0.3}, {0, beside, 1.5}, r);
+    const JointsResult result = scene.connect();
+    EXPECT_EQ(result.diagnostics.completedPipes, beside < 2.0 * r ? 0u : 1u);
+  }
+}
+
 TEST(Joints, ASlopedLegOffTheNetworkDirectionsIsCompleted) {
   // Pipe 1 comes along +x to a corner at the origin, a 50 cm leg (points only) climbs at 20° in the
   // yz plane to a second corner, pipe 2 leaves along +y. Pipe 3, far off, runs along y: the network's

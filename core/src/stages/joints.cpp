@@ -127,6 +127,27 @@ bool insideAnotherPipe(const PipeSegment& piece, const std::vector<PipeSegment>&
   });
 }
 
+/// Whether `piece` runs alongside one of `pipes` (a fragment's does not count) through its tube:
+/// near parallel, over a stretch of it, their axes closer than the two radii, neither inside the
+/// other's tube (a piece inside a pipe is that pipe again, a thinner pipe inside the piece a
+/// cylinder fitted into its tube).
+bool runsThroughAlongside(const PipeSegment& piece, const std::vector<PipeSegment>& pipes, const JointsParams& params) {
+  constexpr double kAlongsideAngleDeg = 10.0;
+  const Eigen::Vector3d direction = unitAxis(piece);
+  const Eigen::Vector3d middle = 0.5 * (piece.start + piece.end);
+  return std::any_of(pipes.begin(), pipes.end(), [&](const PipeSegment& pipe) {
+    if (&pipe == &piece || isFragment(pipe, params)) return false;
+    const Eigen::Vector3d axis = unitAxis(pipe);
+    if (std::fabs(axis.dot(direction)) < std::cos(radians(kAlongsideAngleDeg))) return false;
+    const double length = (pipe.end - pipe.start).norm();
+    const double from = (piece.start - pipe.start).dot(axis), to = (piece.end - pipe.start).dot(axis);
+    if (std::max(from, to) <= 0.0 || std::min(from, to) >= length) return false;
+    const Eigen::Vector3d offset = middle - pipe.start - (middle - pipe.start).dot(axis) * axis;
+    return offset.norm() >= std::max(piece.radius, pipe.radius) &&
+           offset.norm() < piece.radius + pipe.radius - params.supportDistance;
+  });
+}
+
 /// Whether the tube of `piece` cuts the tube of one of `pipes` other than those in `except` (a
 /// fragment's does not count): pipes do not pass through each other.
 bool cutsAnotherPipe(const PipeSegment& piece, std::initializer_list<int> except, const std::vector<PipeSegment>& pipes,
@@ -2263,6 +2284,9 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
   std::vector<Completion> completions;
   for (std::size_t e : order) {
     if (insideAnotherPipe(found[e].pipe, input.pipes, params)) continue;
+    // Nor does a completion pass through a pipe it runs beside: the points it took are that pipe's
+    // and its elbow's (medium seed 13: a leg 0.3 m beside a 16 cm pipe, off that pipe's elbow).
+    if (runsThroughAlongside(found[e].pipe, input.pipes, params)) continue;
     // A branch is found from votes alone, and two neighbouring branches' facing walls fit a wide one
     // between them.
     if (found[e].main >= 0 && cutsAnotherPipe(found[e].pipe, {found[e].main}, input.pipes, params)) continue;
