@@ -605,6 +605,27 @@ TEST(Joints, TeeExtendsTheBranchToTheMainAxis) {
   EXPECT_TRUE(result.pipes[1].end.isApprox(Eigen::Vector3d(0.2, 0.12, 0)));
 }
 
+TEST(Joints, ABranchFittedThroughToItsMainsFarWallMeetsIt) {
+  // Small seed 60: a 2.1 cm branch of a 2.4 cm main, fitted over the main's wall points around the
+  // junction, ends 2 mm past the main's axis. Anywhere inside the main's tube it is still its tee;
+  // past the far wall, the two pipes cross.
+  for (const double past : {0.0, 0.002, 0.02, 0.03}) {
+    SCOPED_TRACE(past);
+    ConstructedScene scene;
+    scene.addPipe({-1, 0, 0}, {1, 0, 0}, 0.024);
+    scene.addPipe({0.2, 1.0, 0}, {0.2, -past, 0}, 0.021);
+    const JointsResult result = scene.connect();
+    if (past > 0.024) {
+      EXPECT_TRUE(result.joints.empty());
+      continue;
+    }
+    ASSERT_EQ(result.joints.size(), 1u);
+    EXPECT_EQ(result.joints[0].type, JointType::Tee);
+    EXPECT_EQ(result.joints[0].pipeIds, (std::vector<int>{1, 2}));
+    EXPECT_LT((result.joints[0].axis.front() - Eigen::Vector3d(0.2, 0, 0)).norm(), 1e-9);
+  }
+}
+
 TEST(Joints, AThinBranchStoppingShortLooksForItsMainAsFarAsTheMainIsThick) {
   // A 2 cm branch whose last 20 cm were not found: ten of its diameters, but only four of the
   // 5 cm main pipe's, within which an end looks for partners.

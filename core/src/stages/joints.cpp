@@ -532,9 +532,9 @@ class JointBuilder {
     // Like an elbow's ends, a branch looks for its main as far as the larger pipe is thick: a thin
     // branch's last diameters are the first lost to occlusion and sparse scan lines.
     h.gapLimit = searchDistance(std::max(branch.radius, mainPipe.radius));
-    // The branch end does not pass the main's axis (it may reach into the main pipe: a branch of
-    // the main's size shares points with it around the junction).
-    if (alongBranch < 0.0 || h.gap > h.gapLimit) return std::nullopt;
+    // The branch end stays inside the main's tube at most (a branch of the main's size shares
+    // points with it around the junction, and its fit may reach through to the far wall).
+    if (alongBranch < -mainPipe.radius || h.gap > h.gapLimit) return std::nullopt;
     h.skew = (branch.point + alongBranch * branch.outward - (mainPipe.start + alongMain * mainAxis)).norm();
     h.skewLimit = skewLimit(branch.radius);
     if (h.skew > h.skewLimit) return std::nullopt;
