@@ -50,10 +50,9 @@ struct Range {
   }
   /// "> 0", ">= 3", "[0, 1]", "(0, 30]", ... ; empty when any value goes.
   std::string text() const {
-    const auto number = [](double v) { return numberText(v); };
     if (low == -kUnbounded && high == kUnbounded) return "";
-    if (high == kUnbounded) return (lowOpen ? "> " : ">= ") + number(low);
-    return (lowOpen ? "(" : "[") + number(low) + ", " + number(high) + (highOpen ? ")" : "]");
+    if (high == kUnbounded) return (lowOpen ? "> " : ">= ") + numberText(low);
+    return (lowOpen ? "(" : "[") + numberText(low) + ", " + numberText(high) + (highOpen ? ")" : "]");
   }
 };
 constexpr Range anyValue() { return {}; }
