@@ -2725,32 +2725,64 @@ void adoptLeg(std::vector<Hypothesis>& joints, int candidatePipe, PipeSegment le
   chosenLegs.push_back(std::move(leg));
 }
 
-/// The joints at both ends of each candidate leg (the legs follow the first `inputPipes` of
-/// `augmented`): `make(k, legFrom, legTo, made)` tries them with the leg's own ends marked unseen (it
-/// is drawn between corners, not seen up to them), and they are kept when they come out as `first`
-/// and `second`. Also the points near each leg's two joints and along it: three spheres a leg, as
-/// addLegSpheres gives them.
+/// The input pipes followed by candidate legs, each a pipe of its own to build its joints with,
+/// and a joint builder over them all.
+class WithLegs {
+ public:
+  WithLegs(const JointsInput& input, const std::vector<PipeSegment>& legs, const JointsParams& params,
+           const std::vector<char>& explained)
+      : inputPipes_(input.pipes.size()),
+        pipes_(appended(input.pipes, legs)),
+        input_{input.cloud, pipes_},
+        builder_(input_, params, explained) {}
+  WithLegs(const WithLegs&) = delete;
+  WithLegs& operator=(const WithLegs&) = delete;
+
+  const PointCloud& cloud() const { return input_.cloud; }
+  /// The input pipes, then the legs.
+  const std::vector<PipeSegment>& pipes() const { return pipes_; }
+  std::size_t legCount() const { return pipes_.size() - inputPipes_; }
+  /// Candidate leg k's index among pipes().
+  int legPipe(std::size_t k) const { return static_cast<int>(inputPipes_ + k); }
+  const JointBuilder& builder() const { return builder_; }
+
+ private:
+  static std::vector<PipeSegment> appended(const std::vector<PipeSegment>& pipes, const std::vector<PipeSegment>& legs) {
+    std::vector<PipeSegment> all = pipes;
+    all.insert(all.end(), legs.begin(), legs.end());
+    return all;
+  }
+
+  std::size_t inputPipes_;
+  std::vector<PipeSegment> pipes_;
+  JointsInput input_;  // refers to pipes_
+  JointBuilder builder_;  // refers to input_
+};
+
+/// The joints at both ends of each candidate leg: `make(k, legFrom, legTo, made)` tries them with
+/// the leg's own ends marked unseen (it is drawn between corners, not seen up to them), and they are
+/// kept when they come out as `first` and `second`. Also the points near each leg's two joints and
+/// along it: three spheres a leg, as addLegSpheres gives them.
 struct LegJoints {
   std::vector<std::vector<Hypothesis>> joints;
   std::vector<std::vector<std::uint32_t>> nearby;
 };
 
 template <typename Make>
-LegJoints jointsAtLegEnds(const PointCloud& cloud, const std::vector<PipeSegment>& augmented, std::size_t inputPipes,
-                          JointType first, JointType second, double cellSize, Make&& make) {
+LegJoints jointsAtLegEnds(const WithLegs& withLegs, JointType first, JointType second, double cellSize, Make&& make) {
   LegJoints legs;
-  legs.joints.resize(augmented.size() - inputPipes);
+  legs.joints.resize(withLegs.legCount());
   std::vector<std::pair<Eigen::Vector3d, double>> spheres;
   for (std::size_t k = 0; k < legs.joints.size(); ++k) {
-    const int legPipe = static_cast<int>(inputPipes + k);
-    PipeEnd legFrom = endOf(augmented, legPipe, 0), legTo = endOf(augmented, legPipe, 1);
+    const int legPipe = withLegs.legPipe(k);
+    PipeEnd legFrom = endOf(withLegs.pipes(), legPipe, 0), legTo = endOf(withLegs.pipes(), legPipe, 1);
     legFrom.seenToEnd = legTo.seenToEnd = false;
     std::vector<Hypothesis> made;
     make(k, legFrom, legTo, made);
     if (made.size() == 2 && made[0].type == first && made[1].type == second) legs.joints[k] = std::move(made);
-    addLegSpheres(legs.joints[k], augmented[static_cast<std::size_t>(legPipe)], spheres);
+    addLegSpheres(legs.joints[k], withLegs.pipes()[static_cast<std::size_t>(legPipe)], spheres);
   }
-  legs.nearby = pointsInSpheres(cloud, spheres, cellSize, [](std::size_t) { return true; });
+  legs.nearby = pointsInSpheres(withLegs.cloud(), spheres, cellSize, [](std::size_t) { return true; });
   return legs;
 }
 
@@ -2777,19 +2809,16 @@ std::vector<PipeSegment> joinSeenBends(const JointsInput& input, const JointsPar
                           JointBuilder(input, params, explained));
   if (candidates.empty()) return chosenLegs;
 
-  // Each candidate's leg is a pipe of its own, after the input pipes, to build its elbows with.
-  std::vector<PipeSegment> augmented = pipes;
-  for (const SquareLeg& leg : candidates) augmented.push_back(leg.pipe);
-  const JointsInput augmentedInput{input.cloud, augmented};
-  const JointBuilder builder(augmentedInput, params, explained);
-  const auto legPipe = [&](std::size_t k) { return static_cast<int>(pipes.size() + k); };
+  std::vector<PipeSegment> legs;
+  for (const SquareLeg& leg : candidates) legs.push_back(leg.pipe);
+  const WithLegs withLegs(input, legs, params, explained);
+  const JointBuilder& builder = withLegs.builder();
   // Per candidate: the elbow at `from`, then the one at `to`.
   const auto tryJoints = [&](std::size_t k, const PipeEnd& legFrom, const PipeEnd& legTo, auto& made) {
     builder.tryEndPair(candidates[k].from, legFrom, made);
     builder.tryEndPair(legTo, candidates[k].to, made);
   };
-  LegJoints legJoints =
-      jointsAtLegEnds(input.cloud, augmented, pipes.size(), JointType::Elbow, JointType::Elbow, cellSize, tryJoints);
+  LegJoints legJoints = jointsAtLegEnds(withLegs, JointType::Elbow, JointType::Elbow, cellSize, tryJoints);
   std::vector<std::vector<Hypothesis>>& elbows = legJoints.joints;
   const std::vector<std::vector<std::uint32_t>>& nearby = legJoints.nearby;
 
@@ -2829,7 +2858,7 @@ std::vector<PipeSegment> joinSeenBends(const JointsInput& input, const JointsPar
   }
   const auto support = [&](std::size_t k) { return std::min(elbows[k][0].confidence, elbows[k][1].confidence); };
   std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return support(x) > support(y); });
-  MovedEnds movedEnds(augmented);
+  MovedEnds movedEnds(withLegs.pipes());
   for (std::size_t h : resolution.chosen) {
     if (resolution.hypotheses[h].type == JointType::Elbow) movedEnds.move(resolution.hypotheses[h]);
   }
@@ -2843,7 +2872,7 @@ std::vector<PipeSegment> joinSeenBends(const JointsInput& input, const JointsPar
     }
     PipeSegment chosen = leg.pipe;
     chosen.inliers = std::move(between[k].inliers);
-    adoptLeg(elbows[k], legPipe(k), std::move(chosen), coverage[k], pipes.size(), movedEnds, resolution, chosenLegs);
+    adoptLeg(elbows[k], withLegs.legPipe(k), std::move(chosen), coverage[k], pipes.size(), movedEnds, resolution, chosenLegs);
     ++(hidden[k] ? resolution.diagnostics.hiddenLegs : resolution.diagnostics.legsBetweenBends);
   }
   return chosenLegs;
@@ -2924,18 +2953,16 @@ std::vector<PipeSegment> joinHiddenBranches(const JointsInput& input, const Join
   }
   if (candidates.empty()) return chosenLegs;
 
-  std::vector<PipeSegment> augmented = pipes;
-  for (const Candidate& candidate : candidates) augmented.push_back(candidate.leg);
-  const JointsInput augmentedInput{input.cloud, augmented};
-  const JointBuilder builder(augmentedInput, params, explained);
-  const auto legPipe = [&](std::size_t k) { return static_cast<int>(pipes.size() + k); };
+  std::vector<PipeSegment> legs;
+  for (const Candidate& candidate : candidates) legs.push_back(candidate.leg);
+  const WithLegs withLegs(input, legs, params, explained);
+  const JointBuilder& builder = withLegs.builder();
   // Per candidate: the elbow at the end, then the tee on the main.
   const auto tryJoints = [&](std::size_t k, const PipeEnd& legFrom, const PipeEnd& legTo, auto& made) {
     builder.tryEndPair(candidates[k].end, legFrom, made);
     builder.tryTee(legTo, candidates[k].main, made);
   };
-  LegJoints legJoints =
-      jointsAtLegEnds(input.cloud, augmented, pipes.size(), JointType::Elbow, JointType::Tee, cellSize, tryJoints);
+  LegJoints legJoints = jointsAtLegEnds(withLegs, JointType::Elbow, JointType::Tee, cellSize, tryJoints);
   std::vector<std::vector<Hypothesis>>& joints = legJoints.joints;
   const std::vector<std::vector<std::uint32_t>>& nearby = legJoints.nearby;
 
@@ -2976,7 +3003,7 @@ std::vector<PipeSegment> joinHiddenBranches(const JointsInput& input, const Join
   }
   const auto support = [&](std::size_t k) { return std::min(joints[k][0].confidence, joints[k][1].confidence); };
   std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return support(x) > support(y); });
-  MovedEnds movedEnds(augmented);
+  MovedEnds movedEnds(withLegs.pipes());
   for (std::size_t h : resolution.chosen) {
     if (resolution.hypotheses[h].type == JointType::Elbow) movedEnds.move(resolution.hypotheses[h]);
   }
@@ -2989,7 +3016,7 @@ std::vector<PipeSegment> joinHiddenBranches(const JointsInput& input, const Join
     }
     PipeSegment chosen = candidate.leg;
     chosen.inliers = std::move(between[k].inliers);
-    adoptLeg(joints[k], legPipe(k), std::move(chosen), coverage[k], pipes.size(), movedEnds, resolution, chosenLegs);
+    adoptLeg(joints[k], withLegs.legPipe(k), std::move(chosen), coverage[k], pipes.size(), movedEnds, resolution, chosenLegs);
     ++resolution.diagnostics.hiddenBranches;
   }
   return chosenLegs;
