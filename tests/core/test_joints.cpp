@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 
 namespace piperun {
@@ -280,6 +281,47 @@ TEST(Joints, RadiusVotesPutAPointOnTheTorus) {
   }
 }
 
+TEST(Joints, AnUnvotedBendTakesTheLargestRadiusItsSeenEndsAllow) {
+  const double r = 0.05, band = 0.01, tilt = 30.0 * kPi / 180.0, inf = std::numeric_limits<double>::infinity();
+  const double tightest = r, longRadius = 3.0 * r;
+  // Where the inliers of a square elbow's pipe stop before the corner: the torus leaves the band an
+  // arc of acos(1 - band / R) past the tangent point, R from the corner.
+  const auto inliersStop = [&](double R) { return R * (1.0 - std::sin(std::min(tilt, std::acos(1.0 - band / R)))); };
+  // No end seen straight to where it stops: a long-radius elbow.
+  EXPECT_DOUBLE_EQ(unvotedBendRadius(kPi / 2, inf, band, tilt, 0.0, tightest, longRadius), longRadius);
+  // Ends stopping where a long-radius elbow's inliers would, or farther, allow it.
+  EXPECT_DOUBLE_EQ(unvotedBendRadius(kPi / 2, inliersStop(longRadius), band, tilt, 0.0, tightest, longRadius), longRadius);
+  EXPECT_DOUBLE_EQ(unvotedBendRadius(kPi / 2, 0.3, band, tilt, 0.0, tightest, longRadius), longRadius);
+  // An end nearer the corner allows only a tighter bend, whose inliers would stop there.
+  const double tighter = unvotedBendRadius(kPi / 2, 0.05, band, tilt, 0.0, tightest, longRadius);
+  EXPECT_GT(tighter, tightest);
+  EXPECT_LT(tighter, 2.0 * r);
+  EXPECT_NEAR(inliersStop(tighter), 0.05, 1e-6);
+  // The slack counts as that much farther from the corner.
+  EXPECT_NEAR(unvotedBendRadius(kPi / 2, 0.03, band, tilt, 0.02, tightest, longRadius), tighter, 1e-6);
+  // Square ends meeting at the corner leave room for no fitting.
+  EXPECT_DOUBLE_EQ(unvotedBendRadius(kPi / 2, 0.0, band, tilt, 0.0, tightest, longRadius), tightest);
+  // At a 12° bend the whole torus lies in the band: ends meeting at the corner say nothing.
+  EXPECT_DOUBLE_EQ(unvotedBendRadius(12.0 * kPi / 180.0, 0.0, band, tilt, 0.0, tightest, longRadius), longRadius);
+}
+
+TEST(Joints, AGentleBendWhosePipesRunToItsCornerIsALongRadiusElbow) {
+  // A 12° bend (R = 3r), both pipes fitted on 2 cm past the corner: their inliers take every point
+  // of the torus, which stays within their band, so none is left to vote. It was made as tight as
+  // the bend could be, R = r; it is the commonest fitting now.
+  const double r = 0.05, R = 0.15, angle = 12.0 * kPi / 180.0;
+  const Eigen::Vector3d in = Eigen::Vector3d::UnitX(), out(std::cos(angle), std::sin(angle), 0.0);
+  const double tangent = R * std::tan(0.5 * angle);
+  ConstructedScene scene;
+  scene.addPipe(-1.2 * in, -tangent * in, r, /*listed=*/false);
+  scene.addPipe(tangent * out, 1.2 * out, r, /*listed=*/false);
+  scene.addBend(Eigen::Vector3d::Zero(), in, out, R, r);
+  scene.addFittedPipe(-1.2 * in, 0.02 * in, r);
+  scene.addFittedPipe(-0.02 * out, 1.2 * out, r);
+  const JointsResult result = scene.connect();
+  expectOnlyAnElbowOfBendRadius(result, R, 0.005);
+}
+
 TEST(Joints, ElbowMajorRadiusRecoveredOnCleanPoints) {
   for (const auto& [angleDeg, radius, bendRadius] : {std::tuple{90.0, 0.05, 0.15}, std::tuple{90.0, 0.03, 0.06},
                                                      std::tuple{45.0, 0.08, 0.24}, std::tuple{60.0, 0.1, 0.2}}) {
@@ -317,8 +359,8 @@ TEST(Joints, ElbowOnNoisyOneSidedScan) {
 
 TEST(Joints, OccludedElbowIsProposedAsALongRadiusElbow) {
   // No points on the elbow at all: the geometry alone suggests it, and nothing says how it bends.
-  // The ends, seen straight up to 30 cm from the corner, allow up to 6 radii; the commonest
-  // fitting, a long-radius elbow (1.5 diameters, 3 radii), is taken.
+  // The ends, seen straight up to 30 cm from the corner, allow any fitting; the commonest, a
+  // long-radius elbow (1.5 diameters, 3 radii), is taken.
   ConstructedScene scene;
   scene.addPipe({-1.5, 0, 0}, {-0.3, 0, 0}, 0.05);
   scene.addPipe({0, 0.3, 0}, {0, 1.5, 0}, 0.05);
@@ -326,11 +368,13 @@ TEST(Joints, OccludedElbowIsProposedAsALongRadiusElbow) {
   ASSERT_NO_FATAL_FAILURE(expectOnlyAnElbowOfBendRadius(result, 0.15, 1e-6));
   EXPECT_EQ(result.joints[0].status, JointStatus::Proposed);
 
-  // Ends that stop 10 cm from the corner were seen straight there: the elbow is tighter.
+  // Ends seen straight up to 3 cm from the corner: a long-radius elbow's torus would leave their
+  // inlier band 21° past its tangent points, 9.6 cm from the corner, farther than an end may be
+  // misplaced (4 cm). The elbow is the widest whose torus leaves the band 7 cm from the corner.
   ConstructedScene tight;
-  tight.addPipe({-1.5, 0, 0}, {-0.1, 0, 0}, 0.05);
-  tight.addPipe({0, 0.1, 0}, {0, 1.5, 0}, 0.05);
-  ASSERT_NO_FATAL_FAILURE(expectOnlyAnElbowOfBendRadius(tight.connect(), 0.1, 1e-6));
+  tight.addPipe({-1.5, 0, 0}, {-0.03, 0, 0}, 0.05);
+  tight.addPipe({0, 0.03, 0}, {0, 1.5, 0}, 0.05);
+  ASSERT_NO_FATAL_FAILURE(expectOnlyAnElbowOfBendRadius(tight.connect(), 0.1174, 1e-4));
 }
 
 TEST(Joints, AnElbowIsFoundWhenOneEndStopsShortAndTheOtherReachesIt) {
@@ -505,12 +549,16 @@ TEST(Joints, TheLegBeyondAGentleBendThatOnePipeWasFittedAcrossIsFound) {
   EXPECT_EQ(result.diagnostics.kinkLegs, 1u);
   ASSERT_EQ(result.pipes.size(), 3u);
   expectOnlyAnElbowAtTheOrigin(result, {1, 3});
-  // The leg (appended after the input pipes) runs up the slope to its last point.
+  // The leg (appended after the input pipes) runs up the slope to its last point. No point votes
+  // for the bend (the level pipe's inliers hold the torus): a long-radius elbow, R = 3r, the
+  // truth's, whose tangent points lie 8 mm either side of the corner.
   const PipeSegment& leg = result.pipes[2];
+  const double tangent = 0.15 * std::tan(0.5 * kSixDegrees);
+  EXPECT_NEAR(result.joints[0].bendRadius, 0.15, 1e-6);
   EXPECT_GT(unitAxis(leg).dot(out), std::cos(0.3 * kPi / 180.0));
-  EXPECT_LT(leg.start.norm(), 0.02);
+  EXPECT_LT((leg.start - tangent * out).norm(), 0.02);
   EXPECT_NEAR(leg.end.dot(out), 1.0, 0.02);
-  EXPECT_LT(result.pipes[0].end.norm(), 0.02);
+  EXPECT_LT((result.pipes[0].end + tangent * Eigen::Vector3d::UnitX()).norm(), 0.02);
 }
 
 /// The joints of `scene` from the resolution alone (no free-end completion).
@@ -1728,7 +1776,7 @@ TEST(Joints, ANoisyPostSeenAcrossItsEdgeIsNotCompletedAsAPipe) {
 ConstructedScene mainPipeScene(double noise) {
   ConstructedScene scene(noise);
   scene.addPipe({-1, 0, 0}, {1, 0, 0}, 0.05715);
-  scene.addPipe({3, 0, 0}, {3, 0, 1.2}, 0.05715);
+  scene.addPipe({3, 1, 0}, {3, 1, 1.2}, 0.05715);
   return scene;
 }
 

@@ -82,6 +82,9 @@ constexpr double kMinBendlessEvidence = 10.0;
 // An elbow with no points to vote for its bend is taken for the commonest fitting, a long-radius
 // elbow (1.5 diameters), unless its pipes' ends, seen straight up to where they stop, say tighter.
 constexpr double kLongElbowRadii = 3.0;
+// How much nearer its corner than the inliers of such an elbow's pipe would stop an end may lie
+// (m): the extents place ends to a 4 cm section.
+constexpr double kUnvotedEndSlack = 0.04;
 // Rounds of completion at most: the pipes one round finds look for what lies beyond them in the
 // next, until a round finds none (medium scenes need two).
 constexpr int kMaxCompletionRounds = 4;
@@ -326,6 +329,10 @@ struct Hypothesis {
   double support = 0.0;     // Point support on the joint's surface, in [0, 1].
   double confidence = 0.0;
   double bendRadius = 0.0;
+  // Elbow: the tightest bend the points allow (the voted one, or with no vote the one whose tangent
+  // point lies at the nearer end seen straight up to where it stops) is tighter than any fitting,
+  // and its torus holds almost none of the points it should: no bend (see teeForBendlessCorner).
+  bool bendless = false;
   double expectedSupport = 0.0;  // Elbow: the points its torus would hold at its pipes' linear density.
   // Elbow: the tangent points the two pipes are trimmed or extended to.
   Eigen::Vector3d newA = Eigen::Vector3d::Zero(), newB = Eigen::Vector3d::Zero();
@@ -476,18 +483,13 @@ class JointBuilder {
     if (auto h = teeAt(branch, main, /*mainSeenBeyond=*/true)) out.push_back(std::move(*h));
   }
 
-  /// The tee that replaces an elbow hypothesis with no bend: voted tighter than any fitting, with
-  /// almost no points on a torus that should hold enough to tell, at a near-square corner. Its main
-  /// pipe is the one whose end reaches nearer the corner (in radii of the other); the main's far
-  /// side was not seen, so the tee counts half its confidence and is proposed for review.
+  /// The tee that replaces an elbow hypothesis with no bend (Hypothesis::bendless), at a near-square
+  /// corner. Its main pipe is the one whose end reaches nearer the corner (in radii of the other);
+  /// the main's far side was not seen, so the tee counts half its confidence and is proposed for
+  /// review.
   std::optional<Hypothesis> teeForBendlessCorner(const Hypothesis& elbow,
                                                  const std::vector<std::uint32_t>& nearby) const {
-    if (elbow.type != JointType::Elbow || !elbow.valid) return std::nullopt;
-    const double r = 0.5 * (elbow.a.radius + elbow.b.radius);
-    if (elbow.bendRadius >= kMinFittingBendRadii * r || elbow.support > kMaxBendlessSupport ||
-        elbow.expectedSupport < kMinBendlessEvidence) {
-      return std::nullopt;
-    }
+    if (elbow.type != JointType::Elbow || !elbow.valid || !elbow.bendless) return std::nullopt;
     const auto reachToCorner = [&](const PipeEnd& end, const PipeEnd& other) {
       return (elbow.corner - end.point).dot(end.outward) / other.radius;
     };
@@ -660,9 +662,11 @@ class JointBuilder {
         histogram.vote(bendRadius);
       }
     }
-    double bendRadius =
-        std::clamp(std::min(std::min(seenTo(h.a, toEndA), seenTo(h.b, toEndB)) / tangentPerRadius, kLongElbowRadii * r),
-                   minBend, maxBend);
+    const double nearestSeenEnd = std::min(seenTo(h.a, toEndA), seenTo(h.b, toEndB));
+    double bendRadius = unvotedBendRadius(h.bendAngle, nearestSeenEnd, params_.supportDistance,
+                                          kSupportNormalAngleDeg * kPi / 180.0, kUnvotedEndSlack, minBend,
+                                          std::clamp(kLongElbowRadii * r, minBend, maxBend));
+    double tightest = std::clamp(nearestSeenEnd / tangentPerRadius, minBend, maxBend);
     if (!votes.empty()) {
       const double peakRadius = histogram.peak().first;
       // Refine: the mean of the votes within two bins of the peak.
@@ -675,24 +679,35 @@ class JointBuilder {
         }
       }
       bendRadius = count > 0 ? sum / static_cast<double>(count) : peakRadius;
+      tightest = bendRadius;
     }
 
-    // Support: points within the support distance of the chosen torus.
-    for (std::uint32_t i : nearby) {
-      const Eigen::Vector3d p = position(i);
-      Eigen::Vector3d radial;
-      if (!onElbow(p, bendRadius, radial)) continue;
-      const double distance = radial.norm();
-      if (std::fabs(distance - r) <= params_.supportDistance &&
-          normalAgrees(input_.cloud, i, radial / std::max(distance, 1e-12))) {
-        h.supportPoints.push_back(i);
+    // Support: points within the support distance of a torus, against those it would hold at the
+    // pipes' linear density.
+    const auto supportAt = [&](double R, std::vector<std::uint32_t>& points) {
+      for (std::uint32_t i : nearby) {
+        const Eigen::Vector3d p = position(i);
+        Eigen::Vector3d radial;
+        if (!onElbow(p, R, radial)) continue;
+        const double distance = radial.norm();
+        if (std::fabs(distance - r) <= params_.supportDistance &&
+            normalAgrees(input_.cloud, i, radial / std::max(distance, 1e-12))) {
+          points.push_back(i);
+        }
       }
+      return 0.5 * (linearDensity(h.a.pipe) + linearDensity(h.b.pipe)) * R * h.bendAngle;
+    };
+    const auto share = [](std::size_t points, double expected) {
+      return expected > 0.0 ? std::min(1.0, static_cast<double>(points) / expected) : 0.0;
+    };
+    h.expectedSupport = supportAt(bendRadius, h.supportPoints);
+    h.support = share(h.supportPoints.size(), h.expectedSupport);
+    if (tightest < kMinFittingBendRadii * r) {
+      std::vector<std::uint32_t> tightPoints;
+      const double tightExpected = votes.empty() ? supportAt(tightest, tightPoints) : h.expectedSupport;
+      const std::size_t tightSupport = votes.empty() ? tightPoints.size() : h.supportPoints.size();
+      h.bendless = share(tightSupport, tightExpected) <= kMaxBendlessSupport && tightExpected >= kMinBendlessEvidence;
     }
-    const double arcLength = bendRadius * h.bendAngle;
-    h.expectedSupport = 0.5 * (linearDensity(h.a.pipe) + linearDensity(h.b.pipe)) * arcLength;
-    h.support = h.expectedSupport > 0.0
-                    ? std::min(1.0, static_cast<double>(h.supportPoints.size()) / h.expectedSupport)
-                    : 0.0;
 
     const double tangent = bendRadius * tangentPerRadius;
     h.newA = h.corner + tangent * armA;
@@ -780,6 +795,27 @@ std::vector<double> elbowRadiusVotes(const Eigen::Vector3d& point, const Eigen::
     }
   }
   return roots;
+}
+
+double unvotedBendRadius(double bendAngle, double seenToCorner, double band, double maxTilt, double slack,
+                         double minRadius, double maxRadius) {
+  // Where the inliers of a pipe leaving an elbow of radius R stop, measured from the corner: the
+  // torus leaves the band (or tilts past maxTilt) an arc of phi past the tangent point.
+  const auto inliersStop = [&](double R) {
+    const double leaves = band >= R ? kPi : std::acos(1.0 - band / R);
+    const double phi = std::min({bendAngle, maxTilt, leaves});
+    return R * (std::tan(0.5 * bendAngle) - std::sin(phi));
+  };
+  const double bound = seenToCorner + slack;
+  if (inliersStop(maxRadius) <= bound) return maxRadius;
+  if (inliersStop(minRadius) > bound) return minRadius;
+  // inliersStop grows with R: the torus leaves the band sooner the tighter it bends.
+  double below = minRadius, above = maxRadius;
+  for (int step = 0; step < 40; ++step) {
+    const double middle = 0.5 * (below + above);
+    (inliersStop(middle) <= bound ? below : above) = middle;
+  }
+  return below;
 }
 
 namespace {

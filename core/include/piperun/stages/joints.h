@@ -124,4 +124,14 @@ std::vector<double> elbowRadiusVotes(const Eigen::Vector3d& point, const Eigen::
                                      const Eigen::Vector3d& bisector, const Eigen::Vector3d& planeNormal,
                                      double halfAngle, double radius);
 
+/// The major radius of an elbow turning by `bendAngle` (radians) whose torus gave no vote: the
+/// largest R in [minRadius, maxRadius] consistent with an end seen straight up to `seenToCorner`
+/// before the corner (negative: past it; infinity: no such end). A straight pipe's inliers run on
+/// past its tangent point, R tan(bendAngle / 2) from the corner, while the torus's centre line stays
+/// within `band` of the cylinder's axis and its surface turns by at most `maxTilt` (radians, the
+/// inliers' normal test), so an end that stops at s before the corner bounds R where that point
+/// lies at s + `slack` or nearer. At gentle bends the whole torus stays in the band: no bound.
+double unvotedBendRadius(double bendAngle, double seenToCorner, double band, double maxTilt, double slack,
+                         double minRadius, double maxRadius);
+
 }  // namespace piperun
