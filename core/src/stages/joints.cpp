@@ -1958,10 +1958,11 @@ class Completer {
       }
     }
     // A leg with enough points to be tested was, by completeAlong, and failed: a post the end met,
-    // or a face, whose edge the bend followed.
+    // or a face, whose edge the bend followed. Unless they all lie in its first section: a straight
+    // leg stopping there keeps less than a section past the bend's tangent point, and goes.
     std::size_t legPoints = 0;
     for (const auto& points : bySection) legPoints += points.size();
-    if (legPoints >= params_.minCompletionPoints) return std::nullopt;
+    if (legPoints - bySection.front().size() >= params_.minCompletionPoints) return std::nullopt;
     // The bend leaves the end's line: points past where it has left by a radius, on the arc or on
     // the leg beyond it, and the arc covered there.
     const bool leavesThePipe = departed < bend && 2 * (departedSupport + legPoints) >= params_.minCompletionPoints &&
