@@ -662,12 +662,18 @@ class JointBuilder {
         histogram.vote(bendRadius);
       }
     }
-    const double nearestSeenEnd = std::min(seenTo(h.a, toEndA), seenTo(h.b, toEndB));
-    double bendRadius = unvotedBendRadius(h.bendAngle, nearestSeenEnd, params_.supportDistance,
-                                          kSupportNormalAngleDeg * kPi / 180.0, kUnvotedEndSlack, minBend,
-                                          std::clamp(kLongElbowRadii * r, minBend, maxBend));
-    double tightest = std::clamp(nearestSeenEnd / tangentPerRadius, minBend, maxBend);
-    if (!votes.empty()) {
+    // The bend: voted, or with no vote the widest fitting its ends allow. The tightest bend the
+    // points allow: the voted one, or with no vote the one whose tangent point lies at the nearer
+    // end seen straight up to where it stops.
+    double bendRadius = 0.0;
+    double tightest = 0.0;
+    if (votes.empty()) {
+      const double nearestSeenEnd = std::min(seenTo(h.a, toEndA), seenTo(h.b, toEndB));
+      bendRadius = unvotedBendRadius(h.bendAngle, nearestSeenEnd, params_.supportDistance,
+                                     radians(kSupportNormalAngleDeg), kUnvotedEndSlack, minBend,
+                                     std::clamp(kLongElbowRadii * r, minBend, maxBend));
+      tightest = std::clamp(nearestSeenEnd / tangentPerRadius, minBend, maxBend);
+    } else {
       const double peakRadius = histogram.peak().first;
       // Refine: the mean of the votes within two bins of the peak.
       double sum = 0.0;
@@ -703,6 +709,7 @@ class JointBuilder {
     h.expectedSupport = supportAt(bendRadius, h.supportPoints);
     h.support = share(h.supportPoints.size(), h.expectedSupport);
     if (tightest < kMinFittingBendRadii * r) {
+      // The chosen torus is the tightest when voted; else the tightest's support is counted apart.
       std::vector<std::uint32_t> tightPoints;
       const double tightExpected = votes.empty() ? supportAt(tightest, tightPoints) : h.expectedSupport;
       const std::size_t tightSupport = votes.empty() ? tightPoints.size() : h.supportPoints.size();
