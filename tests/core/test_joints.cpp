@@ -1148,6 +1148,64 @@ TEST(Joints, NoLegJoinsTwoPipesWhoseBendsWereNotSeenOrWhereSomethingStandsInItsW
   }
 }
 
+/// Two level pipes along x, 0.9 m apart in height: the lower one's end at x = -0.15 m (outward +x),
+/// the upper one's at +0.15 m (outward -x), a 4 cm glimpse of the upright leg between them and no
+/// point on either bend. `upperRadius` sets the upper pipe's radius; with `upperFacing` the upper
+/// pipe lies on the lower one's side instead, ending as it does (two neighbours side by side); with
+/// `lineCarriedOn` a pipe as thick carries the lower one's line on, 1.2 m past its end.
+ConstructedScene offsetHiddenWithItsBends(double upperRadius, bool upperFacing = false, bool lineCarriedOn = false) {
+  const double r = 0.05, R = 0.15, height = 0.9;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  if (upperFacing) {
+    scene.addPipe({-1.5, 0, height}, {-R, 0, height}, upperRadius);
+  } else {
+    scene.addPipe({1.5, 0, height}, {R, 0, height}, upperRadius);
+  }
+  scene.addPipe({0, 0, 0.43}, {0, 0, 0.47}, r, false);
+  if (lineCarriedOn) scene.addPipe({1.05, 0, 0}, {2.5, 0, 0}, r);
+  // An upright pipe off both lines (the leg runs along one of the network's directions).
+  scene.addPipe({3, 1.5, 0}, {3, 1.5, 1.2}, r);
+  return scene;
+}
+
+TEST(Joints, AnOffsetHiddenWithItsBendsIsProposedBetweenParallelPipesAsThick) {
+  // Two parallel pipes as thick, each ending where the other begins, one above the other: a run
+  // offset by an upright leg whose bends were hidden. The leg lies square to both, in the middle of
+  // the gap between their ends, for review.
+  const double r = 0.05, R = 0.15, height = 0.9;
+  const JointsResult result = offsetHiddenWithItsBends(r).connect();
+  EXPECT_EQ(result.diagnostics.hiddenLegs, 1u);
+  EXPECT_EQ(result.diagnostics.legsBetweenBends, 0u);
+  ASSERT_EQ(result.pipes.size(), 4u);
+  const PipeSegment& leg = result.pipes[3];
+  EXPECT_NEAR(leg.start.x(), 0.0, 1e-9);
+  EXPECT_NEAR(leg.end.x(), 0.0, 1e-9);
+  EXPECT_NEAR(std::min(leg.start.z(), leg.end.z()), R, 1e-9);
+  EXPECT_NEAR(std::max(leg.start.z(), leg.end.z()), height - R, 1e-9);
+  ASSERT_EQ(result.joints.size(), 2u);
+  for (const Joint& joint : result.joints) {
+    EXPECT_EQ(joint.type, JointType::Elbow);
+    EXPECT_NEAR(joint.bendRadius, R, 1e-9);
+    // The share of the leg's fifteen sections seen: the glimpse's one.
+    EXPECT_NEAR(joint.confidence, 1.0 / 15.0, 1e-9);
+    EXPECT_EQ(joint.status, JointStatus::Proposed);
+  }
+}
+
+TEST(Joints, NoOffsetJoinsNeighboursEndingSideBySideOrPipesWhoseLineCarriesOn) {
+  // A thinner upper pipe is a neighbour, not the same run; two pipes ending side by side are rack
+  // neighbours (nothing tells them from a run turning back on itself); a pipe carrying the lower
+  // one's line on says that it was only hidden for a stretch, not that it turned.
+  for (const ConstructedScene& scene : {offsetHiddenWithItsBends(0.04), offsetHiddenWithItsBends(0.05, true),
+                                        offsetHiddenWithItsBends(0.05, false, true)}) {
+    const JointsResult result = scene.connect();
+    EXPECT_EQ(result.diagnostics.hiddenLegs, 0u);
+    EXPECT_EQ(result.diagnostics.legsBetweenBends, 0u);
+    for (const Joint& joint : result.joints) EXPECT_NE(joint.type, JointType::Elbow);
+  }
+}
+
 /// Medium seed 1: a 24 mm riser rises beside a 57 mm main and turns square towards it, its leg,
 /// its elbow and the tee on the main hidden but for a glimpse of the leg and, when `bendSeen`, a
 /// few points of the bend (ten: too few to complete a leg from). A pipe far off runs along the leg's direction.

@@ -2663,14 +2663,15 @@ std::vector<PipeSegment> reachThinRuns(const JointsInput& input, const JointsPar
   return stretches;
 }
 
-/// A leg between the free ends of two pipes whose lines pass each other askew (see
-/// joinSeenBends): the lines' common perpendicular, from the corner on `from`'s line to the corner
-/// on `to`'s.
+/// A leg between the free ends of two pipes whose lines pass each other askew, or run parallel
+/// with the ends facing past each other (see joinSeenBends): the lines' common perpendicular, from
+/// the corner on `from`'s line to the corner on `to`'s.
 struct SquareLeg {
   PipeSegment pipe;
   PipeEnd from;
   PipeEnd to;
-  bool mayBeHidden = false;  // The ends' lines pass square and their pipes are alike: no bend need be seen.
+  // The ends' lines pass square, or run parallel, and their pipes are alike: no bend need be seen.
+  bool mayBeHidden = false;
 };
 
 /// Whether `axis` runs along one of `directions` within kSquareLegDirectionDeg.
@@ -2680,12 +2681,36 @@ bool alongOneOf(const std::vector<Eigen::Vector3d>& directions, const Eigen::Vec
   });
 }
 
+/// Whether another of the `pipes`, as thick, carries the line of `end` on ahead of it, its near end
+/// within `reach`.
+bool lineCarriedOn(const PipeEnd& end, const std::vector<PipeSegment>& pipes, double reach, const JointBuilder& builder) {
+  for (int other = 0; other < static_cast<int>(pipes.size()); ++other) {
+    const PipeSegment& pipe = pipes[static_cast<std::size_t>(other)];
+    if (other == end.pipe || std::min(pipe.radius, end.radius) < kHiddenLegRadiusRatio * std::max(pipe.radius, end.radius) ||
+        std::fabs(unitAxis(pipe).dot(end.outward)) < std::cos(radians(kSquareLegDirectionDeg))) {
+      continue;
+    }
+    const double startAhead = (pipe.start - end.point).dot(end.outward);
+    const double endAhead = (pipe.end - end.point).dot(end.outward);
+    const Eigen::Vector3d& near = startAhead < endAhead ? pipe.start : pipe.end;
+    const double ahead = std::min(startAhead, endAhead);
+    if (ahead > 0.0 && ahead <= reach && distanceToLine(near, end.point, end.outward) <= builder.skewLimit(end.radius)) {
+      return true;
+    }
+  }
+  return false;
+}
+
 /// The legs that may join pairs of the free `ends`: where two ends' lines pass each other askew
-/// and near square, their common perpendicular, when it runs along one of the network's
-/// `directions`, is long enough for an elbow at each corner and no longer than a completion, and
-/// each corner lies on its end's line within the search distance ahead of it.
-std::vector<SquareLeg> squareLegCandidates(const std::vector<PipeEnd>& ends, const std::vector<Eigen::Vector3d>& directions,
-                                           const JointsParams& params, const JointBuilder& builder) {
+/// and near square, their common perpendicular; where they run parallel (within
+/// kSquareLegDirectionDeg) with each end facing past the other (an offset) and no pipe as thick
+/// carries either line on ahead, the perpendicular between them in the middle of the gap between
+/// the ends. Either when it runs along one of the network's `directions`, is long enough for an
+/// elbow at each corner and no longer than a completion, and each corner lies on its end's line
+/// within the search distance ahead of it.
+std::vector<SquareLeg> squareLegCandidates(const std::vector<PipeEnd>& ends, const std::vector<PipeSegment>& pipes,
+                                           const std::vector<Eigen::Vector3d>& directions, const JointsParams& params,
+                                           const JointBuilder& builder) {
   // Ahead of the end, or behind it by as much as a pipe fitted into a square elbow overshoots the
   // corner (see tryEndPair).
   const auto cornerInReach = [&](const PipeEnd& end, double along) {
@@ -2699,11 +2724,23 @@ std::vector<SquareLeg> squareLegCandidates(const std::vector<PipeEnd>& ends, con
   for (const auto& [e, f] : endPairsWithin(ends, reaches)) {
     const PipeEnd& a = ends[e];
     const PipeEnd& b = ends[f];
-    if (std::min(a.radius, b.radius) < params.minRadiusRatio * std::max(a.radius, b.radius) ||
-        std::fabs(a.outward.dot(b.outward)) > std::cos(radians(kSquareLegMinAngleDeg))) {
-      continue;
+    if (std::min(a.radius, b.radius) < params.minRadiusRatio * std::max(a.radius, b.radius)) continue;
+    const bool alike = std::min(a.radius, b.radius) >= kHiddenLegRadiusRatio * std::max(a.radius, b.radius);
+    const double cosine = a.outward.dot(b.outward);
+    std::optional<std::pair<double, double>> parameters;
+    bool mayBeHidden = false;
+    if (std::fabs(cosine) <= std::cos(radians(kSquareLegMinAngleDeg))) {
+      parameters = closestLineParameters(a.point, a.outward, b.point, b.outward);
+      mayBeHidden = std::fabs(cosine) <= std::sin(radians(kSquareLegDirectionDeg)) && alike;
+    } else if (cosine <= -std::cos(radians(kSquareLegDirectionDeg)) &&
+               !lineCarriedOn(a, pipes, reaches[e], builder) && !lineCarriedOn(b, pipes, reaches[f], builder)) {
+      // Parallel, each end facing past the other: an offset, its leg square to both in the middle
+      // of the gap between the ends (where their bends meet when both were seen up to them). Not
+      // where a pipe carries an end's line on ahead: that pipe was only hidden for a stretch.
+      const double half = 0.5 * (b.point - a.point).dot(a.outward);
+      parameters = std::pair{half, half};
+      mayBeHidden = alike;
     }
-    const auto parameters = closestLineParameters(a.point, a.outward, b.point, b.outward);
     if (!parameters || !cornerInReach(a, parameters->first) || !cornerInReach(b, parameters->second)) continue;
     const Eigen::Vector3d cornerA = a.point + parameters->first * a.outward;
     const Eigen::Vector3d cornerB = b.point + parameters->second * b.outward;
@@ -2719,8 +2756,7 @@ std::vector<SquareLeg> squareLegCandidates(const std::vector<PipeEnd>& ends, con
     leg.pipe.radius = radius;
     leg.from = a;
     leg.to = b;
-    leg.mayBeHidden = std::fabs(a.outward.dot(b.outward)) <= std::sin(radians(kSquareLegDirectionDeg)) &&
-                      std::min(a.radius, b.radius) >= kHiddenLegRadiusRatio * std::max(a.radius, b.radius);
+    leg.mayBeHidden = mayBeHidden;
   }
   return legs;
 }
@@ -2833,13 +2869,14 @@ LegJoints jointsAtLegEnds(const WithLegs& withLegs, JointType first, JointType s
 /// Legs between two seen bends. Two pipes may each be seen turning square off their ends, one
 /// towards the other's line, while the leg between the bends holds too few points for any
 /// completion (a thin or far leg, or one mostly in shadow). After the hidden corners, two ends
-/// still free whose lines pass each other askew and near square are joined by the lines' common
-/// perpendicular (squareLegCandidates) with an elbow at each corner, when both bends are seen (their
-/// tori hold at least a fifth of the points their pipes' density gives an arc, and that is at least
-/// ten points), or when the lines pass square and the pipes are alike (SquareLeg::mayBeHidden: a
-/// leg hidden whole, bends included, behind something), and everything the joints bridge (the leg
-/// between its tangent points and the stretches from the ends to theirs) keeps out of every other
-/// pipe and holds no points near its axis. The best-supported pair of bends goes first; a leg cuts no leg chosen before it. The
+/// still free whose lines pass each other askew and near square, or run parallel facing past each
+/// other, are joined by the lines' common perpendicular (squareLegCandidates) with an elbow at each
+/// corner, when both bends are seen (their tori hold at least a fifth of the points their pipes'
+/// density gives an arc, and that is at least ten points), or when the lines pass square or run
+/// parallel and the pipes are alike (SquareLeg::mayBeHidden: a leg hidden whole, bends included,
+/// behind something), and everything the joints bridge (the leg between its tangent points and the
+/// stretches from the ends to theirs) keeps out of every other pipe and holds no points near its
+/// axis. The best-supported pair of bends goes first; a leg cuts no leg chosen before it. The
 /// elbows' confidence is capped at the share of the leg's sections seen: a leg that little of was
 /// seen is proposed, for review. Returns the legs chosen, which follow `input.pipes` in
 /// `resolution`.
@@ -2849,7 +2886,7 @@ std::vector<PipeSegment> joinSeenBends(const JointsInput& input, const JointsPar
   if (params.maxCompletionLength <= 0.0) return chosenLegs;
   const auto& pipes = input.pipes;
   const std::vector<SquareLeg> candidates =
-      squareLegCandidates(freeEnds(pipes, params, resolution), networkDirections(pipes), params,
+      squareLegCandidates(freeEnds(pipes, params, resolution), pipes, networkDirections(pipes), params,
                           JointBuilder(input, params, explained));
   if (candidates.empty()) return chosenLegs;
 

@@ -105,7 +105,7 @@ struct JointsResult {
     std::size_t hiddenRunElbows = 0;       ///< ...or over one hardly seen or not at all, their lines meeting exactly.
     std::size_t legsBetweenBends = 0;      ///< Legs between two seen bends, each with its two elbows (appended after
                                            ///< the completed pipes)...
-    std::size_t hiddenLegs = 0;            ///< ...and legs a bend of which was not seen, between pipes turning square.
+    std::size_t hiddenLegs = 0;            ///< ...and legs a bend of which was not seen, between pipes turning square or offset.
     std::size_t hiddenBranches = 0;        ///< Legs hidden with their elbow and tee, from an end to a main's body.
     std::size_t unjoinedPipes = 0;         ///< Input pipes that had to take a joint (PipeSegment::mustJoin) and took
                                            ///< none: left out, the rest joined again without them.
