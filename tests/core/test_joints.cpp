@@ -400,6 +400,32 @@ TEST(Joints, AnElbowIsFoundWhenOneEndStopsShortAndTheOtherReachesIt) {
   EXPECT_TRUE(far.connect(searchOnly).joints.empty());
 }
 
+TEST(Joints, AShortPipeThatTakesNoJointIsProposedForReview) {
+  // A 10 cm pipe turns at an elbow into a 15 cm stub (1.5 diameters): joined, the stub keeps its
+  // confidence. Far off, two short cylinders no joint takes, as fat as a pump's casing: 1.5 and
+  // 0.4 diameters long. Confidence falls with length under two diameters (two fragments' length),
+  // below one half under one: the shorter is proposed.
+  const double r = 0.05, R = 0.15;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  scene.addBend(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), R, r);
+  scene.addPipe({0, R, 0}, {0, R + 0.15, 0}, r);
+  scene.addPipe({3, 0, 0}, {3, 0, 0.3}, 0.1);
+  scene.addPipe({5, 0, 0}, {5, 0, 0.08}, 0.1);
+  const JointsResult result = scene.connect();
+  ASSERT_EQ(result.pipes.size(), 4u);
+  ASSERT_EQ(result.joints.size(), 1u);
+  EXPECT_NEAR(result.pipes[0].confidence, 1.0, 1e-9);
+  EXPECT_NEAR(result.pipes[1].confidence, 1.0, 1e-9);
+  EXPECT_NEAR(result.pipes[2].confidence, 0.3 / 0.4, 1e-9);
+  EXPECT_NEAR(result.pipes[3].confidence, 0.08 / 0.4, 1e-9);
+
+  // With no fragments (min_pipe_diameters 0) length says nothing.
+  JointsParams noFragments;
+  noFragments.minPipeDiameters = 0.0;
+  for (const PipeSegment& pipe : scene.connect(noFragments).pipes) EXPECT_NEAR(pipe.confidence, 1.0, 1e-9);
+}
+
 /// Two pipes of radius 5 cm whose ends stop `short` before their corner at the origin, nothing
 /// seen between them: the first along +x, the second leaving along +y.
 ConstructedScene cornerHiddenBehindSomething(double shortOfCorner) {

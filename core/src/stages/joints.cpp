@@ -3260,6 +3260,20 @@ JoinedOnce joinOnce(const JointsInput& input, const JointsParams& params, Progre
     result.joints.push_back(std::move(joint));
   }
 
+  // A pipe that takes no joint and is short says little of being a pipe: a flange, a valve or pump
+  // body, a vessel's nozzle are such cylinders too. Its confidence falls with its length under two
+  // fragments' length, below one half (proposed, for review) under one.
+  std::vector<char> takesJoint(result.pipes.size(), 0);
+  for (const Joint& joint : result.joints) {
+    for (int id : joint.pipeIds) takesJoint[static_cast<std::size_t>(id - 1)] = 1;
+  }
+  for (std::size_t p = 0; p < result.pipes.size(); ++p) {
+    PipeSegment& pipe = result.pipes[p];
+    const double shortOf = 2.0 * params.minPipeDiameters * 2.0 * pipe.radius;
+    const double length = (pipe.end - pipe.start).norm();
+    if (!takesJoint[p] && length < shortOf) pipe.confidence *= length / shortOf;
+  }
+
   // Runs by the rule every edit of the network uses too.
   PipeNetwork network;
   for (int id = 1; id <= pipeIds; ++id) network.pipes.push_back(Pipe{id});

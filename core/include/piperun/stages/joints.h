@@ -44,6 +44,8 @@ struct JointsParams {
                                        ///< or flange fitted as a cylinder): they take no joint, and those lying on a
                                        ///< found elbow's arc are absorbed by it. A longer pipe lying on the arc of a
                                        ///< confident elbow between two other pipes waits for it and goes with it.
+                                       ///< A pipe that takes no joint has its confidence scaled by its length
+                                       ///< under twice this (a jointless fragment falls below one half: proposed).
   double supportDistance = 0.01;       ///< Points within this of a joint's surface support it (m).
   double acceptConfidence = 0.5;       ///< Joints with at least this confidence are accepted, others proposed.
   double maxCompletionLength = 1.0;    ///< An end no accepted joint took looks for a pipe the earlier stages missed
