@@ -82,20 +82,43 @@ TEST(Runs, ConnectedOverAcceptedJointsOnly) {
   EXPECT_EQ(network.findPipe(3)->runId, 2);
 }
 
-TEST(ReviewQueue, ProposedJointsLowestConfidenceFirst) {
+/// The review queue as "joint 9", "pipe 4", ...
+std::vector<std::string> queued(const PipeNetwork& network) {
+  std::vector<std::string> names;
+  for (const ReviewItem& item : reviewQueue(network)) {
+    names.push_back((item.kind == ReviewItem::Kind::Joint ? "joint " : "pipe ") + std::to_string(item.id));
+  }
+  return names;
+}
+
+TEST(ReviewQueue, ProposedJointsAndPipesLowestConfidenceFirst) {
   PipeNetwork network = sampleNetwork();
   network.joints.push_back(makeJoint(9, JointType::Tee, {2, 4}, {{2.5, 0, 0}, {2.5, 0.1, 0}}, JointStatus::Proposed));
   network.joints.back().confidence = 0.1;
-  EXPECT_EQ(jointReviewQueue(network), (std::vector<int>{9, 6}));
+  // Joints 9 (0.1) and 6 (0.3), then pipe 4 (0.4); a joint goes before a pipe of its confidence.
+  EXPECT_EQ(queued(network), (std::vector<std::string>{"joint 9", "joint 6", "pipe 4"}));
+  EXPECT_TRUE(reviewsBefore({ReviewItem::Kind::Joint, 20, 0.4}, {ReviewItem::Kind::Pipe, 4, 0.4}));
   EditSession session(network);
   session.apply(parse("joint 9 reject"), context());
-  EXPECT_EQ(jointReviewQueue(session.network()), (std::vector<int>{6}));
-  const ReviewCounts counts = countJointReview(session.network());
-  EXPECT_EQ(counts.accepted, 2);
-  EXPECT_EQ(counts.rejected, 1);
-  EXPECT_EQ(counts.left, 1);
+  EXPECT_EQ(queued(session.network()), (std::vector<std::string>{"joint 6", "pipe 4"}));
+  const ReviewCounts joints = countJointReview(session.network());
+  EXPECT_EQ(joints.accepted, 2);
+  EXPECT_EQ(joints.rejected, 1);
+  EXPECT_EQ(joints.left, 1);
+  session.apply(parse("pipe 4 accept"), context());
+  EXPECT_EQ(queued(session.network()), (std::vector<std::string>{"joint 6"}));
+  session.apply(parse("pipe 3 delete"), context());
+  const ReviewCounts pipes = countPipeReview(session.network());
+  EXPECT_EQ(pipes.accepted, 3);
+  EXPECT_EQ(pipes.rejected, 1);
+  EXPECT_EQ(pipes.left, 0);
+  EXPECT_THROW(session.apply(parse("pipe 3 accept"), context()), EditError);  // deleted: restore it first
   session.apply(parse("joint 9 propose"), context());  // Back in the queue, in its place.
-  EXPECT_EQ(jointReviewQueue(session.network()), (std::vector<int>{9, 6}));
+  EXPECT_EQ(queued(session.network()), (std::vector<std::string>{"joint 9", "joint 6"}));
+  session.undo();
+  session.undo();
+  session.undo();  // "pipe 4 accept" undone: proposed again
+  EXPECT_EQ(queued(session.network()), (std::vector<std::string>{"joint 6", "pipe 4"}));
 }
 
 TEST(EditSession, RejectedJointsAndDeletedPipesLeaveTheRunsAtOnce) {
@@ -276,8 +299,18 @@ TEST(CarryOver, DecisionsFollowTheirElementsAndTheRestIsListed) {
   EXPECT_EQ(carried.session.position(), 4u);
 }
 
+TEST(CarryOver, APipeAcceptedInReviewStaysAccepted) {
+  EditSession session(sampleNetwork());
+  session.apply(parse("pipe 4 accept"), context());
+  const CarryOver carried = carryOver(session, rerunNetwork(), context());
+  EXPECT_EQ(rerunNetwork().findPipe(24)->status, PipeStatus::Proposed);
+  EXPECT_EQ(carried.session.network().findPipe(24)->status, PipeStatus::Accepted);
+  EXPECT_TRUE(carried.dropped.empty());
+}
+
 TEST(EditCommands, RoundTripThroughTheirText) {
-  for (const char* line : {"joint 12 accept", "joint 12 reject", "joint 12 propose", "joint add 3 4", "pipe 3 delete", "pipe 3 restore",
+  for (const char* line : {"joint 12 accept", "joint 12 reject", "joint 12 propose", "joint add 3 4", "pipe 3 accept",
+                           "pipe 3 delete", "pipe 3 restore",
                            "pipe 3 merge 4", "pipe 3 split 1.5 -0.25 2.125", "pipe 3 radius 0.0545", "pipe 3 snap",
                            "pipe 3 move-end start 0.1 0.2 0.30000000000000004", "pipe fit-box 0 0 0 1 1 1",
                            "pipe fit-point 1 2 3 0.25"}) {

@@ -598,17 +598,18 @@ void Studio::Impl::updateOverlays() {
   const bool sceneShown = viewMode == ViewMode::All || viewMode == ViewMode::Scene;
   reviewText->SetVisibility(reviewShown && sceneShown);
   if (reviewShown) {
-    const ReviewCounts counts = countJointReview(network);
-    const auto deleted = std::count_if(network.pipes.begin(), network.pipes.end(),
-                                       [](const Pipe& pipe) { return pipe.status == PipeStatus::Deleted; });
+    const ReviewCounts joints = countJointReview(network);
+    const ReviewCounts pipes = countPipeReview(network);
     std::ostringstream review;
-    review << "Review  joints: " << counts.accepted << " accepted, " << counts.rejected << " rejected, " << counts.left
-           << " left\npipes: " << deleted << " deleted";
-    const std::vector<int> queue = jointReviewQueue(network);
-    const auto place =
-        selection.kind == Selection::Kind::Joint ? std::find(queue.begin(), queue.end(), selection.id) : queue.end();
+    review << "Review  joints: " << joints.accepted << " accepted, " << joints.rejected << " rejected, " << joints.left
+           << " left\npipes: " << pipes.left << " left, " << pipes.rejected << " deleted";
+    const std::vector<ReviewItem> queue = reviewQueue(network);
+    const bool jointSelected = selection.kind == Selection::Kind::Joint;
+    const ReviewItem selected{jointSelected ? ReviewItem::Kind::Joint : ReviewItem::Kind::Pipe, selection.id};
+    const auto place = selection.kind == Selection::Kind::None ? queue.end() : std::find(queue.begin(), queue.end(), selected);
     if (place != queue.end())
-      review << "\njoint " << selection.id << ": " << (place - queue.begin() + 1) << " of " << queue.size() << " left";
+      review << "\n" << (jointSelected ? "joint " : "pipe ") << selection.id << ": " << (place - queue.begin() + 1)
+             << " of " << queue.size() << " left";
     review << "\nN/P next/previous  A accept  R reject\nDel delete pipe  Ins restore  Ctrl+Z undo";
     reviewText->SetInput(review.str().c_str());
   }
@@ -741,31 +742,36 @@ void Studio::Impl::networkChanged() {
   updateOverlays();
 }
 
-int Studio::Impl::reviewNeighbour(bool forward) const {
+std::optional<ReviewItem> Studio::Impl::reviewNeighbour(bool forward) const {
   const PipeNetwork& network = document.network();
-  const std::vector<int> queue = jointReviewQueue(network);
-  if (queue.empty()) return -1;
-  const Joint* current = selection.kind == Selection::Kind::Joint ? network.findJoint(selection.id) : nullptr;
+  const std::vector<ReviewItem> queue = reviewQueue(network);
+  if (queue.empty()) return std::nullopt;
+  // The queue's order places even a decided element between its neighbours.
+  std::optional<ReviewItem> current;
+  if (const Joint* joint = selection.kind == Selection::Kind::Joint ? network.findJoint(selection.id) : nullptr) {
+    current = ReviewItem{ReviewItem::Kind::Joint, joint->id, joint->confidence};
+  } else if (const Pipe* pipe = selection.kind == Selection::Kind::Pipe ? network.findPipe(selection.id) : nullptr) {
+    current = ReviewItem{ReviewItem::Kind::Pipe, pipe->id, pipe->confidence};
+  }
   if (!current) return forward ? queue.front() : queue.back();
-  // The queue's order (confidence, then id) places even a decided joint between its neighbours.
-  const auto key = [&](const Joint& joint) { return std::make_pair(joint.confidence, joint.id); };
   if (forward) {
-    for (int id : queue)
-      if (key(*network.findJoint(id)) > key(*current)) return id;
+    for (const ReviewItem& item : queue)
+      if (reviewsBefore(*current, item)) return item;
     return queue.front();
   }
-  for (auto id = queue.rbegin(); id != queue.rend(); ++id)
-    if (key(*network.findJoint(*id)) < key(*current)) return *id;
+  for (auto item = queue.rbegin(); item != queue.rend(); ++item)
+    if (reviewsBefore(*item, *current)) return *item;
   return queue.back();
 }
 
-std::string Studio::Impl::reviewJoint(int id) {
+std::string Studio::Impl::reviewItem(const std::optional<ReviewItem>& item) {
   reviewShown = true;
-  if (id < 0) {
+  if (!item) {
     updateOverlays();
-    return "no proposed joints left to review";
+    return "nothing proposed left to review";
   }
-  const std::string selected = commands.run("select joint " + std::to_string(id));
+  const bool joint = item->kind == ReviewItem::Kind::Joint;
+  const std::string selected = commands.run((joint ? "select joint " : "select pipe ") + std::to_string(item->id));
   commands.run("fly");
   return selected;
 }

@@ -294,8 +294,9 @@ void Studio::Impl::registerCommands() {
                });
 
   commands.add("review", "next|previous|accept|reject|delete|restore|on|off",
-               "step through the proposed joints, lowest confidence first (selects, flies); decide the selected "
-               "joint (then the next) or pipe; show or hide the review counters",
+               "step through the proposed joints and pipes, lowest confidence first (selects, flies); accept or "
+               "reject the selected joint or pipe (a rejected pipe is deleted), then go to the next; delete or "
+               "restore the selected pipe; show or hide the review counters",
                [this](const std::vector<std::string>& args) {
                  expectArguments(args, 1, 1, "review next|previous|accept|reject|delete|restore|on|off");
                  const std::string& action = args[0];
@@ -304,17 +305,20 @@ void Studio::Impl::registerCommands() {
                    updateOverlays();
                    return "review counters " + action;
                  }
-                 if (action == "next" || action == "previous") return reviewJoint(reviewNeighbour(action == "next"));
+                 if (action == "next" || action == "previous") return reviewItem(reviewNeighbour(action == "next"));
                  if (action == "accept" || action == "reject") {
-                   if (selection.kind != Selection::Kind::Joint) throw CommandError("select a joint to " + action);
-                   const std::string decided = edit("joint " + std::to_string(selection.id) + " " + action);
-                   const int next = reviewNeighbour(true);
+                   if (selection.kind == Selection::Kind::None) throw CommandError("select a joint or pipe to " + action);
+                   const bool joint = selection.kind == Selection::Kind::Joint;
+                   const std::string verb = joint || action == "accept" ? action : "delete";
+                   const std::string decided =
+                       edit((joint ? "joint " : "pipe ") + std::to_string(selection.id) + " " + verb);
+                   const std::optional<ReviewItem> next = reviewNeighbour(true);
                    reviewShown = true;
-                   if (next < 0) {
+                   if (!next) {
                      updateOverlays();
-                     return decided + "; no proposed joints left";
+                     return decided + "; nothing proposed left";
                    }
-                   return decided + "; next: " + reviewJoint(next);
+                   return decided + "; next: " + reviewItem(next);
                  }
                  if (action == "delete" || action == "restore") {
                    if (selection.kind != Selection::Kind::Pipe) throw CommandError("select a pipe to " + action);

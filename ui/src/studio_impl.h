@@ -9,6 +9,7 @@
 #include "stage_bar.h"
 
 #include "piperun/edit/command_interpreter.h"
+#include "piperun/edit/review_queue.h"
 #include "piperun/params.h"
 
 #include <vtkBoxWidget2.h>
@@ -211,10 +212,11 @@ struct Studio::Impl {
   std::string editSelectingNewPipe(const std::string& line);
   /// After an edit, undo, redo or new network: drops a vanished selection and redraws the network.
   void networkChanged();
-  /// The proposed joint after (or before) the selected one in the review queue; -1 when none is left.
-  int reviewNeighbour(bool forward) const;
-  /// Selects a joint of the review queue and flies the camera to it.
-  std::string reviewJoint(int id);
+  /// The proposed joint or pipe after (or before) the selection in the review queue; none when
+  /// none is left.
+  std::optional<ReviewItem> reviewNeighbour(bool forward) const;
+  /// Selects an element of the review queue and flies the camera to it.
+  std::string reviewItem(const std::optional<ReviewItem>& item);
   /// Where `save` without a path writes: the project's file, or the opened file as .piperun.
   std::filesystem::path defaultProjectPath() const;
 

@@ -81,6 +81,7 @@ Edit translate(const Edit& edit, const IdTranslation& ids, const PipeNetwork& ol
     }
     case EditKind::DeletePipe:
     case EditKind::RestorePipe:
+    case EditKind::AcceptPipe:
     case EditKind::SplitPipe:
     case EditKind::SetRadius:
     case EditKind::SnapRadius: translated.id = ids.pipe(edit.id); break;

@@ -37,6 +37,7 @@ std::string describe(const EditStep& step) {
              ") joins pipes " + std::to_string(edit.id) + " and " + std::to_string(edit.otherId);
     case EditKind::DeletePipe: return pipe + " deleted";
     case EditKind::RestorePipe: return pipe + " restored";
+    case EditKind::AcceptPipe: return pipe + " accepted";
     case EditKind::MergePipes: return "pipe " + std::to_string(edit.otherId) + " merged into " + pipe;
     case EditKind::SplitPipe: return pipe + " split; the far piece is pipe " + std::to_string(diff.pipes.added.at(0).element.id);
     case EditKind::SetRadius:

@@ -100,13 +100,17 @@ std::optional<Edit> parsePipeEdit(const std::vector<std::string>& words) {
     if (!(edit.value > 0.0)) form.fail();
     return edit;
   }
-  const Form general(words, "pipe ID delete|restore|snap|radius R|merge ID|split X Y Z|move-end start|end X Y Z");
+  const Form general(words, "pipe ID accept|delete|restore|snap|radius R|merge ID|split X Y Z|move-end start|end X Y Z");
   if (words.size() < 3) general.fail();
   edit.id = general.id(1);
   const std::string& verb = words[2];
-  if (verb == "delete" || verb == "restore" || verb == "snap") {
-    Form(words, verb == "delete" ? "pipe ID delete" : verb == "restore" ? "pipe ID restore" : "pipe ID snap").expectCount(3, 3);
-    edit.kind = verb == "delete" ? EditKind::DeletePipe : verb == "restore" ? EditKind::RestorePipe : EditKind::SnapRadius;
+  if (verb == "accept" || verb == "delete" || verb == "restore" || verb == "snap") {
+    const std::string usage = "pipe ID " + verb;
+    Form(words, usage.c_str()).expectCount(3, 3);
+    edit.kind = verb == "accept"   ? EditKind::AcceptPipe
+                : verb == "delete" ? EditKind::DeletePipe
+                : verb == "restore" ? EditKind::RestorePipe
+                                    : EditKind::SnapRadius;
   } else if (verb == "radius") {
     const Form form(words, "pipe ID radius R (metres, positive)");
     form.expectCount(4, 4);
@@ -147,6 +151,7 @@ std::string toCommand(const Edit& edit) {
     case EditKind::AddJoint: return "joint add " + std::to_string(edit.id) + " " + std::to_string(edit.otherId);
     case EditKind::DeletePipe: return pipe + " delete";
     case EditKind::RestorePipe: return pipe + " restore";
+    case EditKind::AcceptPipe: return pipe + " accept";
     case EditKind::MergePipes: return pipe + " merge " + std::to_string(edit.otherId);
     case EditKind::SplitPipe: return pipe + " split " + point(edit.point);
     case EditKind::SetRadius: return pipe + " radius " + number(edit.value);

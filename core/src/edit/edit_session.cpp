@@ -220,6 +220,7 @@ void applyEdit(PipeNetwork& network, const Edit& edit, const EditContext& contex
     case EditKind::ProposeJoint: jointById(network, edit.id).status = JointStatus::Proposed; return;
     case EditKind::AddJoint: addJoint(network, edit.id, edit.otherId, context); return;
     case EditKind::DeletePipe: livePipe(network, edit.id).status = PipeStatus::Deleted; return;
+    case EditKind::AcceptPipe: livePipe(network, edit.id).status = PipeStatus::Accepted; return;
     case EditKind::RestorePipe: {
       Pipe* pipe = network.findPipe(edit.id);
       if (!pipe) throw EditError("there is no pipe " + std::to_string(edit.id));

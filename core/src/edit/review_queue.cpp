@@ -1,21 +1,24 @@
 #include "piperun/edit/review_queue.h"
 
 #include <algorithm>
+#include <tuple>
 
 namespace piperun {
 
-std::vector<int> jointReviewQueue(const PipeNetwork& network) {
-  std::vector<const Joint*> proposed;
+bool reviewsBefore(const ReviewItem& a, const ReviewItem& b) {
+  return std::tuple(a.confidence, a.kind, a.id) < std::tuple(b.confidence, b.kind, b.id);
+}
+
+std::vector<ReviewItem> reviewQueue(const PipeNetwork& network) {
+  std::vector<ReviewItem> queue;
   for (const Joint& joint : network.joints) {
-    if (joint.status == JointStatus::Proposed) proposed.push_back(&joint);
+    if (joint.status == JointStatus::Proposed) queue.push_back({ReviewItem::Kind::Joint, joint.id, joint.confidence});
   }
-  std::sort(proposed.begin(), proposed.end(), [](const Joint* a, const Joint* b) {
-    return a->confidence != b->confidence ? a->confidence < b->confidence : a->id < b->id;
-  });
-  std::vector<int> ids;
-  ids.reserve(proposed.size());
-  for (const Joint* joint : proposed) ids.push_back(joint->id);
-  return ids;
+  for (const Pipe& pipe : network.pipes) {
+    if (pipe.status == PipeStatus::Proposed) queue.push_back({ReviewItem::Kind::Pipe, pipe.id, pipe.confidence});
+  }
+  std::sort(queue.begin(), queue.end(), reviewsBefore);
+  return queue;
 }
 
 ReviewCounts countJointReview(const PipeNetwork& network) {
@@ -25,6 +28,18 @@ ReviewCounts countJointReview(const PipeNetwork& network) {
       case JointStatus::Accepted: ++counts.accepted; break;
       case JointStatus::Rejected: ++counts.rejected; break;
       case JointStatus::Proposed: ++counts.left; break;
+    }
+  }
+  return counts;
+}
+
+ReviewCounts countPipeReview(const PipeNetwork& network) {
+  ReviewCounts counts;
+  for (const Pipe& pipe : network.pipes) {
+    switch (pipe.status) {
+      case PipeStatus::Accepted: ++counts.accepted; break;
+      case PipeStatus::Deleted: ++counts.rejected; break;
+      case PipeStatus::Proposed: ++counts.left; break;
     }
   }
   return counts;

@@ -23,6 +23,7 @@ enum class EditKind {
   AddJoint,      ///< joint add A B
   DeletePipe,    ///< pipe ID delete
   RestorePipe,   ///< pipe ID restore
+  AcceptPipe,    ///< pipe ID accept (a proposed pipe kept)
   MergePipes,    ///< pipe A merge B
   SplitPipe,     ///< pipe ID split X Y Z
   SetRadius,     ///< pipe ID radius R
