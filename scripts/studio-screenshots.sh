@@ -40,7 +40,7 @@ render "$work/scene.ply" --script "$work/review.txt" --view scene --size 800x500
 printf 'review next\nfly\n' >"$work/fly.txt"
 cat "$work/review.txt" "$work/fly.txt" >"$work/review-fly.txt"
 render "$work/scene.ply" --script "$work/review-fly.txt" --view scene --size 800x500 -o docs/images/studio-review-joint.png
-printf 'rerun joints accept_confidence=0.9\njoint 21 reject\nsave %s\n' "$work/review.piperun" >"$work/save.txt"
+printf 'rerun joints accept_confidence=0.9\nreview next\nreview reject\nsave %s\n' "$work/review.piperun" >"$work/save.txt"
 render "$work/scene.ply" --script "$work/save.txt" -o "$work/saved.png" >/dev/null
 cp "$work/review.piperun" "$work/review.piperun.autosave"
 touch -d "@$(($(stat -c %Y "$work/review.piperun") + 60))" "$work/review.piperun.autosave"
