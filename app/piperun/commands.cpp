@@ -446,6 +446,15 @@ int runReconstruct(const ReconstructOptions& options) {
               pipeline.jointsResult()->diagnostics.unjoinedPipes == 1 ? "pipe" : "pipes", pipeline.stageSeconds(Stage::Joints));
   std::printf("(per-tile stage times are summed over tiles, which run in parallel)\n");
   std::printf("network: %s\n", options.output.c_str());
+  const auto proposedJoints = std::count_if(network.joints.begin(), network.joints.end(),
+                                            [](const Joint& joint) { return joint.status == JointStatus::Proposed; });
+  const auto proposedPipes = std::count_if(network.pipes.begin(), network.pipes.end(),
+                                           [](const Pipe& pipe) { return pipe.status == PipeStatus::Proposed; });
+  if (proposedJoints + proposedPipes > 0) {
+    std::printf("review: %td %s and %td %s proposed (piperun-studio %s, then N steps through them)\n", proposedJoints,
+                proposedJoints == 1 ? "joint" : "joints", proposedPipes, proposedPipes == 1 ? "pipe" : "pipes",
+                options.output.c_str());
+  }
   for (const auto& target : exports) std::printf("export: %s (%s)\n", target.path.c_str(), toString(target.format).c_str());
   if (dumped > 0) std::printf("stages: %d files in %s\n", dumped, options.dumpDirectory.c_str());
   if (!options.truth.empty()) {
