@@ -2705,7 +2705,7 @@ bool lineCarriedOn(const PipeEnd& end, const std::vector<PipeSegment>& pipes, do
 /// and near square, their common perpendicular; where they run parallel (within
 /// kSquareLegDirectionDeg) with each end facing past the other (an offset) and no pipe as thick
 /// carries either line on ahead, the perpendicular between them in the middle of the gap between
-/// the ends. Either when it runs along one of the network's `directions`, is long enough for an
+/// the ends. Either is kept when it runs along one of the network's `directions`, is long enough for an
 /// elbow at each corner and no longer than a completion, and each corner lies on its end's line
 /// within the search distance ahead of it.
 std::vector<SquareLeg> squareLegCandidates(const std::vector<PipeEnd>& ends, const std::vector<PipeSegment>& pipes,
