@@ -1,6 +1,7 @@
 #include "commands.h"
 
 #include "console.h"
+#include "piperun/edit/review_queue.h"
 #include "piperun/error.h"
 #include "piperun/eval/evaluation.h"
 #include "piperun/io/network_export.h"
@@ -446,12 +447,10 @@ int runReconstruct(const ReconstructOptions& options) {
               pipeline.jointsResult()->diagnostics.unjoinedPipes == 1 ? "pipe" : "pipes", pipeline.stageSeconds(Stage::Joints));
   std::printf("(per-tile stage times are summed over tiles, which run in parallel)\n");
   std::printf("network: %s\n", options.output.c_str());
-  const auto proposedJoints = std::count_if(network.joints.begin(), network.joints.end(),
-                                            [](const Joint& joint) { return joint.status == JointStatus::Proposed; });
-  const auto proposedPipes = std::count_if(network.pipes.begin(), network.pipes.end(),
-                                           [](const Pipe& pipe) { return pipe.status == PipeStatus::Proposed; });
+  const int proposedJoints = countJointReview(network).left;
+  const int proposedPipes = countPipeReview(network).left;
   if (proposedJoints + proposedPipes > 0) {
-    std::printf("review: %td %s and %td %s proposed (piperun-studio %s, then N steps through them)\n", proposedJoints,
+    std::printf("review: %d %s and %d %s proposed (piperun-studio %s, then N steps through them)\n", proposedJoints,
                 proposedJoints == 1 ? "joint" : "joints", proposedPipes, proposedPipes == 1 ? "pipe" : "pipes",
                 options.output.c_str());
   }

@@ -401,10 +401,10 @@ TEST(Joints, AnElbowIsFoundWhenOneEndStopsShortAndTheOtherReachesIt) {
 }
 
 TEST(Joints, AShortPipeThatTakesNoJointIsProposedForReview) {
-  // A 10 cm pipe turns at an elbow into a 15 cm stub (1.5 diameters): joined, the stub keeps its
-  // confidence. Far off, two short cylinders no joint takes, as fat as a pump's casing: 1.5 and
-  // 0.4 diameters long. Confidence falls with length under two diameters (two fragments' length),
-  // below one half under one: the shorter is proposed.
+  // A 10 cm pipe turns at an elbow into a 15 cm stub (1.5 diameters), which keeps confidence 1.
+  // Far off stand two short cylinders that no joint takes, as fat as a pump's casing, 1.5 and 0.4
+  // diameters long. Confidence falls with length under two diameters (two fragments' length) and
+  // is below one half under one diameter, so the shorter is proposed.
   const double r = 0.05, R = 0.15;
   ConstructedScene scene;
   scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
@@ -1130,6 +1130,18 @@ ConstructedScene legHiddenWithItsBends(double upperRadius, double leanDeg) {
   return scene;
 }
 
+/// The two elbows of a leg hidden with its bends, of which a glimpse was seen: long-radius (R),
+/// proposed at the share of the leg's fifteen sections seen, the glimpse's one.
+void expectTwoProposedElbowsAtTheGlimpsesShare(const JointsResult& result, double R) {
+  ASSERT_EQ(result.joints.size(), 2u);
+  for (const Joint& joint : result.joints) {
+    EXPECT_EQ(joint.type, JointType::Elbow);
+    EXPECT_NEAR(joint.bendRadius, R, 1e-9);
+    EXPECT_NEAR(joint.confidence, 1.0 / 15.0, 1e-9);
+    EXPECT_EQ(joint.status, JointStatus::Proposed);
+  }
+}
+
 TEST(Joints, ALegHiddenWithItsBendsIsProposedBetweenPipesAsThickTurningSquareTowardsEachOther) {
   // Nothing was seen of either bend, only a 4 cm glimpse of the leg. The two pipes are as thick and
   // their lines pass each other square: their common perpendicular joins them, as a run turning
@@ -1146,14 +1158,7 @@ TEST(Joints, ALegHiddenWithItsBendsIsProposedBetweenPipesAsThickTurningSquareTow
   // own ends, drawn at the corners, bound nothing.
   EXPECT_NEAR(std::min(leg.start.y(), leg.end.y()), R, 1e-9);
   EXPECT_NEAR(std::max(leg.start.y(), leg.end.y()), corner - R, 1e-9);
-  ASSERT_EQ(result.joints.size(), 2u);
-  for (const Joint& joint : result.joints) {
-    EXPECT_EQ(joint.type, JointType::Elbow);
-    EXPECT_NEAR(joint.bendRadius, R, 1e-9);
-    // The share of the leg's fifteen sections seen: the glimpse's one.
-    EXPECT_NEAR(joint.confidence, 1.0 / 15.0, 1e-9);
-    EXPECT_EQ(joint.status, JointStatus::Proposed);
-  }
+  ASSERT_NO_FATAL_FAILURE(expectTwoProposedElbowsAtTheGlimpsesShare(result, R));
 }
 
 TEST(Joints, NoLegJoinsTwoPipesWhoseBendsWereNotSeenOrWhereSomethingStandsInItsWay) {
@@ -1209,14 +1214,7 @@ TEST(Joints, AnOffsetHiddenWithItsBendsIsProposedBetweenParallelPipesAsThick) {
   EXPECT_NEAR(leg.end.x(), 0.0, 1e-9);
   EXPECT_NEAR(std::min(leg.start.z(), leg.end.z()), R, 1e-9);
   EXPECT_NEAR(std::max(leg.start.z(), leg.end.z()), height - R, 1e-9);
-  ASSERT_EQ(result.joints.size(), 2u);
-  for (const Joint& joint : result.joints) {
-    EXPECT_EQ(joint.type, JointType::Elbow);
-    EXPECT_NEAR(joint.bendRadius, R, 1e-9);
-    // The share of the leg's fifteen sections seen: the glimpse's one.
-    EXPECT_NEAR(joint.confidence, 1.0 / 15.0, 1e-9);
-    EXPECT_EQ(joint.status, JointStatus::Proposed);
-  }
+  ASSERT_NO_FATAL_FAILURE(expectTwoProposedElbowsAtTheGlimpsesShare(result, R));
 }
 
 TEST(Joints, NoOffsetJoinsNeighboursEndingSideBySideOrPipesWhoseLineCarriesOn) {

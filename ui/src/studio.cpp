@@ -604,12 +604,11 @@ void Studio::Impl::updateOverlays() {
     review << "Review  joints: " << joints.accepted << " accepted, " << joints.rejected << " rejected, " << joints.left
            << " left\npipes: " << pipes.left << " left, " << pipes.rejected << " deleted";
     const std::vector<ReviewItem> queue = reviewQueue(network);
-    const bool jointSelected = selection.kind == Selection::Kind::Joint;
-    const ReviewItem selected{jointSelected ? ReviewItem::Kind::Joint : ReviewItem::Kind::Pipe, selection.id};
-    const auto place = selection.kind == Selection::Kind::None ? queue.end() : std::find(queue.begin(), queue.end(), selected);
+    const std::optional<ReviewItem> selected = selectedReviewItem();
+    const auto place = selected ? std::find(queue.begin(), queue.end(), *selected) : queue.end();
     if (place != queue.end())
-      review << "\n" << (jointSelected ? "joint " : "pipe ") << selection.id << ": " << (place - queue.begin() + 1)
-             << " of " << queue.size() << " left";
+      review << "\n" << (selected->kind == ReviewItem::Kind::Joint ? "joint " : "pipe ") << selection.id << ": "
+             << (place - queue.begin() + 1) << " of " << queue.size() << " left";
     review << "\nN/P next/previous  A accept  R reject\nDel delete pipe  Ins restore  Ctrl+Z undo";
     reviewText->SetInput(review.str().c_str());
   }
@@ -742,17 +741,22 @@ void Studio::Impl::networkChanged() {
   updateOverlays();
 }
 
-std::optional<ReviewItem> Studio::Impl::reviewNeighbour(bool forward) const {
+std::optional<ReviewItem> Studio::Impl::selectedReviewItem() const {
   const PipeNetwork& network = document.network();
-  const std::vector<ReviewItem> queue = reviewQueue(network);
+  if (const Joint* joint = selection.kind == Selection::Kind::Joint ? network.findJoint(selection.id) : nullptr) {
+    return ReviewItem{ReviewItem::Kind::Joint, joint->id, joint->confidence};
+  }
+  if (const Pipe* pipe = selection.kind == Selection::Kind::Pipe ? network.findPipe(selection.id) : nullptr) {
+    return ReviewItem{ReviewItem::Kind::Pipe, pipe->id, pipe->confidence};
+  }
+  return std::nullopt;
+}
+
+std::optional<ReviewItem> Studio::Impl::reviewNeighbour(bool forward) const {
+  const std::vector<ReviewItem> queue = reviewQueue(document.network());
   if (queue.empty()) return std::nullopt;
   // The queue's order places even a decided element between its neighbours.
-  std::optional<ReviewItem> current;
-  if (const Joint* joint = selection.kind == Selection::Kind::Joint ? network.findJoint(selection.id) : nullptr) {
-    current = ReviewItem{ReviewItem::Kind::Joint, joint->id, joint->confidence};
-  } else if (const Pipe* pipe = selection.kind == Selection::Kind::Pipe ? network.findPipe(selection.id) : nullptr) {
-    current = ReviewItem{ReviewItem::Kind::Pipe, pipe->id, pipe->confidence};
-  }
+  const std::optional<ReviewItem> current = selectedReviewItem();
   if (!current) return forward ? queue.front() : queue.back();
   if (forward) {
     for (const ReviewItem& item : queue)

@@ -212,6 +212,9 @@ struct Studio::Impl {
   std::string editSelectingNewPipe(const std::string& line);
   /// After an edit, undo, redo or new network: drops a vanished selection and redraws the network.
   void networkChanged();
+  /// The selected joint or pipe as an element of the review queue (decided or not); none when
+  /// nothing is selected.
+  std::optional<ReviewItem> selectedReviewItem() const;
   /// The proposed joint or pipe after (or before) the selection in the review queue; none when
   /// none is left.
   std::optional<ReviewItem> reviewNeighbour(bool forward) const;
