@@ -214,6 +214,17 @@ class ConstructedScene {
   double fitRms() const { return std::max(noise_, 0.002); }
   std::vector<PipeSegment>& pipes() { return pipes_; }
   const PointCloud& cloud() const { return cloud_; }
+  /// Points at `positions` that pipe `pipe` took as inliers though no surface is there (outliers an
+  /// end was carried on over), each with its normal radial to the pipe's axis.
+  void addStrayInliers(int pipe, const std::vector<Eigen::Vector3d>& positions) {
+    PipeSegment& segment = pipes_[static_cast<std::size_t>(pipe)];
+    const Eigen::Vector3d axis = unitAxis(segment);
+    for (const Eigen::Vector3d& p : positions) {
+      const Eigen::Vector3d offset = p - segment.start;
+      segment.inliers.push_back(addPoint(p, (offset - offset.dot(axis) * axis).normalized()));
+    }
+    std::sort(segment.inliers.begin(), segment.inliers.end());
+  }
 
  private:
   std::vector<double> angles() const {
@@ -398,6 +409,42 @@ TEST(Joints, AnElbowIsFoundWhenOneEndStopsShortAndTheOtherReachesIt) {
   JointsParams searchOnly;
   searchOnly.occludedSearchDiameters = 0.0;
   EXPECT_TRUE(far.connect(searchOnly).joints.empty());
+}
+
+TEST(Joints, AnEndCarriedPastItsCornerOverAFewStrayPointsStillTakesItsElbow) {
+  // On a scan with many outliers, the first pipe's end was carried 2.2 radii past the corner over
+  // three of them, farther than a pipe fitted into its elbow runs on. The elbow's points vote for
+  // its bend: it is found, and the end trimmed back to its tangent point.
+  const double r = 0.05, R = 0.15, past = 2.2 * r;
+  const std::vector<Eigen::Vector3d> strays{{0.03, 0.0, -r}, {0.07, 0.0, -r}, {past, 0.0, -r}};
+  auto scene = elbowScene(kPi / 2, r, R);
+  scene.pipes()[0].end = {past, 0.0, 0.0};
+  scene.addStrayInliers(0, strays);
+  const JointsResult result = scene.connect();
+  ASSERT_NO_FATAL_FAILURE(expectOnlyAnElbowOfBendRadius(result, R, 0.05 * R));
+  EXPECT_NEAR(result.pipes[0].end.x(), -R, 0.01);
+
+  // With no bend among the points, nothing says the corner is an elbow's (the second pipe's line
+  // meets the first one's body: at most a tee).
+  ConstructedScene bendless;
+  bendless.addPipe({-1.35, 0, 0}, {-R, 0, 0}, r);
+  bendless.addPipe({0, R, 0}, {0, 1.35, 0}, r);
+  bendless.pipes()[0].end = {past, 0.0, 0.0};
+  bendless.addStrayInliers(0, strays);
+  for (const Joint& joint : bendless.connect().joints) EXPECT_NE(joint.type, JointType::Elbow);
+}
+
+TEST(Joints, APipeSeenRunningOnPastTheCornerIsNotTrimmedToAnElbow) {
+  // The same corner, but the first pipe's surface is seen all the way to its end 2.2 radii past
+  // it: it runs on there, and no elbow may cut it back.
+  const double r = 0.05, R = 0.15, past = 2.2 * r;
+  ConstructedScene scene;
+  scene.addPipe({-1.35, 0, 0}, {past, 0, 0}, r);
+  scene.addBend(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), R, r);
+  scene.addPipe({0, R, 0}, {0, 1.35, 0}, r);
+  const JointsResult result = scene.connect();
+  for (const Joint& joint : result.joints) EXPECT_NE(joint.type, JointType::Elbow);
+  EXPECT_NEAR(result.pipes[0].end.x(), past, 1e-9);
 }
 
 TEST(Joints, AShortPipeThatTakesNoJointIsProposedForReview) {

@@ -75,6 +75,11 @@ constexpr double kSupportNormalAngleDeg = 30.0;
 // fitting (short-radius elbows bend at one diameter, two radii): the two pipes meet square at a
 // tee whose main pipe was seen on one side only.
 constexpr double kMinFittingBendRadii = 1.5;
+// A pipe fitted into an elbow runs on past the corner by up to this many radii times the cotangent
+// of half the bend angle (see tryEndPair); an end carried on over outliers may lie up to twice as
+// far past, where its pipe holds at most this share of its linear density.
+constexpr double kEndOvershootRadii = 1.25;
+constexpr double kMaxPastCornerDensity = 0.2;
 constexpr double kMaxBendlessSupport = 0.2;
 // Missing points say the torus is not there only where it would hold this many: a thin pipe seen
 // from afar leaves a few on an elbow, which the overshooting pipes take as their inliers.
@@ -318,6 +323,9 @@ struct Hypothesis {
   double reach = 0.0;       // Points within this of `center` are gathered for the hypothesis.
   Eigen::Vector3d center = Eigen::Vector3d::Zero();
   bool mainSeenOneSide = false;  // Tee: the main's end stops short of the junction.
+  // Elbow: an end lies past the corner by more than the elbow's own surface carries a fit (see
+  // tryEndPair); only a bend its points vote for explains it.
+  bool endPastCorner = false;
   // Tee whose main stops short of the junction (tryTeeBeyondEnd, teeForBendlessCorner): the main's
   // end its line is carried on from, to the junction and beyond.
   std::optional<PipeEnd> mainEnd;
@@ -434,13 +442,18 @@ class JointBuilder {
     // into the elbow overshoot it: about a radius at a square bend, more at a gentle one, whose
     // surface stays within a cylinder's band for longer (a quarter more for where the extents
     // place an end). A main seen on one side of a branch overshoots the same way, to the branch's
-    // far wall, and that corner becomes a tee when no bend fits (teeForBendlessCorner).
-    const double overshoot = 1.25 * larger / std::tan(0.5 * bendAngle);
+    // far wall, and that corner becomes a tee when no bend fits (teeForBendlessCorner). On a scan
+    // with many outliers, an end the merge carried on over a few of them lies farther past (up to
+    // twice as far): its pipe must hold few points past the corner, and the elbow's points must
+    // vote for a fitting's bend (see reconstructElbow).
+    const double perTangent = larger / std::tan(0.5 * bendAngle);
+    const double overshoot = kEndOvershootRadii * perTangent;
+    const double farOvershoot = 2.0 * overshoot;
     // Together the ends lie within twice the search distance of the elbow's shortest tangent
     // points: one may be farther when the other is nearer (an end whose last half metre was too
     // sparse for the extents).
     const double shortestTangent = params_.minBendRadii * smaller * std::tan(0.5 * bendAngle);
-    if (alongA < -overshoot || alongB < -overshoot ||
+    if (alongA < -farOvershoot || alongB < -farOvershoot ||
         std::max(alongA, 0.0) + std::max(alongB, 0.0) > 2.0 * (search + shortestTangent)) {
       return;
     }
@@ -454,6 +467,8 @@ class JointBuilder {
     h.skewLimit = skewLimit(smaller);
     if (h.skew > h.skewLimit) return;
     h.bendAngle = bendAngle;
+    h.endPastCorner = alongA < -overshoot || alongB < -overshoot;
+    if ((alongA < -overshoot && !sparselyPast(a, alongA)) || (alongB < -overshoot && !sparselyPast(b, alongB))) return;
     h.corner = 0.5 * (onA + onB);
     h.center = h.corner;
     const double longestTangent = params_.maxBendRadii * larger / std::tan(0.5 * (kPi - bendAngle));
@@ -601,6 +616,16 @@ class JointBuilder {
  private:
   Eigen::Vector3d position(std::uint32_t i) const { return input_.cloud.positions[i].cast<double>(); }
 
+  /// Whether the pipe of `end` holds past its corner (`along` its extension, behind the end) a small
+  /// share of its linear density: carried on there over scattered points, not seen running on.
+  bool sparselyPast(const PipeEnd& end, double along) const {
+    const PipeSegment& pipe = input_.pipes[static_cast<std::size_t>(end.pipe)];
+    const auto past = std::count_if(pipe.inliers.begin(), pipe.inliers.end(), [&](std::uint32_t i) {
+      return (position(i) - end.point).dot(end.outward) > along;
+    });
+    return static_cast<double>(past) <= kMaxPastCornerDensity * linearDensity(end.pipe) * -along;
+  }
+
   /// Inliers per metre of axis of a pipe: the density a joint of the same size should show.
   double linearDensity(int pipe) const {
     const PipeSegment& segment = input_.pipes[static_cast<std::size_t>(pipe)];
@@ -687,6 +712,8 @@ class JointBuilder {
       bendRadius = count > 0 ? sum / static_cast<double>(count) : peakRadius;
       tightest = bendRadius;
     }
+    // An end past its corner farther than the elbow's own surface carries a fit (tryEndPair).
+    if (h.endPastCorner && (votes.empty() || bendRadius < kMinFittingBendRadii * r)) return;
 
     // Support: points within the support distance of a torus, against those it would hold at the
     // pipes' linear density.
