@@ -708,6 +708,49 @@ TEST(Joints, AnElbowsArcFittedAsTwoPiecesIsOneElbowBetweenThePipesBeyond) {
   EXPECT_NEAR(result.joints[0].bendRadius, R, 0.05 * R);
 }
 
+TEST(Joints, ACylinderFittedAcrossAnElbowsBendGoesAndOneElbowJoinsThePipes) {
+  // A 90° elbow of R = 3r whose noisy points a cylinder was fitted across, along the tangent at the
+  // arc's middle, as on medium seed 8 at 5 mm noise: from 6 cm before that point to 16 cm past it,
+  // where it has left the arc by 1.4 radii (past its end). It is a piece of the arc all the same: it
+  // goes, and one elbow joins the two pipes.
+  const double r = 0.05, R = 3.0 * r;
+  ConstructedScene scene;
+  scene.addPipe({-1.35, 0.0, 0.0}, {-R, 0.0, 0.0}, r);
+  scene.addPipe({0.0, R, 0.0}, {0.0, 1.35, 0.0}, r);
+  scene.addBend(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), R, r);
+  const Eigen::Vector3d middle(-R + R * std::sqrt(0.5), R - R * std::sqrt(0.5), 0.0);
+  const Eigen::Vector3d tangent = Eigen::Vector3d(1.0, 1.0, 0.0).normalized();
+  scene.addFittedPipe(middle - 0.06 * tangent, middle + 0.16 * tangent, r);
+  const JointsResult result = resolveOnly(scene);
+  ASSERT_NO_FATAL_FAILURE(expectOneElbowBetweenTwoPipes(result, 1));
+  EXPECT_NEAR(result.joints[0].bendRadius, R, 0.05 * R);
+}
+
+TEST(Joints, AShortDiagonalLegBetweenTwoHalfBendsStays) {
+  // Two 45° elbows (R = 2r) around a diagonal leg six radii long: the pipes beyond turn square
+  // across it, but the leg is no piece of a bend between them. Three pipes, two elbows. (A leg of
+  // four radii goes: the two bends' points fit one square elbow between the pipes, whose arc the
+  // leg's ends lie on.)
+  const double r = 0.05, R = 2.0 * r, leg = 6.0 * r;
+  const double tangent = R * std::tan(kPi / 8.0);
+  const Eigen::Vector3d diagonal = Eigen::Vector3d(1.0, 1.0, 0.0).normalized();
+  const Eigen::Vector3d firstCorner = Eigen::Vector3d::Zero();
+  const Eigen::Vector3d secondCorner = firstCorner + (leg + 2.0 * tangent) * diagonal;
+  ConstructedScene scene;
+  scene.addPipe(firstCorner - Eigen::Vector3d(1.2, 0.0, 0.0), firstCorner - Eigen::Vector3d(tangent, 0.0, 0.0), r);
+  scene.addBend(firstCorner, Eigen::Vector3d::UnitX(), diagonal, R, r);
+  scene.addPipe(firstCorner + tangent * diagonal, secondCorner - tangent * diagonal, r);
+  scene.addBend(secondCorner, diagonal, Eigen::Vector3d::UnitY(), R, r);
+  scene.addPipe(secondCorner + Eigen::Vector3d(0.0, tangent, 0.0), secondCorner + Eigen::Vector3d(0.0, 1.2, 0.0), r);
+  const JointsResult result = resolveOnly(scene);
+  ASSERT_EQ(result.pipes.size(), 3u);
+  ASSERT_EQ(result.joints.size(), 2u);
+  for (const Joint& joint : result.joints) {
+    EXPECT_EQ(joint.type, JointType::Elbow);
+    EXPECT_NEAR(joint.bendRadius, R, 0.05 * R);
+  }
+}
+
 TEST(Joints, TeeExtendsTheBranchToTheMainAxis) {
   ConstructedScene scene;
   scene.addPipe({-1, 0, 0}, {1, 0, 0}, 0.1);

@@ -81,6 +81,13 @@ constexpr double kMinFittingBendRadii = 1.5;
 constexpr double kEndOvershootRadii = 1.25;
 constexpr double kMaxPastCornerDensity = 0.2;
 constexpr double kMaxBendlessSupport = 0.2;
+// A cylinder fitted across an elbow's bend (see liesOnArc): its middle within this many radii of
+// the arc, its ends within this many, at most this share of the arc's length, and at least this
+// far off both pipes' lines (deg).
+constexpr double kChordMiddleRadii = 0.5;
+constexpr double kChordEndRadii = 2.0;
+constexpr double kMaxChordArcShare = 1.5;
+constexpr double kMinChordOffLineDeg = 15.0;
 // Missing points say the torus is not there only where it would hold this many: a thin pipe seen
 // from afar leaves a few on an elbow, which the overshooting pipes take as their inliers.
 constexpr double kMinBendlessEvidence = 10.0;
@@ -854,13 +861,25 @@ double unvotedBendRadius(double bendAngle, double seenToCorner, double band, dou
 
 namespace {
 
-/// Whether both ends of `pipe` lie within its radius of the arc of `elbow` (reconstructed).
+/// Whether `pipe` is a piece of the arc of `elbow` (reconstructed) fitted as a cylinder: both its
+/// ends lie within its radius of the arc, or it was fitted across the bend.
 bool liesOnArc(const PipeSegment& pipe, const Hypothesis& elbow) {
-  const auto nearArc = [&](const Eigen::Vector3d& point) {
+  const auto nearArc = [&](const Eigen::Vector3d& point, double within) {
     return std::any_of(elbow.axis.begin(), elbow.axis.end(),
-                       [&](const Eigen::Vector3d& sample) { return (sample - point).norm() <= pipe.radius; });
+                       [&](const Eigen::Vector3d& sample) { return (sample - point).norm() <= within; });
   };
-  return nearArc(pipe.start) && nearArc(pipe.end);
+  if (nearArc(pipe.start, pipe.radius) && nearArc(pipe.end, pipe.radius)) return true;
+  // A cylinder fitted across the bend (a noisy bend's points fit one along a tangent or chord of
+  // the arc) leaves the arc at one end: its middle lies on the arc, it runs off both pipes' lines
+  // (a piece of either pipe runs along one), and it is at most half as long again as the arc.
+  double arcLength = 0.0;
+  for (std::size_t k = 1; k < elbow.axis.size(); ++k) arcLength += (elbow.axis[k] - elbow.axis[k - 1]).norm();
+  const Eigen::Vector3d axis = unitAxis(pipe);
+  const double maxCosine = std::cos(radians(kMinChordOffLineDeg));
+  return std::fabs(axis.dot(elbow.a.outward)) <= maxCosine && std::fabs(axis.dot(elbow.b.outward)) <= maxCosine &&
+         (pipe.end - pipe.start).norm() <= kMaxChordArcShare * arcLength &&
+         nearArc(0.5 * (pipe.start + pipe.end), kChordMiddleRadii * pipe.radius) &&
+         nearArc(pipe.start, kChordEndRadii * pipe.radius) && nearArc(pipe.end, kChordEndRadii * pipe.radius);
 }
 
 /// A spatial index over the pipes' axes: each pipe (by index) is filed in the cells its axis samples,
