@@ -214,6 +214,8 @@ class ConstructedScene {
   double fitRms() const { return std::max(noise_, 0.002); }
   std::vector<PipeSegment>& pipes() { return pipes_; }
   const PointCloud& cloud() const { return cloud_; }
+  /// A lone point (an outlier) with its normal.
+  void addLonePoint(const Eigen::Vector3d& p, const Eigen::Vector3d& normal) { addPoint(p, normal); }
   /// Points at `positions` that pipe `pipe` took as inliers though no surface is there (outliers an
   /// end was carried on over), each with its normal radial to the pipe's axis.
   void addStrayInliers(int pipe, const std::vector<Eigen::Vector3d>& positions) {
@@ -632,6 +634,22 @@ TEST(Joints, TheLegBeyondAGentleBendThatOnePipeWasFittedAcrossIsFound) {
   EXPECT_LT((leg.start - tangent * out).norm(), 0.02);
   EXPECT_NEAR(leg.end.dot(out), 1.0, 0.02);
   EXPECT_LT((result.pipes[0].end + tangent * Eigen::Vector3d::UnitX()).norm(), 0.02);
+}
+
+TEST(Joints, TheLegBeyondAGentleBendEndsAtItsLastPointNotOnStrayPointsPastIt) {
+  // As above, with outliers on the leg's surface past its end, one every 16 cm (three empty 4 cm
+  // sections between them), as 20 % outliers leave them: the leg ends where its own points do.
+  auto scene = levelPipeFittedAcrossAGentleBend(2.0, 1.0);
+  const Eigen::Vector3d out(std::cos(kSixDegrees), std::sin(kSixDegrees), 0.0);
+  const Eigen::Vector3d elsewhere(0.0, 2.0, 0.0);
+  scene.addPipe(elsewhere, elsewhere + 1.0 * out, 0.05);
+  for (double along = 1.16; along < 1.9; along += 0.16) {
+    scene.addLonePoint(along * out + Eigen::Vector3d(0.0, 0.0, 0.05), Eigen::Vector3d::UnitZ());
+  }
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.kinkLegs, 1u);
+  ASSERT_EQ(result.pipes.size(), 3u);
+  EXPECT_NEAR(result.pipes[2].end.dot(out), 1.0, 0.02);
 }
 
 /// The joints of `scene` from the resolution alone (no free-end completion).

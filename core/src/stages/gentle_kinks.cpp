@@ -31,7 +31,8 @@ constexpr double kMaxOvershoot = 1.0;  // A pipe fitted across a bend passes its
 constexpr double kCornerStep = 0.01;   // ...looked for in steps of this (m).
 constexpr double kLegNormalAngleDeg = 40.0;  // A point on the leg beyond has its normal this close to radial.
 constexpr double kSectionLength = 0.04;      // The leg's points cover at least
-constexpr int kMinLegSections = 3;           // this many sections of this length.
+constexpr int kMinLegSections = 3;           // this many sections of this length, with gaps of at
+constexpr std::size_t kMaxLegGapSections = 3;  // most this many (as a completed leg's).
 constexpr double kMaxClutterShare = 0.5;     // Clutter (see isClutter) around a leg, against its inliers.
 
 struct Line {
@@ -341,16 +342,33 @@ std::optional<PipeSegment> legBeyondKink(const PointCloud& cloud, const PipeSegm
   leg.rms = pipe.rms;
   leg.confidence = pipe.confidence;
   leg.start = end - best.back * outward;
-  double farthest = 0.0;
+  // The leg runs over the sections its points cover, across gaps no longer than a completion's,
+  // and not on over stray points beyond.
+  std::vector<std::vector<std::pair<double, std::uint32_t>>> bySection;
   for (std::uint32_t i : candidates) {
     double alongLeg = 0.0;
     if (onSurface(cloud.positions[i].cast<double>() - leg.start, cloud.normals[i].cast<double>(), best.direction,
                   alongLeg) &&
         alongLeg >= 0.0) {
+      const auto section = static_cast<std::size_t>(alongLeg / kSectionLength);
+      if (section >= bySection.size()) bySection.resize(section + 1);
+      bySection[section].emplace_back(alongLeg, i);
+    }
+  }
+  const auto pointsIn = [&](std::size_t k) { return bySection[k].size(); };
+  std::size_t first = 0;
+  while (bySection[first].empty()) ++first;
+  const std::size_t last = withoutStrayTail(
+      first, runEnd(first, bySection.size(), kMaxLegGapSections, [&](std::size_t k) { return pointsIn(k) > 0; }),
+      pointsIn);
+  double farthest = 0.0;
+  for (std::size_t k = first; k <= last; ++k) {
+    for (const auto& [alongLeg, i] : bySection[k]) {
       leg.inliers.push_back(i);
       farthest = std::max(farthest, alongLeg);
     }
   }
+  std::sort(leg.inliers.begin(), leg.inliers.end());
   leg.end = leg.start + farthest * best.direction;
   // A pipe leaves empty space around its tube: an elbow's torus, or a wall, fitted as a leg does not.
   std::vector<std::uint32_t> own = pipe.inliers;

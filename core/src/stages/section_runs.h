@@ -1,7 +1,7 @@
 #pragma once
 // Runs of occupied sections along an axis, and the clutter that ends them, shared by the merge
-// stage's end extension and the joints stage's completion: both carry a pipe outward over sections
-// holding surface points.
+// stage's end extension and the joints stage's completion and legs beyond gentle bends: all carry
+// a pipe outward over sections holding surface points.
 
 #include <algorithm>
 #include <cstddef>
@@ -28,6 +28,28 @@ std::size_t runEnd(std::size_t from, std::size_t count, std::size_t maxGap, cons
     if (occupied(k)) end = k;
   }
   return end;
+}
+
+/// The last section of the run from section `first` to the occupied section `last` once a tail of
+/// stray points is gone: while `last` holds a single point and the last ten sections up to it hold
+/// points in under 35 % of them, the run ends at the occupied section before it. A pipe seen up to
+/// its end has points in most of its sections there, sparse or not; outliers lying on its line
+/// beyond, a few sections apart, do not (the extents' rule for their runs' ends, see closeThenOpen).
+/// `pointsIn(k)` says how many points section k holds.
+template <class PointsIn>
+std::size_t withoutStrayTail(std::size_t first, std::size_t last, const PointsIn& pointsIn) {
+  constexpr std::size_t kWindow = 10;
+  constexpr double kMaxStrayShare = 0.35;
+  const auto sparse = [&](std::size_t end) {
+    std::size_t occupied = 0;
+    for (std::size_t k = end + 1 - kWindow; k <= end; ++k) occupied += pointsIn(k) > 0 ? 1 : 0;
+    return static_cast<double>(occupied) < kMaxStrayShare * static_cast<double>(kWindow);
+  };
+  while (last >= first + kWindow && pointsIn(last) == 1 && sparse(last)) {
+    do --last;
+    while (last > first && pointsIn(last) == 0);
+  }
+  return last;
 }
 
 /// From a run ending at section `last`, the last section reached across occlusions: a gap of at
