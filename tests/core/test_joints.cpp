@@ -450,7 +450,8 @@ TEST(Joints, APipeSeenRunningOnPastTheCornerIsNotTrimmedToAnElbow) {
 }
 
 TEST(Joints, AShortPipeThatTakesNoJointIsProposedForReview) {
-  // A 10 cm pipe turns at an elbow into a 15 cm stub (1.5 diameters), which keeps confidence 1.
+  // A pipe 10 cm thick turns at an elbow into a stub 15 cm long (1.5 diameters): the stub keeps
+  // confidence 1.
   // Far off stand two short cylinders that no joint takes, as fat as a pump's casing, 1.5 and 0.4
   // diameters long. Confidence falls with length under two diameters (two fragments' length) and
   // is below one half under one diameter, so the shorter is proposed.

@@ -453,8 +453,7 @@ class JointBuilder {
     // with many outliers, an end the merge carried on over a few of them lies farther past (up to
     // twice as far): its pipe must hold few points past the corner, and the elbow's points must
     // vote for a fitting's bend (see reconstructElbow).
-    const double perTangent = larger / std::tan(0.5 * bendAngle);
-    const double overshoot = kEndOvershootRadii * perTangent;
+    const double overshoot = kEndOvershootRadii * larger / std::tan(0.5 * bendAngle);
     const double farOvershoot = 2.0 * overshoot;
     // Together the ends lie within twice the search distance of the elbow's shortest tangent
     // points: one may be farther when the other is nearer (an end whose last half metre was too
@@ -474,8 +473,10 @@ class JointBuilder {
     h.skewLimit = skewLimit(smaller);
     if (h.skew > h.skewLimit) return;
     h.bendAngle = bendAngle;
-    h.endPastCorner = alongA < -overshoot || alongB < -overshoot;
-    if ((alongA < -overshoot && !sparselyPast(a, alongA)) || (alongB < -overshoot && !sparselyPast(b, alongB))) return;
+    const bool aPastCorner = alongA < -overshoot;
+    const bool bPastCorner = alongB < -overshoot;
+    if ((aPastCorner && !sparselyPast(a, alongA)) || (bPastCorner && !sparselyPast(b, alongB))) return;
+    h.endPastCorner = aPastCorner || bPastCorner;
     h.corner = 0.5 * (onA + onB);
     h.center = h.corner;
     const double longestTangent = params_.maxBendRadii * larger / std::tan(0.5 * (kPi - bendAngle));
