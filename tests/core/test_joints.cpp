@@ -1804,8 +1804,37 @@ TEST(Joints, ABendThatLeavesItsPipeIntoAFewPointsOfItsLegIsCompleted) {
   ASSERT_NO_FATAL_FAILURE(expectUprightLegCompletedAtTheOrigin(result, 0.02));
   EXPECT_NEAR(result.joints[0].bendRadius, R, 0.15 * R);
 
-  // The bend alone does not show it left the pipe's line.
-  EXPECT_EQ(bendScene(/*legSeen=*/false).connect().diagnostics.completedPipes, 0u);
+  // The bend alone, seen turning 47° from its start and again at 70–80°, shows its turn as well,
+  // though not that it left the pipe's line: its radius comes out less sharply still.
+  const JointsResult bendOnly = bendScene(/*legSeen=*/false).connect();
+  ASSERT_NO_FATAL_FAILURE(expectUprightLegCompletedAtTheOrigin(bendOnly, 0.02));
+  EXPECT_NEAR(bendOnly.joints[0].bendRadius, R, 0.15 * R);
+}
+
+TEST(Joints, ABendSeenOnlyOverItsFirstFortyDegreesIsProposedWithAStubLeg) {
+  // A 12" pipe (r = 15 cm) comes along +x to its tangent point and turns up through a short-radius
+  // elbow (R = 2r) whose first 40° were scanned; the rest of the bend and the leg beyond were hidden
+  // (behind the pipe it turns towards). Its turn shows its radius, and the stub leg is completed
+  // upright at the corner; but less than half its arc was seen: the elbow is proposed, for review.
+  const double r = 0.15, R = 0.3;
+  const auto seenBend = [&](double degrees, const std::vector<double>& around, double step) {
+    ConstructedScene scene = cornerScene(r, R);
+    scene.addElbow({-R, 0, R}, {-R, 0, 0}, -Eigen::Vector3d::UnitY(), degrees * kPi / 180.0, r, around, step);
+    return scene.connect();
+  };
+  const JointsResult result = seenBend(40.0, {}, 0.005);
+  ASSERT_NO_FATAL_FAILURE(expectUprightLegCompletedAtTheOrigin(result, 0.03));
+  EXPECT_TRUE(result.pipes[2].inliers.empty());
+  EXPECT_NEAR(result.joints[0].bendRadius, R, 0.1 * R);
+  EXPECT_EQ(result.joints[0].status, JointStatus::Proposed);
+
+  // Seen over 30° only, it has not turned far enough to show its radius.
+  EXPECT_EQ(seenBend(30.0, {}, 0.005).diagnostics.completedPipes, 0u);
+  // Seen a quarter as densely as the pipe it leaves (every 1 cm along and 20° around), its points
+  // are something else's: a floor or a flange by the pipe's end.
+  std::vector<double> everyTwentyDegrees;
+  for (double degrees = 0.0; degrees < 360.0; degrees += 20.0) everyTwentyDegrees.push_back(degrees);
+  EXPECT_EQ(seenBend(40.0, everyTwentyDegrees, 0.01).diagnostics.completedPipes, 0u);
 }
 
 TEST(Joints, AWeaklySupportedPipeStaysOnlyWhenItTakesAJoint) {
@@ -1840,7 +1869,7 @@ TEST(Joints, NoLegIsCompletedFromABendThatLeavesNoDoubtItIsNone) {
   }
   {
     // Only the first 45° of the bend were seen, where it has not yet left the straight pipe's line
-    // by a radius: nothing says where, or whether, it turns on.
+    // by a radius, and over three 4 cm sections of arc: too few to say where, or whether, it turns on.
     ConstructedScene scene = cornerScene(r, R);
     scene.addElbow({-R, 0, R}, {-R, 0, 0}, -Eigen::Vector3d::UnitY(), 45.0 * kPi / 180.0, r);
     EXPECT_EQ(scene.connect().diagnostics.completedPipes, 0u);

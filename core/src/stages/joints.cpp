@@ -1140,7 +1140,8 @@ struct Completion {
   int main = -1;  // ...or, when not negative, the pipe it branches from at a tee.
   PipeSegment pipe;  // From the corner beyond `from` (the main's wall) to its last supported section.
   bool between = false;  // A leg up to the corner beyond a second end (see Completer::legBetween).
-  std::size_t bendSupport = 0;  // Points on the elbow's bend, for a leg found from them (see legBeyondBend).
+  std::size_t bendSupport = 0;  // Points on the elbow's bend, for a leg found from them (see legBeyondBend)...
+  double bendSeenShare = 1.0;   // ...and the share of its turn they show, when it was seen from its start only.
 
   /// The points that support it: on its pipe, and on the bend it was found from.
   std::size_t support() const { return pipe.inliers.size() + bendSupport; }
@@ -1171,9 +1172,10 @@ class Completer {
       directions.push_back(*local);
     }
     std::optional<Completion> best;
-    for (const Eigen::Vector3d& direction : directions) {
+    for (std::size_t d = 0; d < directions.size(); ++d) {
+      const bool networks = d < networkDirections.size();
       for (const double sign : {1.0, -1.0}) {
-        auto candidate = completeAlong(end, sign * direction, nearby);
+        auto candidate = completeAlong(end, sign * directions[d], networks, nearby);
         if (candidate && (!best || candidate->support() > best->support())) {
           best = std::move(candidate);
         }
@@ -1393,6 +1395,11 @@ class Completer {
   static constexpr double kMinOneSidedBendRadii = 1.8;  // from this many (a short-radius elbow's 2, less a 10 %).
   static constexpr double kMinBendDensityShare = 0.1;  // A bend's points per metre of arc, against its end's...
   static constexpr double kEndDensityLength = 0.12;     // ...inliers per metre over this much of it (m).
+  // A bend seen only from its start: covered from its first two sections on (gaps of one) over
+  static constexpr double kMinSeenTurnDeg = 35.0;      // this much of its turn at least, in at least
+  static constexpr std::size_t kMinSeenSections = 4;   // this many sections (fewer fit a floor's or a flange's
+                                                       // edge by a pipe's end as well), with twice a completion's
+  static constexpr double kMinSeenDensityShare = 1.0 / 3.0;  // points, this share of its end's density or more.
   static constexpr int kMaxLeadSections = 3;  // The straight starts this close to the elbow...
   static constexpr int kMaxGapSections = 3;   // ...and ends at a gap longer than this, unless...
   static constexpr std::size_t kMaxBridgeSections = 20;  // ...a run as long follows a gap up to this.
@@ -1714,6 +1721,20 @@ class Completer {
     return d - d.dot(along) * along;
   }
 
+  /// How many of an arc's sections, from its start, a run of covered ones spans: beginning in one of
+  /// the first two (the first may lie in the end's band) and ending at its last covered section before
+  /// a gap of two; none when it begins later.
+  static std::size_t sectionsSeenFromStart(const std::vector<char>& covered) {
+    std::size_t first = 0;
+    while (first < covered.size() && !covered[first]) ++first;
+    if (first > 1 || first == covered.size()) return 0;
+    std::size_t last = first;
+    for (std::size_t k = first + 1; k < covered.size() && k <= last + 2; ++k) {
+      if (covered[k]) last = k;
+    }
+    return last + 1;
+  }
+
   /// Whether points sit on the radius: their mean offset within what their spread and number leave
   /// unsure, and at least a small share of the radius.
   static bool onRadius(const RadialOffsets& offsets, double r) {
@@ -1725,13 +1746,14 @@ class Completer {
 
   /// The completion of `end` along `along`: from its bend (see legBeyondBend) when completing from
   /// bends, else a straight leg from points whose normals agree with its surface, and failing that
-  /// from points whose normals are square to its axis as well (see straightBeyond).
-  std::optional<Completion> completeAlong(const PipeEnd& end, const Eigen::Vector3d& along,
+  /// from points whose normals are square to its axis as well (see straightBeyond). `networks`:
+  /// `along` is one of the network's directions (not one the points near the end voted for).
+  std::optional<Completion> completeAlong(const PipeEnd& end, const Eigen::Vector3d& along, bool networks,
                                           const std::vector<std::uint32_t>& nearby) const {
     const double cosine = end.outward.dot(along);
     const double bend = std::acos(std::clamp(cosine, -1.0, 1.0));
     if (bend < radians(params_.minCompletionBendDeg) || bend > radians(params_.maxElbowAngleDeg)) return std::nullopt;
-    if (fromBends_) return legBeyondBend(end, along, bend, nearby);
+    if (fromBends_) return legBeyondBend(end, along, bend, networks, nearby);
     auto completion = straightBeyond(end, along, nearby, false);
     if (!completion) completion = straightBeyond(end, along, nearby, true);
     return completion;
@@ -1816,11 +1838,13 @@ class Completer {
   /// it and the leg beyond hold half a completion's points (a bend that thins out as it turns away
   /// from the scanner shows the turn in the leg's few points), and hold little clutter; the end's
   /// pipe must not carry on straight past where the bend leaves it (a gap, or a bend that was not).
-  /// The leg runs from the corner over the sections its points cover past the tangent point, and at
+  /// Or, along one of the network's directions (`networks`), the torus may be seen from its start
+  /// only, turning far enough there to show its radius, densely enough to be the end's bend: its
+  /// elbow is then as sure as the share of its turn seen. The leg runs from the corner over the sections its points cover past the tangent point, and at
   /// least a diameter (a fragment takes no joint); it must hold too few points for completeAt
   /// (which tried it), run into no other pipe, and take the elbow as every completion does.
   std::optional<Completion> legBeyondBend(const PipeEnd& end, const Eigen::Vector3d& along, double bend,
-                                          const std::vector<std::uint32_t>& nearby) const {
+                                          bool networks, const std::vector<std::uint32_t>& nearby) const {
     const double r = end.radius;
     const double band = params_.supportDistance;
     const Eigen::Vector3d& outward = end.outward;
@@ -1941,6 +1965,7 @@ class Completer {
     const double arcLength = R * bend;
     const auto arcSections = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(arcLength / kSectionLength)));
     std::vector<char> arcCovered(arcSections, 0);
+    std::vector<double> farthestTurn(arcSections, 0.0);  // In each section, by the points on it.
     std::size_t support = 0;
     std::size_t clutter = 0;
     // Where the bend's centre line has left the end's axis by a radius: from there on its points
@@ -1959,7 +1984,9 @@ class Completer {
         const double distance = point->radial.norm();
         if (std::fabs(distance - r) <= band && radialNormal(i, point->radial)) {
           ++support;
-          arcCovered[std::min(arcSections - 1, static_cast<std::size_t>(point->turned * R / kSectionLength))] = 1;
+          const auto section = std::min(arcSections - 1, static_cast<std::size_t>(point->turned * R / kSectionLength));
+          arcCovered[section] = 1;
+          farthestTurn[section] = std::max(farthestTurn[section], point->turned);
           if (point->turned >= departed) ++departedSupport;
           continue;
         }
@@ -1982,7 +2009,6 @@ class Completer {
     const auto atLeastShare = [&](std::size_t part, std::size_t whole) {
       return static_cast<double>(part) >= params_.minCompletionCoverage * static_cast<double>(whole);
     };
-    const bool supported = support >= params_.minCompletionPoints && atLeastShare(covered, arcSections);
     const bool clear = static_cast<double>(clutter) <= kMaxClutterShare * static_cast<double>(support);
     // The bend lies next to the end the scan saw: seen far more thinly than that end, its points are
     // something else's (a mug's rim, a thinner neighbour's end).
@@ -1992,11 +2018,26 @@ class Completer {
       const double behind = (end.point - input_.cloud.positions[i].cast<double>()).dot(outward);
       return behind >= 0.0 && behind < endStretch;
     });
-    const bool seenAsTheEnd = static_cast<double>(support) / arcLength >=
-                              kMinBendDensityShare * static_cast<double>(endPoints) / endStretch;
+    const double endDensity = static_cast<double>(endPoints) / endStretch;
+    const bool seenAsTheEnd = static_cast<double>(support) / arcLength >= kMinBendDensityShare * endDensity;
+    // Covered along its arc; or seen from its start only, turning far enough there to show its radius
+    // (the rest hidden, as where it turns behind the pipe it leaves): its elbow is then as sure as
+    // the share of its turn seen (see adoptCompletions), and need not be seen leaving the pipe's line
+    // (below). How far such a bend turns on only the network's directions say: a direction the
+    // points near the end voted for follows the part seen.
+    const bool wholeBend = support >= params_.minCompletionPoints && atLeastShare(covered, arcSections);
+    const std::size_t seenSections = sectionsSeenFromStart(arcCovered);
+    const double seenLength = static_cast<double>(seenSections) * kSectionLength;
+    const double seenTurn = seenSections > 0 ? farthestTurn[seenSections - 1] : 0.0;
+    const auto coveredSeen = static_cast<std::size_t>(
+        std::count(arcCovered.begin(), arcCovered.begin() + static_cast<std::ptrdiff_t>(seenSections), 1));
+    const bool turnSeen =
+        networks && seenTurn >= radians(kMinSeenTurnDeg) && coveredSeen >= kMinSeenSections &&
+        support >= 2 * params_.minCompletionPoints &&
+        static_cast<double>(support) / seenLength >= kMinSeenDensityShare * endDensity;
     const bool carriesOn =
         atLeastShare(static_cast<std::size_t>(std::count(straightOn.begin(), straightOn.end(), 1)), kBehindSections);
-    if (!supported || !clear || carriesOn || !seenAsTheEnd) return std::nullopt;
+    if (!(wholeBend || turnSeen) || !clear || carriesOn || !seenAsTheEnd) return std::nullopt;
 
     // The leg: the sections its points cover from the tangent point on, at least a diameter.
     const auto sections =
@@ -2021,7 +2062,7 @@ class Completer {
     // the leg beyond it, and the arc covered there.
     const bool leavesThePipe = departed < bend && 2 * (departedSupport + legPoints) >= params_.minCompletionPoints &&
                                atLeastShare(departedCovered, arcSections - departedFrom);
-    if (!leavesThePipe) return std::nullopt;
+    if (!leavesThePipe && !turnSeen) return std::nullopt;
     const auto occupied = [&](std::size_t k) { return !bySection[k].empty(); };
     std::size_t first = 0;
     while (first < sections && !occupied(first)) ++first;
@@ -2047,6 +2088,7 @@ class Completer {
     // Little or nothing was seen on the leg: where it runs into another pipe, the bend was that pipe's.
     if (cutsAnotherPipe(leg, {end.pipe}, input_.pipes, params_)) return std::nullopt;
     completion.bendSupport = support;
+    if (!wholeBend || !leavesThePipe) completion.bendSeenShare = seenTurn / bend;
     return completion;
   }
 
@@ -2441,7 +2483,11 @@ std::optional<Adoption> adoptCompletions(const JointsInput& input, const JointsP
     };
     for (std::size_t h : again.chosen) {
       for (std::size_t c = 0; c < completions.size(); ++c) {
-        if (takes(again.hypotheses[h], c)) joined[c] = 1;
+        if (!takes(again.hypotheses[h], c)) continue;
+        joined[c] = 1;
+        // An elbow seen from its start only is as sure as the share of its turn seen.
+        double& confidence = again.hypotheses[h].confidence;
+        confidence = std::min(confidence, completions[c].bendSeenShare);
       }
     }
     if (std::count(joined.begin(), joined.end(), 1) == static_cast<std::ptrdiff_t>(completions.size())) {
