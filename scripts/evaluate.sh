@@ -13,7 +13,8 @@
 #   mean: precision=… recall=… f1=… radius_err_mm=… (median of the seeds' medians)
 #   observable: share=… recall_observable=… (the share of the truth the scan shows, and the recall
 #               over that part; the scenes are generated with labels for it, see docs/EVALUATION.md)
-# and, without --pipes-only, the joint totals, over all the truth and over the observable joints.
+# and, without --pipes-only, the joint totals: over all the truth, over the observable joints, and
+# over the joints whose pipes the scan shows near their corners (docs/EVALUATION.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PIPERUN=${PIPERUN:-build/app/piperun}
@@ -81,6 +82,7 @@ median_bend=$(paste -d' ' <(field bend_radius_err) <(sed -E 's/.*elbows=([0-9]+)
 if [ ${#eval_flags[@]} -eq 0 ]; then
   echo "joints: elbows=$(total elbows) tees=$(total tees) spurious_joints=$(total spurious_joints) bend_radius_err=$median_bend"
   echo "observable joints: elbows=$(total observable_elbows) tees=$(total observable_tees)"
+  echo "corner-seen joints: elbows=$(total corner_seen_elbows) tees=$(total corner_seen_tees)"
   if [ "$runs" -gt 1 ]; then
     # Each run's totals over the scenes, then their mean per run (the spread is the pipeline's
     # sensitivity to its random draws).

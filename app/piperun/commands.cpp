@@ -223,7 +223,14 @@ void printJointOutcomes(const EvaluationResult& figures) {
     line += text;
     for (std::size_t k = 0; k < outcome.pipeIds.size(); ++k) {
       line += " " + std::to_string(outcome.pipeIds[k]);
-      if (k < outcome.pipePoints.size()) line += " (" + std::to_string(outcome.pipePoints[k]) + " points)";
+      if (k < outcome.pipePoints.size()) {
+        line += " (" + std::to_string(outcome.pipePoints[k]) + " points";
+        if (k < outcome.pipePointsNearCorner.size()) {
+          std::snprintf(text, sizeof text, ", %d within %.2f m", outcome.pipePointsNearCorner[k], outcome.cornerDistance);
+          line += text;
+        }
+        line += ")";
+      }
     }
     if (outcome.ownPoints >= 0) line += ", " + std::to_string(outcome.ownPoints) + " points on it";
     std::printf("%s\n", line.c_str());
@@ -271,6 +278,10 @@ int runEval(const EvalOptions& options) {
       out["observable_elbows_found"] = figures.foundObservableElbows;
       out["observable_tees_truth"] = figures.observableTees;
       out["observable_tees_found"] = figures.foundObservableTees;
+      out["corner_seen_elbows_truth"] = figures.cornerSeenElbows;
+      out["corner_seen_elbows_found"] = figures.foundCornerSeenElbows;
+      out["corner_seen_tees_truth"] = figures.cornerSeenTees;
+      out["corner_seen_tees_found"] = figures.foundCornerSeenTees;
     }
     if (options.joints) {
       const auto point = [](const Eigen::Vector3d& p) { return json::array({p.x(), p.y(), p.z()}); };
@@ -290,6 +301,10 @@ int runEval(const EvalOptions& options) {
           if (outcome.matchedId >= 0) entry["bend_radius_found"] = outcome.predictedBendRadius;
         }
         if (!outcome.pipePoints.empty()) entry["pipe_points"] = outcome.pipePoints;
+        if (!outcome.pipePointsNearCorner.empty()) {
+          entry["pipe_points_near_corner"] = outcome.pipePointsNearCorner;
+          entry["corner_distance"] = outcome.cornerDistance;
+        }
         if (outcome.ownPoints >= 0) entry["own_points"] = outcome.ownPoints;
         outcomes.push_back(std::move(entry));
       }

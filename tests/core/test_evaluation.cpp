@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <tuple>
+
 namespace piperun {
 namespace {
 
@@ -209,6 +211,47 @@ TEST(Evaluation, ObservableJointsHaveEnoughPointsOnEachPipe) {
   EXPECT_EQ(missed.foundObservableElbows, 0);
   EXPECT_EQ(missed.foundElbows, 0);
   EXPECT_EQ(missed.foundTees, 1);
+}
+
+/// A scan of `count` points at each given place, labelled with a truth element: (label, place, count).
+PointCloud placedLabelledScan(const std::vector<std::tuple<int, Eigen::Vector3f, int>>& groups) {
+  PointCloud scan;
+  for (const auto& [element, place, count] : groups) {
+    for (int i = 0; i < count; ++i) {
+      scan.positions.push_back(place);
+      scan.labels.push_back(element);
+    }
+  }
+  return scan;
+}
+
+TEST(Evaluation, AJointIsSeenAtItsCornerWhenEachPipeHasPointsNearIt) {
+  const PipeNetwork truth = lShapedRun();  // elbow 4 near (2.07, 0.03, 0) joins pipes 1 and 2
+  // Pipe 1 is seen by the elbow and far off, pipe 2 only 1.8 m up: the elbow is observable (20
+  // points or more on each pipe) but not seen at its corner (5 points within 0.5 m: 8 radii are less).
+  std::vector<std::tuple<int, Eigen::Vector3f, int>> groups{
+      {1, Eigen::Vector3f(1.9f, 0.0f, 0.0f), 6}, {1, Eigen::Vector3f(0.2f, 0.0f, 0.0f), 20},
+      {2, Eigen::Vector3f(2.1f, 1.8f, 0.0f), 30}};
+  const PointCloud farScan = placedLabelledScan(groups);
+  const EvaluationResult hidden = evaluateNetwork(truth, truth, {}, &farScan);
+  EXPECT_EQ(hidden.observableElbows, 1);
+  EXPECT_EQ(hidden.cornerSeenElbows, 0);
+  ASSERT_EQ(hidden.jointOutcomes.size(), 2u);
+  EXPECT_EQ(hidden.jointOutcomes[0].pipePointsNearCorner, (std::vector<int>{6, 0}));
+  EXPECT_DOUBLE_EQ(hidden.jointOutcomes[0].cornerDistance, 0.5);
+  EXPECT_NE(formatEvaluation(hidden).find(" corner_seen_elbows=0/0 corner_seen_tees=0/0"), std::string::npos);
+
+  // Five points of pipe 2 just past the elbow's tangent point: seen at its corner, and found.
+  groups.emplace_back(2, Eigen::Vector3f(2.1f, 0.3f, 0.0f), 5);
+  const PointCloud nearScan = placedLabelledScan(groups);
+  const EvaluationResult seen = evaluateNetwork(truth, truth, {}, &nearScan);
+  EXPECT_EQ(seen.cornerSeenElbows, 1);
+  EXPECT_EQ(seen.foundCornerSeenElbows, 1);
+  PipeNetwork noElbow = truth;
+  noElbow.joints.erase(noElbow.joints.begin());
+  const EvaluationResult missed = evaluateNetwork(truth, noElbow, {}, &nearScan);
+  EXPECT_EQ(missed.cornerSeenElbows, 1);
+  EXPECT_EQ(missed.foundCornerSeenElbows, 0);
 }
 
 TEST(Evaluation, JointOutcomesSayWhatWasFoundMissedAndSpurious) {

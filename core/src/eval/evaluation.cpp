@@ -98,6 +98,29 @@ ScanCoverage scanCoverage(const NetworkSamples& truth, const PointCloud& scan, c
   return coverage;
 }
 
+/// Per truth elbow and tee (`joints`), the labelled points of each of its pipes within `reach[j]`
+/// of its position.
+std::vector<std::vector<int>> pointsNearCorners(const std::vector<const Joint*>& joints,
+                                                const std::vector<double>& reach, const PointCloud& scan) {
+  std::vector<std::vector<int>> counts(joints.size());
+  std::unordered_map<int, std::vector<std::pair<std::size_t, std::size_t>>> slotsOfPipe;  // (joint, pipe slot)
+  std::vector<Eigen::Vector3d> positions;
+  for (std::size_t j = 0; j < joints.size(); ++j) {
+    counts[j].assign(joints[j]->pipeIds.size(), 0);
+    positions.push_back(joints[j]->position());
+    for (std::size_t k = 0; k < joints[j]->pipeIds.size(); ++k) slotsOfPipe[joints[j]->pipeIds[k]].emplace_back(j, k);
+  }
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    const auto found = slotsOfPipe.find(scan.labels[i]);
+    if (found == slotsOfPipe.end()) continue;
+    const Eigen::Vector3d p = scan.worldPosition(i);
+    for (const auto& [j, k] : found->second) {
+      if ((p - positions[j]).norm() <= reach[j]) ++counts[j][k];
+    }
+  }
+  return counts;
+}
+
 // Samples in a hash grid, for fixed-radius neighbour queries.
 class SampleGrid {
  public:
@@ -256,7 +279,16 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
     const auto matches = matchJoints(truth, predictedJoints, type, params, predictedMatched);
     if (type == JointType::Boundary) continue;  // Generated truths list none; a bridged gap is checked below.
     const bool elbow = type == JointType::Elbow;
+    std::vector<const Joint*> matchedTruth;
+    std::vector<double> cornerReach;
     for (const auto& [joint, p] : matches) {
+      matchedTruth.push_back(joint);
+      cornerReach.push_back(std::max(params.cornerMinDistance, params.cornerRadii * joint->radius));
+    }
+    const auto nearCorners =
+        labelledScan ? pointsNearCorners(matchedTruth, cornerReach, *labelledScan) : std::vector<std::vector<int>>{};
+    for (std::size_t m = 0; m < matches.size(); ++m) {
+      const auto& [joint, p] = matches[m];
       JointOutcome outcome;
       outcome.truthId = joint->id;
       outcome.type = type;
@@ -282,6 +314,13 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
                         [&](int points) { return points >= params.observableJointMinPoints; })) {
           (elbow ? result.observableElbows : result.observableTees) += 1;
           (elbow ? result.foundObservableElbows : result.foundObservableTees) += p >= 0;
+        }
+        outcome.pipePointsNearCorner = nearCorners[m];
+        outcome.cornerDistance = cornerReach[m];
+        if (std::all_of(outcome.pipePointsNearCorner.begin(), outcome.pipePointsNearCorner.end(),
+                        [&](int points) { return points >= params.cornerMinPoints; })) {
+          (elbow ? result.cornerSeenElbows : result.cornerSeenTees) += 1;
+          (elbow ? result.foundCornerSeenElbows : result.foundCornerSeenTees) += p >= 0;
         }
       }
       result.jointOutcomes.push_back(std::move(outcome));
@@ -330,9 +369,13 @@ std::string formatEvaluation(const EvaluationResult& result) {
                 result.bendRadiusErrorMedian);
   std::string text = line;
   if (result.observableMeasured) {
-    std::snprintf(line, sizeof line, " observable=%.3f recall_observable=%.3f observable_elbows=%d/%d observable_tees=%d/%d",
+    std::snprintf(line, sizeof line,
+                  " observable=%.3f recall_observable=%.3f observable_elbows=%d/%d observable_tees=%d/%d"
+                  " corner_seen_elbows=%d/%d corner_seen_tees=%d/%d",
                   result.observableShare, result.recallObservable, result.foundObservableElbows,
-                  result.observableElbows, result.foundObservableTees, result.observableTees);
+                  result.observableElbows, result.foundObservableTees, result.observableTees,
+                  result.foundCornerSeenElbows, result.cornerSeenElbows, result.foundCornerSeenTees,
+                  result.cornerSeenTees);
     text += line;
   }
   return text;

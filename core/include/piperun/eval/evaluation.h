@@ -25,6 +25,12 @@ struct EvaluationParams {
   /// With a labelled scan: a truth elbow or tee is observable when each of its pipes has at least
   /// this many labelled points.
   int observableJointMinPoints = 20;
+  /// With a labelled scan: a truth elbow or tee is seen at its corner when each of its pipes has at
+  /// least cornerMinPoints labelled points within max(cornerMinDistance, cornerRadii × the joint's
+  /// radius) of its position. A pipe seen far off but hidden where it turns shows nothing of the turn.
+  double cornerMinDistance = 0.5;
+  double cornerRadii = 8.0;
+  int cornerMinPoints = 5;
 };
 
 /// What the evaluation made of one truth elbow or tee.
@@ -40,6 +46,8 @@ struct JointOutcome {
   std::vector<int> pipePoints;       ///< ...and the scan points labelled with each (with a labelled scan, else empty).
   int ownPoints = -1;                ///< With a labelled scan (and joints sampled): the points labelled with the
                                      ///< joint itself; -1 when not measured.
+  std::vector<int> pipePointsNearCorner;  ///< With a labelled scan: each pipe's labelled points near the joint
+  double cornerDistance = 0.0;       ///< (within this of its position, m; see EvaluationParams::cornerMinDistance).
 };
 
 /// A predicted joint (not rejected) that matched no truth joint.
@@ -72,6 +80,10 @@ struct EvaluationResult {
   int foundObservableElbows = 0;
   int observableTees = 0;            ///< The same for tees.
   int foundObservableTees = 0;
+  int cornerSeenElbows = 0;          ///< Truth elbows each of whose pipes the scan shows near the corner (see
+  int foundCornerSeenElbows = 0;     ///< EvaluationParams::cornerMinPoints), and how many of those were found.
+  int cornerSeenTees = 0;            ///< The same for tees.
+  int foundCornerSeenTees = 0;
 
   int truthElbows = 0;
   int foundElbows = 0;               ///< Truth elbows matched by a predicted elbow.
@@ -93,8 +105,8 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
                                  const EvaluationParams& params = {}, const PointCloud* labelledScan = nullptr);
 
 /// "precision=0.912 recall=0.874 f1=0.893 radius_err_mm=3.1 elbows=17/20 tees=5/6 ...", then
-/// "observable=0.906 recall_observable=0.939 observable_elbows=73/89 observable_tees=20/22" when
-/// those were measured.
+/// "observable=0.906 recall_observable=0.939 observable_elbows=73/89 observable_tees=20/22
+/// corner_seen_elbows=70/80 corner_seen_tees=19/21" when those were measured.
 std::string formatEvaluation(const EvaluationResult& result);
 
 }  // namespace piperun
