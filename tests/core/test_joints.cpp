@@ -201,7 +201,11 @@ class ConstructedScene {
     return static_cast<int>(pipes_.size()) - 1;
   }
 
-  JointsResult connect(const JointsParams& params = {}) const { return connectPipes({cloud_, pipes_}, params); }
+  JointsResult connect(const JointsParams& params = {}) const {
+    return connectPipes({cloud_, pipes_, planes_.positions.empty() ? nullptr : &planes_}, params);
+  }
+  /// A point removed as part of a large plane (PreprocessResult::planePoints).
+  void addRemovedPlanePoint(const Eigen::Vector3d& p) { planes_.positions.push_back(p.cast<float>()); }
   /// Adds the points of `other` (not its pipes).
   void addPointsOf(const ConstructedScene& other) {
     for (std::size_t i = 0; i < other.cloud_.positions.size(); ++i) {
@@ -251,6 +255,7 @@ class ConstructedScene {
   bool oneSided_;
   std::mt19937 rng_{7};
   PointCloud cloud_;
+  PointCloud planes_;
   std::vector<PipeSegment> pipes_;
 };
 
@@ -1468,6 +1473,35 @@ TEST(Joints, ALegInARackIsCompletedBesideAPipeNoStageFound) {
   const JointsResult result = scene.connect();
   EXPECT_EQ(result.diagnostics.completedPipes, 1u);
   ASSERT_NO_FATAL_FAILURE(expectOnlyAnElbowOfBendRadius(result, R, 0.1 * R));
+}
+
+TEST(Joints, ALegOverPointsARemovedPlaneLeftIsThatPlanesAndNotCompleted) {
+  // Pipe 1 comes along +x to a corner at the origin and turns up through an elbow (R = 3r) into a
+  // leg no pipe covers; a pipe far off runs upright (the network's z direction).
+  const double r = 0.05, R = 0.15;
+  const auto scene = [&] {
+    ConstructedScene built = cornerScene(r, R);
+    built.addElbow({-R, 0, R}, {-R, 0, 0}, -Eigen::Vector3d::UnitY(), kPi / 2, r);
+    built.addPipe({0, 0, R}, {0, 0, 0.8}, r, false);
+    return built;
+  };
+  // The removal of a large plane took points 5 mm from each of the leg's: its points are that
+  // plane's residue (as a floor's seam is), not a pipe.
+  ConstructedScene residue = scene();
+  const PointCloud& points = residue.cloud();
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3d p = points.positions[i].cast<double>();
+    if (std::fabs(p.x()) <= 2.0 * r && p.z() > R + 0.01) residue.addRemovedPlanePoint(p + Eigen::Vector3d(0, 0.005, 0));
+  }
+  EXPECT_EQ(residue.connect().diagnostics.completedPipes, 0u);
+
+  // A wall 2 cm behind the leg (removed every 1 cm): the leg's far side lies by it, the rest does
+  // not, and the leg is completed.
+  ConstructedScene byAWall = scene();
+  for (double x = -0.3; x <= 0.3; x += 0.01) {
+    for (double z = 0.0; z <= 1.0; z += 0.01) byAWall.addRemovedPlanePoint({x, r + 0.02, z});
+  }
+  ASSERT_NO_FATAL_FAILURE(expectUprightLegCompletedAtTheOrigin(byAWall.connect()));
 }
 
 TEST(Joints, AnEndThatOnlyAProposedJointTookIsStillCompleted) {

@@ -1132,6 +1132,31 @@ struct LineFitSums {
   }
 };
 
+/// The cells holding points removed as large planes, near the places a completion may run: a point
+/// lies by a plane when a cell within one of its own holds one.
+class PlaneCells {
+ public:
+  static constexpr double kCellSize = 0.01;  // (m): a point by a plane lies within 1–2 cm of its points.
+
+  void add(const Eigen::Vector3d& p) { cells_.insert(cellKey(cellOf(p))); }
+  bool empty() const { return cells_.size() == 0; }
+  bool by(const Eigen::Vector3d& p) const {
+    const Eigen::Vector3i c = cellOf(p);
+    for (int x = -1; x <= 1; ++x) {
+      for (int y = -1; y <= 1; ++y) {
+        for (int z = -1; z <= 1; ++z) {
+          if (cells_.find(cellKey(c + Eigen::Vector3i(x, y, z))) >= 0) return true;
+        }
+      }
+    }
+    return false;
+  }
+
+ private:
+  static Eigen::Vector3i cellOf(const Eigen::Vector3d& p) { return (p / kCellSize).array().floor().cast<int>(); }
+  CellTable cells_;
+};
+
 /// A pipe the earlier stages missed, found beyond a free end: short legs between elbows and tails
 /// into equipment hold too few points for the Gaussian sphere, but knowing the radius, the end and
 /// the network's directions leaves only the corner's place to find.
@@ -1150,8 +1175,11 @@ struct Completion {
 class Completer {
  public:
   /// `fromBends`: complete legs from their bends alone (see legBeyondBend), and no straight legs.
-  Completer(const JointsInput& input, const JointsParams& params, const JointBuilder& builder, bool fromBends)
-      : input_(input), params_(params), builder_(builder), fromBends_(fromBends), scanNoise_(medianFitRms(input.pipes)) {}
+  /// `planes`: the cells of points removed as planes near the ends (see completeAt).
+  Completer(const JointsInput& input, const JointsParams& params, const JointBuilder& builder, bool fromBends,
+            const PlaneCells& planes)
+      : input_(input), params_(params), builder_(builder), fromBends_(fromBends), scanNoise_(medianFitRms(input.pipes)),
+        planes_(planes) {}
 
   /// The radius of the sphere around an end that holds every point a completion may use.
   double reach(const PipeEnd& end) const {
@@ -1406,6 +1434,7 @@ class Completer {
   static constexpr std::size_t kBehindSections = 5;  // Sections looked at behind the corner (see completeAt).
   static constexpr double kMaxClutterShare = 0.5;  // Clutter (see isClutter), against points on the surface.
   static constexpr double kFaceNormalAngleDeg = 30.0;  // Normals this close to the axis: a face across it.
+  static constexpr double kMaxByPlaneShare = 0.5;     // A leg's inliers lying by a removed plane, at most.
   static constexpr double kMaxFlatShare = 0.4;          // Normals sharing one direction (see flatShare)...
   static constexpr double kLineToCircle = 0.9;          // ...with a line fit's RMS under this share of the
                                                         // circle's: a flat face.
@@ -2236,6 +2265,12 @@ class Completer {
       return std::nullopt;
     }
     std::sort(pipe.inliers.begin(), pipe.inliers.end());
+    // Points by a removed plane (a floor's seam the plane removal left) run along that plane: a
+    // leg over them mostly is the plane's.
+    const auto byPlane = std::count_if(pipe.inliers.begin(), pipe.inliers.end(), [&](std::uint32_t i) {
+      return !planes_.empty() && planes_.by(input_.cloud.positions[i].cast<double>());
+    });
+    if (static_cast<double>(byPlane) > kMaxByPlaneShare * static_cast<double>(pipe.inliers.size())) return std::nullopt;
     const RadialOffsets onSurface = radialOffsets(pipe.inliers, corner, along, r);
     const RadialOffsets overBand = radialOffsets(inBand, corner, along, r);
     // The points must sit on the radius of the pipe being continued, not merely within the band: a
@@ -2307,6 +2342,7 @@ class Completer {
   const JointBuilder& builder_;
   bool fromBends_;
   double scanNoise_;
+  const PlaneCells& planes_;
 };
 
 /// The pairs (e, f), e < f, of `ends` of different pipes whose points lie within reaches[e] of each
@@ -2337,7 +2373,8 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
                                          const std::vector<char>& explained, const Resolution& resolution,
                                          std::size_t lookingFrom, double cellSize, bool fromBends) {
   const JointBuilder builder(input, params, explained);
-  const Completer completer(input, params, builder, fromBends);
+  PlaneCells planes;
+  const Completer completer(input, params, builder, fromBends, planes);
   // An end that only a proposed joint took is completed too: resolved again with the completion,
   // the better-supported joint takes it.
   const auto takenByAccepted = [&](int key) {
@@ -2360,6 +2397,11 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
     }
   }
   const auto nearby = pointsInSpheres(input.cloud, spheres, cellSize, [&](std::size_t i) { return !explained[i]; });
+  if (input.planes) {
+    for (const auto& inSphere : pointsInSpheres(*input.planes, spheres, cellSize, [](std::size_t) { return true; })) {
+      for (std::uint32_t i : inSphere) planes.add(input.planes->positions[i].cast<double>());
+    }
+  }
   const auto directions = networkDirections(input.pipes);
   std::vector<std::optional<Completion>> completed(ends.size());
   tbb::parallel_for(std::size_t{0}, ends.size(),
@@ -2468,7 +2510,7 @@ std::optional<Adoption> adoptCompletions(const JointsInput& input, const JointsP
       for (std::uint32_t i : completion.pipe.inliers) augmentedExplained[i] = 1;
     }
     Resolution again =
-        resolveJoints({input.cloud, augmented}, params, augmentedExplained, completionsFrom, cellSize, progress);
+        resolveJoints({input.cloud, augmented, input.planes}, params, augmentedExplained, completionsFrom, cellSize, progress);
     std::vector<char> joined(completions.size(), 0);
     const auto takes = [&](const Hypothesis& hypothesis, std::size_t c) {
       const int startKey = 2 * static_cast<int>(pipeCount + c);
@@ -2906,7 +2948,7 @@ class WithLegs {
            const std::vector<char>& explained)
       : inputPipes_(input.pipes.size()),
         pipes_(appended(input.pipes, legs)),
-        input_{input.cloud, pipes_},
+        input_{input.cloud, pipes_, input.planes},
         builder_(input_, params, explained) {}
   WithLegs(const WithLegs&) = delete;
   WithLegs& operator=(const WithLegs&) = delete;
@@ -3207,7 +3249,7 @@ JoinedOnce joinOnce(const JointsInput& input, const JointsParams& params, Progre
   std::vector<PipeSegment> pipes = input.pipes;
   const GentleKinks kinks = splitAtGentleKinks(input.cloud, pipes, networkDirections(input.pipes), cellSize, params);
   const std::size_t foundCount = pipes.size();  // The input pipes and the legs found beyond gentle bends.
-  const JointsInput split{input.cloud, pipes};
+  const JointsInput split{input.cloud, pipes, input.planes};
   std::vector<char> explained(input.cloud.size(), 0);
   for (const auto& pipe : pipes) {
     for (std::uint32_t i : pipe.inliers) explained[i] = 1;
@@ -3233,7 +3275,7 @@ JoinedOnce joinOnce(const JointsInput& input, const JointsParams& params, Progre
     // One round of completions of the pipes from `lookingFrom` on (of all, for legs seen only on
     // their bends); whether any was adopted.
     const auto completeRound = [&](bool fromBends) {
-      const JointsInput current{input.cloud, pipes};
+      const JointsInput current{input.cloud, pipes, input.planes};
       std::vector<Completion> completions = completeFreeEnds(current, params, explainedByPipes, resolution,
                                                              fromBends ? 0 : lookingFrom, cellSize, fromBends);
       auto adopted =
@@ -3258,15 +3300,15 @@ JoinedOnce joinOnce(const JointsInput& input, const JointsParams& params, Progre
     completeRound(true);
   }
   std::vector<PipeSegment> bridged =
-      bridgeOccludedCorners({input.cloud, pipes}, params, explained, cellSize, resolution);
-  for (PipeSegment& stretch : reachThinRuns({input.cloud, pipes}, params, explained, cellSize, resolution)) {
+      bridgeOccludedCorners({input.cloud, pipes, input.planes}, params, explained, cellSize, resolution);
+  for (PipeSegment& stretch : reachThinRuns({input.cloud, pipes, input.planes}, params, explained, cellSize, resolution)) {
     bridged.push_back(std::move(stretch));
   }
   const std::vector<PipeSegment> legsBetweenBends =
-      joinSeenBends({input.cloud, pipes}, params, explained, cellSize, resolution);
+      joinSeenBends({input.cloud, pipes, input.planes}, params, explained, cellSize, resolution);
   pipes.insert(pipes.end(), legsBetweenBends.begin(), legsBetweenBends.end());
   const std::vector<PipeSegment> hiddenBranches =
-      joinHiddenBranches({input.cloud, pipes}, params, explained, cellSize, resolution);
+      joinHiddenBranches({input.cloud, pipes, input.planes}, params, explained, cellSize, resolution);
   pipes.insert(pipes.end(), hiddenBranches.begin(), hiddenBranches.end());
   progress.report("joints", 0.8);
 
@@ -3385,7 +3427,7 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   std::vector<PipeSegment> pipes = input.pipes;
   std::size_t dropped = 0;
   for (;;) {
-    JoinedOnce joined = joinOnce({input.cloud, pipes}, params, progress);
+    JoinedOnce joined = joinOnce({input.cloud, pipes, input.planes}, params, progress);
     if (joined.unjoined.empty()) {
       JointsResult& result = joined.result;
       result.diagnostics.unjoinedPipes = dropped;

@@ -75,6 +75,9 @@ struct JointsParams {
 struct JointsInput {
   const PointCloud& cloud;                 ///< The preprocessed cloud (positions and normals).
   const std::vector<PipeSegment>& pipes;   ///< The merged pipes.
+  /// The points removed as large planes (PreprocessResult::planePoints: floors, walls, decks), when
+  /// known: a pipe completed over points lying by them is the plane's residue (a floor's seam).
+  const PointCloud* planes = nullptr;
 };
 
 /// The joined network in the cloud's frame. The pipes keep their input order, less the fragments
