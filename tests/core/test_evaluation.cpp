@@ -181,16 +181,23 @@ TEST(Evaluation, ObservableRecallCountsOnlyWhatTheScanShows) {
   EXPECT_THROW(evaluateNetwork(truth, predicted, {}, &unlabelled), std::invalid_argument);
 }
 
-/// A scan of points (all at the origin) labelled with truth elements: (label, count) pairs.
-PointCloud labelledScan(const std::vector<std::pair<int, int>>& counts) {
+/// A scan of `count` points at each given place, labelled with a truth element: (label, place, count).
+PointCloud placedLabelledScan(const std::vector<std::tuple<int, Eigen::Vector3f, int>>& groups) {
   PointCloud scan;
-  for (const auto& [element, count] : counts) {
+  for (const auto& [element, place, count] : groups) {
     for (int i = 0; i < count; ++i) {
-      scan.positions.emplace_back(0.0f, 0.0f, 0.0f);
+      scan.positions.push_back(place);
       scan.labels.push_back(element);
     }
   }
   return scan;
+}
+
+/// A scan of points (all at the origin) labelled with truth elements: (label, count) pairs.
+PointCloud labelledScan(const std::vector<std::pair<int, int>>& counts) {
+  std::vector<std::tuple<int, Eigen::Vector3f, int>> groups;
+  for (const auto& [element, count] : counts) groups.emplace_back(element, Eigen::Vector3f::Zero(), count);
+  return placedLabelledScan(groups);
 }
 
 TEST(Evaluation, ObservableJointsHaveEnoughPointsOnEachPipe) {
@@ -211,18 +218,6 @@ TEST(Evaluation, ObservableJointsHaveEnoughPointsOnEachPipe) {
   EXPECT_EQ(missed.foundObservableElbows, 0);
   EXPECT_EQ(missed.foundElbows, 0);
   EXPECT_EQ(missed.foundTees, 1);
-}
-
-/// A scan of `count` points at each given place, labelled with a truth element: (label, place, count).
-PointCloud placedLabelledScan(const std::vector<std::tuple<int, Eigen::Vector3f, int>>& groups) {
-  PointCloud scan;
-  for (const auto& [element, place, count] : groups) {
-    for (int i = 0; i < count; ++i) {
-      scan.positions.push_back(place);
-      scan.labels.push_back(element);
-    }
-  }
-  return scan;
 }
 
 TEST(Evaluation, AJointIsSeenAtItsCornerWhenEachPipeHasPointsNearIt) {

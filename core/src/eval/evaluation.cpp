@@ -98,24 +98,37 @@ ScanCoverage scanCoverage(const NetworkSamples& truth, const PointCloud& scan, c
   return coverage;
 }
 
-/// Per truth elbow and tee (`joints`), the labelled points of each of its pipes within `reach[j]`
-/// of its position.
-std::vector<std::vector<int>> pointsNearCorners(const std::vector<const Joint*>& joints,
-                                                const std::vector<double>& reach, const PointCloud& scan) {
-  std::vector<std::vector<int>> counts(joints.size());
-  std::unordered_map<int, std::vector<std::pair<std::size_t, std::size_t>>> slotsOfPipe;  // (joint, pipe slot)
-  std::vector<Eigen::Vector3d> positions;
-  for (std::size_t j = 0; j < joints.size(); ++j) {
-    counts[j].assign(joints[j]->pipeIds.size(), 0);
-    positions.push_back(joints[j]->position());
-    for (std::size_t k = 0; k < joints[j]->pipeIds.size(); ++k) slotsOfPipe[joints[j]->pipeIds[k]].emplace_back(j, k);
+/// How far from a truth joint the points of its pipes show its corner (EvaluationParams::cornerMinDistance).
+double cornerReach(const Joint& joint, const EvaluationParams& params) {
+  return std::max(params.cornerMinDistance, params.cornerRadii * joint.radius);
+}
+
+/// Per truth joint of `truth` (elbows and tees; none for boundary joints), the labelled points of
+/// each of its pipes within its cornerReach of its position, from one pass over the scan.
+std::unordered_map<const Joint*, std::vector<int>> pointsNearCorners(const PipeNetwork& truth,
+                                                                     const EvaluationParams& params,
+                                                                     const PointCloud& scan) {
+  std::unordered_map<const Joint*, std::vector<int>> counts;
+  struct Slot {  // A pipe of a joint: where the joint is, how far its corner reaches, its count.
+    Eigen::Vector3d position;
+    double reach;
+    int* count;
+  };
+  for (const Joint& joint : truth.joints) {
+    if (joint.type != JointType::Boundary) counts[&joint].assign(joint.pipeIds.size(), 0);
+  }
+  std::unordered_map<int, std::vector<Slot>> slotsOfPipe;  // By pipe id (the points' label).
+  for (auto& [joint, pipeCounts] : counts) {
+    for (std::size_t k = 0; k < joint->pipeIds.size(); ++k) {
+      slotsOfPipe[joint->pipeIds[k]].push_back(Slot{joint->position(), cornerReach(*joint, params), &pipeCounts[k]});
+    }
   }
   for (std::size_t i = 0; i < scan.size(); ++i) {
     const auto found = slotsOfPipe.find(scan.labels[i]);
     if (found == slotsOfPipe.end()) continue;
     const Eigen::Vector3d p = scan.worldPosition(i);
-    for (const auto& [j, k] : found->second) {
-      if ((p - positions[j]).norm() <= reach[j]) ++counts[j][k];
+    for (const Slot& slot : found->second) {
+      if ((p - slot.position).norm() <= slot.reach) ++*slot.count;
     }
   }
   return counts;
@@ -275,20 +288,13 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
     const auto found = coverage.pointsOf.find(element);
     return found == coverage.pointsOf.end() ? 0 : found->second;
   };
+  const auto nearCorners = labelledScan ? pointsNearCorners(truth, params, *labelledScan)
+                                        : std::unordered_map<const Joint*, std::vector<int>>{};
   for (const JointType type : {JointType::Elbow, JointType::Tee, JointType::Boundary}) {
     const auto matches = matchJoints(truth, predictedJoints, type, params, predictedMatched);
     if (type == JointType::Boundary) continue;  // Generated truths list none; a bridged gap is checked below.
     const bool elbow = type == JointType::Elbow;
-    std::vector<const Joint*> matchedTruth;
-    std::vector<double> cornerReach;
     for (const auto& [joint, p] : matches) {
-      matchedTruth.push_back(joint);
-      cornerReach.push_back(std::max(params.cornerMinDistance, params.cornerRadii * joint->radius));
-    }
-    const auto nearCorners =
-        labelledScan ? pointsNearCorners(matchedTruth, cornerReach, *labelledScan) : std::vector<std::vector<int>>{};
-    for (std::size_t m = 0; m < matches.size(); ++m) {
-      const auto& [joint, p] = matches[m];
       JointOutcome outcome;
       outcome.truthId = joint->id;
       outcome.type = type;
@@ -315,8 +321,8 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
           (elbow ? result.observableElbows : result.observableTees) += 1;
           (elbow ? result.foundObservableElbows : result.foundObservableTees) += p >= 0;
         }
-        outcome.pipePointsNearCorner = nearCorners[m];
-        outcome.cornerDistance = cornerReach[m];
+        outcome.pipePointsNearCorner = nearCorners.at(joint);
+        outcome.cornerDistance = cornerReach(*joint, params);
         if (std::all_of(outcome.pipePointsNearCorner.begin(), outcome.pipePointsNearCorner.end(),
                         [&](int points) { return points >= params.cornerMinPoints; })) {
           (elbow ? result.cornerSeenElbows : result.cornerSeenTees) += 1;

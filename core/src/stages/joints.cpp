@@ -1133,28 +1133,19 @@ struct LineFitSums {
 };
 
 /// The cells holding points removed as large planes, near the places a completion may run: a point
-/// lies by a plane when a cell within one of its own holds one.
+/// lies by a plane when a cell within one of its own holds one (within 1–2 cm of a plane point).
 class PlaneCells {
  public:
-  static constexpr double kCellSize = 0.01;  // (m): a point by a plane lies within 1–2 cm of its points.
-
-  void add(const Eigen::Vector3d& p) { cells_.insert(cellKey(cellOf(p))); }
-  bool empty() const { return cells_.size() == 0; }
+  void add(const Eigen::Vector3d& p) { cells_.insert(cells_.cellOf(p), 0); }
   bool by(const Eigen::Vector3d& p) const {
-    const Eigen::Vector3i c = cellOf(p);
-    for (int x = -1; x <= 1; ++x) {
-      for (int y = -1; y <= 1; ++y) {
-        for (int z = -1; z <= 1; ++z) {
-          if (cells_.find(cellKey(c + Eigen::Vector3i(x, y, z))) >= 0) return true;
-        }
-      }
-    }
-    return false;
+    bool found = false;
+    cells_.forEachCellInCube(p, cells_.cellSize(),
+                             [&](const Eigen::Vector3i& cell) { found = found || cells_.find(cell) != nullptr; });
+    return found;
   }
 
  private:
-  static Eigen::Vector3i cellOf(const Eigen::Vector3d& p) { return (p / kCellSize).array().floor().cast<int>(); }
-  CellTable cells_;
+  HashGrid cells_{0.01};
 };
 
 /// A pipe the earlier stages missed, found beyond a free end: short legs between elbows and tails
@@ -1869,9 +1860,10 @@ class Completer {
   /// pipe must not carry on straight past where the bend leaves it (a gap, or a bend that was not).
   /// Or, along one of the network's directions (`networks`), the torus may be seen from its start
   /// only, turning far enough there to show its radius, densely enough to be the end's bend: its
-  /// elbow is then as sure as the share of its turn seen. The leg runs from the corner over the sections its points cover past the tangent point, and at
-  /// least a diameter (a fragment takes no joint); it must hold too few points for completeAt
-  /// (which tried it), run into no other pipe, and take the elbow as every completion does.
+  /// elbow is then as sure as the share of its turn seen. The leg runs from the corner over the
+  /// sections its points cover past the tangent point, and at least a diameter (a fragment takes no
+  /// joint); it must hold too few points for completeAt (which tried it), run into no other pipe,
+  /// and take the elbow as every completion does.
   std::optional<Completion> legBeyondBend(const PipeEnd& end, const Eigen::Vector3d& along, double bend,
                                           bool networks, const std::vector<std::uint32_t>& nearby) const {
     const double r = end.radius;
@@ -2267,9 +2259,8 @@ class Completer {
     std::sort(pipe.inliers.begin(), pipe.inliers.end());
     // Points by a removed plane (a floor's seam the plane removal left) run along that plane: a
     // leg over them mostly is the plane's.
-    const auto byPlane = std::count_if(pipe.inliers.begin(), pipe.inliers.end(), [&](std::uint32_t i) {
-      return !planes_.empty() && planes_.by(input_.cloud.positions[i].cast<double>());
-    });
+    const auto byPlane = std::count_if(pipe.inliers.begin(), pipe.inliers.end(),
+                                       [&](std::uint32_t i) { return planes_.by(input_.cloud.positions[i].cast<double>()); });
     if (static_cast<double>(byPlane) > kMaxByPlaneShare * static_cast<double>(pipe.inliers.size())) return std::nullopt;
     const RadialOffsets onSurface = radialOffsets(pipe.inliers, corner, along, r);
     const RadialOffsets overBand = radialOffsets(inBand, corner, along, r);
