@@ -93,27 +93,35 @@ TEST(Pipeline, JointsStageConnectsThePipesIntoRunsAndRerunsAlone) {
 }
 
 TEST(Pipeline, PipesThatMustTakeAJointAreShownOnlyOnceTheyHave) {
-  // Every circle short of the candidates asked: each pipe is found on condition of a joint.
-  Pipeline pipeline(sceneCloud());
-  PipelineParams params = pipeline.params();
-  params.placement.minCandidates = 1000000;
-  pipeline.setParams(params);
-  pipeline.run(Progress::none(), Stage::Merge);
-  ASSERT_NE(pipeline.mergeResult(), nullptr);
-  ASSERT_FALSE(pipeline.mergeResult()->segments.empty());
-  for (const PipeSegment& segment : pipeline.mergeResult()->segments) EXPECT_TRUE(segment.mustJoin);
-  EXPECT_TRUE(pipeline.network().pipes.empty());
+  // Every circle short of the candidates asked, or every cylinder short of the inliers asked: each
+  // pipe is found on condition of a joint.
+  for (const bool shortOfInliers : {false, true}) {
+    SCOPED_TRACE(shortOfInliers ? "short of inliers" : "short of candidates");
+    Pipeline pipeline(sceneCloud());
+    PipelineParams params = pipeline.params();
+    if (shortOfInliers) {
+      params.placement.minInliers = 1000000;
+    } else {
+      params.placement.minCandidates = 1000000;
+    }
+    pipeline.setParams(params);
+    pipeline.run(Progress::none(), Stage::Merge);
+    ASSERT_NE(pipeline.mergeResult(), nullptr);
+    ASSERT_FALSE(pipeline.mergeResult()->segments.empty());
+    for (const PipeSegment& segment : pipeline.mergeResult()->segments) EXPECT_TRUE(segment.mustJoin);
+    EXPECT_TRUE(pipeline.network().pipes.empty());
 
-  pipeline.run();
-  const PipeNetwork network = pipeline.network();
-  ASSERT_FALSE(network.pipes.empty());
-  EXPECT_GT(pipeline.jointsResult()->diagnostics.unjoinedPipes, 0u);
-  // Every pipe left takes a joint, or was completed by one.
-  std::vector<char> joined(network.pipes.size(), 0);
-  for (const Joint& joint : network.joints) {
-    for (const int id : joint.pipeIds) joined[static_cast<std::size_t>(id - 1)] = 1;
+    pipeline.run();
+    const PipeNetwork network = pipeline.network();
+    ASSERT_FALSE(network.pipes.empty());
+    EXPECT_GT(pipeline.jointsResult()->diagnostics.unjoinedPipes, 0u);
+    // Every pipe left takes a joint, or was completed by one.
+    std::vector<char> joined(network.pipes.size(), 0);
+    for (const Joint& joint : network.joints) {
+      for (const int id : joint.pipeIds) joined[static_cast<std::size_t>(id - 1)] = 1;
+    }
+    for (std::size_t p = 0; p < joined.size(); ++p) EXPECT_TRUE(joined[p]) << "pipe " << p + 1;
   }
-  for (std::size_t p = 0; p < joined.size(); ++p) EXPECT_TRUE(joined[p]) << "pipe " << p + 1;
 }
 
 TEST(Pipeline, RunUntilAStageLeavesTheRestStale) {

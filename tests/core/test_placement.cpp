@@ -461,6 +461,35 @@ TEST(Placement, ACircleWithFewerCandidatesThanAskedMakesACylinderThatMustTakeAJo
   EXPECT_EQ(match(placeCylinders({cloud, directions, 1}, params), truth), nullptr);
 }
 
+TEST(Placement, ACylinderWithFewerInliersThanAskedMustTakeAJoint) {
+  // A short leg between two elbows, seen over 12 cm: a few dozen points.
+  Rng rng(23);
+  PointCloud cloud;
+  const TrueCylinder leg{{0.0, 0.0, 0.0}, Eigen::Vector3d::UnitZ(), 0.12, 0.03};
+  addScannedCylinder(cloud, leg, Eigen::Vector3d::UnitX(), rng, 0.015);
+  const DirectionsResult directions = oneDirection(cloud, leg.axis);
+  PlacementParams params;
+  const PlacementResult result = placeCylinders({cloud, directions, 1}, params);
+  const Cylinder* found = match(result, leg);
+  ASSERT_NE(found, nullptr);
+  ASSERT_LT(found->inliers.size(), static_cast<std::size_t>(params.minInliers));
+  ASSERT_GE(found->candidates, params.minCandidates);
+  // Found on condition of a joint, for its inliers alone...
+  EXPECT_TRUE(found->mustJoin);
+  EXPECT_NEAR(found->radius, leg.radius, 0.003);
+  EXPECT_LT(axisOffset(*found, leg), 0.003);
+  // ...not at all when no condition is offered, or when it holds fewer than the condition asks...
+  params.minJoinedInliers = 0;
+  EXPECT_EQ(match(placeCylinders({cloud, directions, 1}, params), leg), nullptr);
+  params.minJoinedInliers = static_cast<int>(found->inliers.size()) + 1;
+  EXPECT_EQ(match(placeCylinders({cloud, directions, 1}, params), leg), nullptr);
+  // ...and firmly when asked for no more inliers than it holds.
+  params.minInliers = static_cast<int>(found->inliers.size());
+  const Cylinder* firm = match(placeCylinders({cloud, directions, 1}, params), leg);
+  ASSERT_NE(firm, nullptr);
+  EXPECT_FALSE(firm->mustJoin);
+}
+
 TEST(Placement, DirectionsAreIndependentAndPointsExclusive) {
   Rng rng(19);
   PointCloud cloud;

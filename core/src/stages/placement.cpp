@@ -512,6 +512,12 @@ int minCircleCandidates(const PlacementParams& params) {
   return params.minJoinedCandidates > 0 ? std::min(params.minCandidates, params.minJoinedCandidates) : params.minCandidates;
 }
 
+/// The fewest inliers a cylinder may keep: those with fewer than minInliers make pipes that must
+/// take a joint.
+int minCylinderInliers(const PlacementParams& params) {
+  return params.minJoinedInliers > 0 ? std::min(params.minInliers, params.minJoinedInliers) : params.minInliers;
+}
+
 ModeSearch findModes(const std::vector<Candidate>& candidates, const PlacementParams& params) {
   ModeSearch search;
   search.candidateMode.assign(candidates.size(), -1);
@@ -857,7 +863,7 @@ DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDir
     if (mode.support < 0.5 * params.minCandidateShare * static_cast<double>(inliers.size())) return;
     // Refines the fit on its inliers and gathers them again; false when it is no pipe along the direction.
     const auto refineAndGather = [&] {
-      if (static_cast<int>(inliers.size()) < params.minInliers) return false;
+      if (static_cast<int>(inliers.size()) < minCylinderInliers(params)) return false;
       if (!refineFit(fit, cloud, stripe, inliers, params.refineIterations)) return false;
       if (std::abs(fit.direction.dot(stripe.axis)) < std::cos(kMaxAxisTilt)) return false;
       if (fit.radius < kRadiusSlack * params.minRadius || fit.radius > params.maxRadius / kRadiusSlack) return false;
@@ -877,7 +883,7 @@ DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDir
       inliers = search.gather(fit, band, acrossColumns);
       if (!refineAndGather()) return;
     }
-    if (static_cast<int>(inliers.size()) < params.minInliers) return;
+    if (static_cast<int>(inliers.size()) < minCylinderInliers(params)) return;
     // A weakly supported circle is taken only on a clean scan, and where its candidates are dense
     // for its inliers: noise, outliers and the faces of posts make modes of their own, their
     // candidates spread thin over many points.
@@ -1084,7 +1090,7 @@ PlacementResult placeCylinders(const PlacementInput& input, const PlacementParam
   for (const std::size_t f : kept) {
     Cylinder& cylinder = fits[f];
     cylinder.inliers = std::move(exclusive[f]);
-    if (static_cast<int>(cylinder.inliers.size()) < params.minInliers) continue;
+    if (static_cast<int>(cylinder.inliers.size()) < minCylinderInliers(params)) continue;
     const CylinderFit fit{cylinder.point, cylinder.direction, cylinder.radius};
     double sum2 = 0.0;
     for (const std::uint32_t i : cylinder.inliers) {
@@ -1092,7 +1098,8 @@ PlacementResult placeCylinders(const PlacementInput& input, const PlacementParam
       sum2 += offset * offset;
     }
     cylinder.rms = std::sqrt(sum2 / static_cast<double>(cylinder.inliers.size()));
-    cylinder.mustJoin = cylinder.candidates < params.minCandidates;
+    cylinder.mustJoin =
+        cylinder.candidates < params.minCandidates || static_cast<int>(cylinder.inliers.size()) < params.minInliers;
     finalIndex[f] = static_cast<int>(result.cylinders.size());
     result.cylinders.push_back(std::move(cylinder));
   }

@@ -38,7 +38,10 @@ struct PlacementParams {
                                     ///< tight cluster in the plane) may instead take the normal over the columns beside
                                     ///< it, where they curve like a pipe: a thin pipe seen in a few columns has no other
                                     ///< (not once the band is widened for a noisy scan).
-  int minInliers = 40;              ///< Cylinders with fewer inliers are dropped.
+  int minInliers = 40;              ///< Cylinders with fewer inliers are dropped...
+  int minJoinedInliers = 25;        ///< ...or this many (up to minInliers; 0: none) when their pipe takes a joint: a
+                                    ///< short leg between two elbows, or a thin one seen in a few columns, holds a few
+                                    ///< dozen points, and so does a piece of clutter, which seldom meets a pipe's end.
   double minCandidateShare = 0.1;   ///< A cylinder's mode must hold this many candidates per inlier: pairs of a real
                                     ///< pipe's points agree on its circle, the faces of a box edge on a ridge of circles.
   double maxShellShare = 0.15;      ///< Dropped when the stripe points just outside the inlier band (up to 2.5 ×
@@ -66,7 +69,8 @@ struct Cylinder {
   double radius = 0.0;
   double rms = 0.0;                                     ///< RMS surface distance of the inliers (m).
   int candidates = 0;                                   ///< Circle candidates in its mode (and in its duplicates').
-  bool mustJoin = false;  ///< Fewer candidates than minCandidates: a pipe only if it takes a joint.
+  bool mustJoin = false;  ///< Fewer candidates than minCandidates or inliers than minInliers: a pipe only if it
+                          ///< takes a joint.
   int directionIndex = -1;                              ///< Index into DirectionsResult::directions.
   std::vector<std::uint32_t> inliers;                   ///< Ascending; a point is an inlier of one cylinder at most.
 };
