@@ -54,6 +54,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <array>
@@ -1132,20 +1133,34 @@ struct LineFitSums {
   }
 };
 
-/// The cells holding points removed as large planes, near the places a completion may run: a point
-/// lies by a plane when a cell within one of its own holds one (within 1–2 cm of a plane point).
+/// The 1 cm cells holding points removed as large planes: a point lies by a plane when a cell within
+/// one of its own holds one (within 1–2 cm of a plane point). Kept as sorted cell keys, built once
+/// per joining: a large scan's floors hold millions of points, too many to file again each round.
 class PlaneCells {
  public:
-  void add(const Eigen::Vector3d& p) { cells_.insert(cells_.cellOf(p), 0); }
+  explicit PlaneCells(const PointCloud* planes) {
+    if (!planes) return;
+    keys_.reserve(planes->size());
+    for (const Eigen::Vector3f& position : planes->positions) keys_.push_back(cellKey(cellOf(position.cast<double>())));
+    tbb::parallel_sort(keys_.begin(), keys_.end());
+    keys_.erase(std::unique(keys_.begin(), keys_.end()), keys_.end());
+  }
+
   bool by(const Eigen::Vector3d& p) const {
-    bool found = false;
-    cells_.forEachCellInCube(p, cells_.cellSize(),
-                             [&](const Eigen::Vector3i& cell) { found = found || cells_.find(cell) != nullptr; });
-    return found;
+    if (keys_.empty()) return false;
+    const Eigen::Vector3i cell = cellOf(p);
+    for (int k = 0; k < 27; ++k) {
+      const Eigen::Vector3i near = cell + Eigen::Vector3i(k % 3 - 1, k / 3 % 3 - 1, k / 9 - 1);
+      if (std::binary_search(keys_.begin(), keys_.end(), cellKey(near))) return true;
+    }
+    return false;
   }
 
  private:
-  HashGrid cells_{0.01};
+  static constexpr double kCellSize = 0.01;
+  static Eigen::Vector3i cellOf(const Eigen::Vector3d& p) { return (p / kCellSize).array().floor().cast<int>(); }
+
+  std::vector<std::uint64_t> keys_;
 };
 
 /// A pipe the earlier stages missed, found beyond a free end: short legs between elbows and tails
@@ -1166,7 +1181,7 @@ struct Completion {
 class Completer {
  public:
   /// `fromBends`: complete legs from their bends alone (see legBeyondBend), and no straight legs.
-  /// `planes`: the cells of points removed as planes near the ends (see completeAt).
+  /// `planes`: the cells of points removed as planes (see completeAt).
   Completer(const JointsInput& input, const JointsParams& params, const JointBuilder& builder, bool fromBends,
             const PlaneCells& planes)
       : input_(input), params_(params), builder_(builder), fromBends_(fromBends), scanNoise_(medianFitRms(input.pipes)),
@@ -2362,9 +2377,9 @@ std::vector<std::pair<std::size_t, std::size_t>> endPairsWithin(const std::vecto
 /// from `lookingFrom` on; best-supported first, a point supports one completion.
 std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsParams& params,
                                          const std::vector<char>& explained, const Resolution& resolution,
-                                         std::size_t lookingFrom, double cellSize, bool fromBends) {
+                                         const PlaneCells& planes, std::size_t lookingFrom, double cellSize,
+                                         bool fromBends) {
   const JointBuilder builder(input, params, explained);
-  PlaneCells planes;
   const Completer completer(input, params, builder, fromBends, planes);
   // An end that only a proposed joint took is completed too: resolved again with the completion,
   // the better-supported joint takes it.
@@ -2388,11 +2403,6 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
     }
   }
   const auto nearby = pointsInSpheres(input.cloud, spheres, cellSize, [&](std::size_t i) { return !explained[i]; });
-  if (input.planes) {
-    for (const auto& inSphere : pointsInSpheres(*input.planes, spheres, cellSize, [](std::size_t) { return true; })) {
-      for (std::uint32_t i : inSphere) planes.add(input.planes->positions[i].cast<double>());
-    }
-  }
   const auto directions = networkDirections(input.pipes);
   std::vector<std::optional<Completion>> completed(ends.size());
   tbb::parallel_for(std::size_t{0}, ends.size(),
@@ -3235,7 +3245,7 @@ struct JoinedOnce {
   std::vector<std::size_t> unjoined;  // Indices into the input pipes, ascending.
 };
 
-JoinedOnce joinOnce(const JointsInput& input, const JointsParams& params, Progress& progress) {
+JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const JointsParams& params, Progress& progress) {
   const double cellSize = std::max(params.minSearchDistance, 0.25);
   std::vector<PipeSegment> pipes = input.pipes;
   const GentleKinks kinks = splitAtGentleKinks(input.cloud, pipes, networkDirections(input.pipes), cellSize, params);
@@ -3267,7 +3277,7 @@ JoinedOnce joinOnce(const JointsInput& input, const JointsParams& params, Progre
     // their bends); whether any was adopted.
     const auto completeRound = [&](bool fromBends) {
       const JointsInput current{input.cloud, pipes, input.planes};
-      std::vector<Completion> completions = completeFreeEnds(current, params, explainedByPipes, resolution,
+      std::vector<Completion> completions = completeFreeEnds(current, params, explainedByPipes, resolution, planes,
                                                              fromBends ? 0 : lookingFrom, cellSize, fromBends);
       auto adopted =
           adoptCompletions(current, params, explained, std::move(completions), foundCount, cellSize, progress);
@@ -3416,9 +3426,10 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   // A pipe from a weakly supported circle stays only when it takes a joint: without those that
   // took none the network is joined again (their points free for the others), until all left do.
   std::vector<PipeSegment> pipes = input.pipes;
+  const PlaneCells planes(input.planes);
   std::size_t dropped = 0;
   for (;;) {
-    JoinedOnce joined = joinOnce({input.cloud, pipes, input.planes}, params, progress);
+    JoinedOnce joined = joinOnce({input.cloud, pipes, input.planes}, planes, params, progress);
     if (joined.unjoined.empty()) {
       JointsResult& result = joined.result;
       result.diagnostics.unjoinedPipes = dropped;
