@@ -3345,7 +3345,8 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Jo
       if (middleInsideTube(pipes[static_cast<std::size_t>(p)], stretch)) absorbed[static_cast<std::size_t>(p)] = 1;
     }
   }
-  // Input pipes from weakly supported circles that no chosen joint took (absorbed ones go anyway).
+  // Input pipes that had to take a joint (weakly supported circles, few inliers) and that no chosen
+  // joint took (absorbed ones go anyway).
   std::vector<char> inJoint(pipes.size(), 0);
   for (std::size_t h : chosen) {
     const auto [first, second] = hypotheses[h].joinedPipes();
@@ -3423,8 +3424,9 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Jo
 
 JointsResult connectPipes(const JointsInput& input, const JointsParams& params, Progress& progress) {
   const auto started = std::chrono::steady_clock::now();
-  // A pipe from a weakly supported circle stays only when it takes a joint: without those that
-  // took none the network is joined again (their points free for the others), until all left do.
+  // A pipe that must take a joint (a weakly supported circle, few inliers) stays only when it does:
+  // without those that took none the network is joined again (their points free for the others),
+  // until all left do.
   std::vector<PipeSegment> pipes = input.pipes;
   const PlaneCells planes(input.planes);
   std::size_t dropped = 0;

@@ -46,8 +46,8 @@ struct PipeSegment {
   double confidence = 0.0;            ///< Share of the segment's sections that passed both coverage tests
                                       ///< (before the closing filled gaps).
   int cylinderIndex = -1;             ///< Index into PlacementResult::cylinders.
-  bool mustJoin = false;              ///< From a weakly supported circle (Cylinder::mustJoin): dropped by the
-                                      ///< joints stage unless it takes a joint.
+  bool mustJoin = false;              ///< From a weakly supported circle or a cylinder of few inliers
+                                      ///< (Cylinder::mustJoin): dropped by the joints stage unless it takes a joint.
   std::vector<std::uint32_t> inliers; ///< Points of the cylinder's inliers within the segment.
 };
 
