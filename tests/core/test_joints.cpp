@@ -455,8 +455,8 @@ TEST(Joints, APipeSeenRunningOnPastTheCornerIsNotTrimmedToAnElbow) {
 }
 
 TEST(Joints, AShortPipeThatTakesNoJointIsProposedForReview) {
-  // A pipe 10 cm thick turns at an elbow into a stub 15 cm long (1.5 diameters), which keeps its
-  // confidence of 1.
+  // A pipe 10 cm thick turns at an elbow into a stub 15 cm long (1.5 diameters).
+  // The stub keeps its confidence of 1.
   // Far off stand two short cylinders that no joint takes, as fat as a pump's casing, 1.5 and 0.4
   // diameters long. Confidence falls with length under two diameters (two fragments' length) and
   // is below one half under one diameter, so the shorter is proposed.
@@ -1847,9 +1847,10 @@ TEST(Joints, ABendThatLeavesItsPipeIntoAFewPointsOfItsLegIsCompleted) {
 
 TEST(Joints, ABendSeenOnlyOverItsFirstFortyDegreesIsProposedWithAStubLeg) {
   // A 12" pipe (r = 15 cm) comes along +x to its tangent point and turns up through a short-radius
-  // elbow (R = 2r) whose first 40° were scanned; the rest of the bend and the leg beyond were hidden
-  // (behind the pipe it turns towards). Its turn shows its radius: a stub leg is completed upright
-  // at the corner. Less than half its turn was seen, so the elbow is proposed, for review.
+  // elbow (R = 2r). Only the bend's first 40° were scanned.
+  // The rest of the bend and the leg beyond were hidden (behind the pipe it turns towards).
+  // Its turn shows its radius, so a stub leg is completed upright at the corner.
+  // Less than half its turn was seen, so the elbow is proposed, for review.
   const double r = 0.15, R = 0.3;
   const auto seenBend = [&](double degrees, const std::vector<double>& around, double step) {
     ConstructedScene scene = cornerScene(r, R);

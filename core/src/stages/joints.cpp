@@ -47,6 +47,7 @@
 #include "angles.h"
 #include "points_near.h"
 #include "sector_offsets.h"
+#include "sort_by_key.h"
 #include "segment_distance.h"
 #include "stages/gentle_kinks.h"
 #include "stages/section_runs.h"
@@ -54,7 +55,6 @@
 
 #include <Eigen/Eigenvalues>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <array>
@@ -1142,7 +1142,7 @@ class PlaneCells {
     if (!planes) return;
     keys_.reserve(planes->size());
     for (const Eigen::Vector3f& position : planes->positions) keys_.push_back(cellKey(cellOf(position.cast<double>())));
-    tbb::parallel_sort(keys_.begin(), keys_.end());
+    stableSortByKey(keys_, [](std::uint64_t key) { return key; });
     keys_.erase(std::unique(keys_.begin(), keys_.end()), keys_.end());
   }
 
@@ -2511,7 +2511,7 @@ std::optional<Adoption> adoptCompletions(const JointsInput& input, const JointsP
       for (std::uint32_t i : completion.pipe.inliers) augmentedExplained[i] = 1;
     }
     Resolution again =
-        resolveJoints({input.cloud, augmented, input.planes}, params, augmentedExplained, completionsFrom, cellSize, progress);
+        resolveJoints({input.cloud, augmented}, params, augmentedExplained, completionsFrom, cellSize, progress);
     std::vector<char> joined(completions.size(), 0);
     const auto takes = [&](const Hypothesis& hypothesis, std::size_t c) {
       const int startKey = 2 * static_cast<int>(pipeCount + c);
@@ -2949,7 +2949,7 @@ class WithLegs {
            const std::vector<char>& explained)
       : inputPipes_(input.pipes.size()),
         pipes_(appended(input.pipes, legs)),
-        input_{input.cloud, pipes_, input.planes},
+        input_{input.cloud, pipes_},
         builder_(input_, params, explained) {}
   WithLegs(const WithLegs&) = delete;
   WithLegs& operator=(const WithLegs&) = delete;
@@ -3250,7 +3250,7 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Jo
   std::vector<PipeSegment> pipes = input.pipes;
   const GentleKinks kinks = splitAtGentleKinks(input.cloud, pipes, networkDirections(input.pipes), cellSize, params);
   const std::size_t foundCount = pipes.size();  // The input pipes and the legs found beyond gentle bends.
-  const JointsInput split{input.cloud, pipes, input.planes};
+  const JointsInput split{input.cloud, pipes};
   std::vector<char> explained(input.cloud.size(), 0);
   for (const auto& pipe : pipes) {
     for (std::uint32_t i : pipe.inliers) explained[i] = 1;
@@ -3276,7 +3276,7 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Jo
     // One round of completions of the pipes from `lookingFrom` on (of all, for legs seen only on
     // their bends); whether any was adopted.
     const auto completeRound = [&](bool fromBends) {
-      const JointsInput current{input.cloud, pipes, input.planes};
+      const JointsInput current{input.cloud, pipes};
       std::vector<Completion> completions = completeFreeEnds(current, params, explainedByPipes, resolution, planes,
                                                              fromBends ? 0 : lookingFrom, cellSize, fromBends);
       auto adopted =
@@ -3301,15 +3301,15 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Jo
     completeRound(true);
   }
   std::vector<PipeSegment> bridged =
-      bridgeOccludedCorners({input.cloud, pipes, input.planes}, params, explained, cellSize, resolution);
-  for (PipeSegment& stretch : reachThinRuns({input.cloud, pipes, input.planes}, params, explained, cellSize, resolution)) {
+      bridgeOccludedCorners({input.cloud, pipes}, params, explained, cellSize, resolution);
+  for (PipeSegment& stretch : reachThinRuns({input.cloud, pipes}, params, explained, cellSize, resolution)) {
     bridged.push_back(std::move(stretch));
   }
   const std::vector<PipeSegment> legsBetweenBends =
-      joinSeenBends({input.cloud, pipes, input.planes}, params, explained, cellSize, resolution);
+      joinSeenBends({input.cloud, pipes}, params, explained, cellSize, resolution);
   pipes.insert(pipes.end(), legsBetweenBends.begin(), legsBetweenBends.end());
   const std::vector<PipeSegment> hiddenBranches =
-      joinHiddenBranches({input.cloud, pipes, input.planes}, params, explained, cellSize, resolution);
+      joinHiddenBranches({input.cloud, pipes}, params, explained, cellSize, resolution);
   pipes.insert(pipes.end(), hiddenBranches.begin(), hiddenBranches.end());
   progress.report("joints", 0.8);
 
@@ -3431,7 +3431,7 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   const PlaneCells planes(input.planes);
   std::size_t dropped = 0;
   for (;;) {
-    JoinedOnce joined = joinOnce({input.cloud, pipes, input.planes}, planes, params, progress);
+    JoinedOnce joined = joinOnce({input.cloud, pipes}, planes, params, progress);
     if (joined.unjoined.empty()) {
       JointsResult& result = joined.result;
       result.diagnostics.unjoinedPipes = dropped;
