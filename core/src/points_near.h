@@ -1,14 +1,18 @@
 #pragma once
-// Points and payloads near places: a uniform hash grid of integer payloads, and the points of a
-// cloud inside each of a set of spheres from one pass over the cloud. Shared by the joints stage
-// (pipe ends, hypotheses, completions) and the merge stage (the points past pipe ends).
+// Points and payloads near places: a uniform hash grid of integer payloads; the points of a cloud
+// inside each of a set of spheres, from one pass over the cloud (for one search); and a cloud's
+// points filed by cell once, for the many searches of the joints stage (spheres round hypotheses
+// and ends, capsules round pipes). Shared by the joints stage and the merge stage (the points past
+// pipe ends).
 
 #include "piperun/point_cloud.h"
 
 #include "cell_table.h"
 #include "segment_distance.h"
+#include "sort_by_key.h"
 
 #include <Eigen/Core>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
@@ -63,6 +67,85 @@ class HashGrid {
   std::vector<std::vector<std::uint32_t>> buckets_;  // the payloads of each cell, in insertion order
 };
 
+/// The points of a cloud filed by cell once, for searches that each look at a few places: a scan's
+/// millions of points are passed over once, not once a search. Cells are numbered row by row over
+/// the cloud's bounding box, so a row of cells is one range of the sorted numbers.
+class PointCells {
+ public:
+  PointCells(const PointCloud& cloud, double cellSize) : cloud_(&cloud), cell_(cellSize) {
+    if (cloud.size() == 0) return;
+    low_ = cellOf(cloud.positions[0].cast<double>());
+    Eigen::Vector3i high = low_;
+    for (const Eigen::Vector3f& position : cloud.positions) {
+      const Eigen::Vector3i cell = cellOf(position.cast<double>());
+      low_ = low_.cwiseMin(cell);
+      high = high.cwiseMax(cell);
+    }
+    size_ = (high - low_).cast<std::int64_t>().array() + 1;
+    std::vector<KeyedItem> keyed(cloud.size());
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      keyed[i] = {numberOf(cellOf(cloud.positions[i].cast<double>())), static_cast<std::uint32_t>(i)};
+    }
+    stableSortByKey(keyed, keyOfItem);
+    cells_ = groupByKey(keyed);
+  }
+
+  const PointCloud& cloud() const { return *cloud_; }
+  double cellSize() const { return cell_; }
+  Eigen::Vector3i cellOf(const Eigen::Vector3d& p) const { return (p / cell_).array().floor().cast<int>(); }
+
+  /// Calls visit(i) for every point in the cells from `low` to `high` (inclusive), row by row.
+  template <class Visit>
+  void forEachInCells(Eigen::Vector3i low, Eigen::Vector3i high, Visit&& visit) const {
+    if (cells_.keys.empty()) return;
+    low = low.cwiseMax(low_);
+    high = high.cwiseMin((low_.cast<std::int64_t>().array() + size_ - 1).matrix().cast<int>());
+    if ((low.array() > high.array()).any()) return;
+    for (int z = low.z(); z <= high.z(); ++z) {
+      for (int y = low.y(); y <= high.y(); ++y) {
+        const std::uint64_t last = numberOf(Eigen::Vector3i(high.x(), y, z));
+        const auto& numbers = cells_.keys;
+        auto cell = std::lower_bound(numbers.begin(), numbers.end(), numberOf(Eigen::Vector3i(low.x(), y, z)));
+        for (; cell != numbers.end() && *cell <= last; ++cell) {
+          const auto g = static_cast<std::size_t>(cell - numbers.begin());
+          for (std::uint32_t j = cells_.begins[g]; j < cells_.begins[g + 1]; ++j) visit(cells_.items[j]);
+        }
+      }
+    }
+  }
+
+ private:
+  std::uint64_t numberOf(const Eigen::Vector3i& cell) const {
+    const Eigen::Array3<std::int64_t> offset = (cell - low_).cast<std::int64_t>().array();
+    return static_cast<std::uint64_t>((offset.z() * size_.y() + offset.y()) * size_.x() + offset.x());
+  }
+
+  const PointCloud* cloud_;
+  double cell_;
+  Eigen::Vector3i low_ = Eigen::Vector3i::Zero();             // the lowest cell of the bounding box
+  Eigen::Array3<std::int64_t> size_ = Eigen::Array3<std::int64_t>::Zero();  // cells along each axis
+  KeyGroups cells_;  // the points by cell number, in index order within a cell
+};
+
+/// For each sphere (centre, radius), the points of `cells`' cloud inside it that `keep` accepts, in
+/// index order.
+template <class Keep>
+std::vector<std::vector<std::uint32_t>> pointsInSpheres(const PointCells& cells,
+                                                        const std::vector<std::pair<Eigen::Vector3d, double>>& spheres,
+                                                        Keep&& keep) {
+  std::vector<std::vector<std::uint32_t>> inside(spheres.size());
+  const PointCloud& cloud = cells.cloud();
+  tbb::parallel_for(std::size_t{0}, spheres.size(), [&](std::size_t s) {
+    const auto& [center, reach] = spheres[s];
+    const Eigen::Vector3d corner = Eigen::Vector3d::Constant(reach);
+    cells.forEachInCells(cells.cellOf(center - corner), cells.cellOf(center + corner), [&](std::uint32_t i) {
+      if ((cloud.positions[i].cast<double>() - center).squaredNorm() <= reach * reach && keep(i)) inside[s].push_back(i);
+    });
+    std::sort(inside[s].begin(), inside[s].end());
+  });
+  return inside;
+}
+
 /// For each sphere (centre, radius), the points of the cloud inside it that `keep` accepts, in
 /// index order, from one pass over the cloud through a grid of the spheres.
 template <class Keep>
@@ -89,32 +172,28 @@ std::vector<std::vector<std::uint32_t>> pointsInSpheres(const PointCloud& cloud,
   return inside;
 }
 
-/// The points of `cloud` filed in `grid` (by position) within `reach` of the segment from a to b,
-/// in index order.
-inline std::vector<std::uint32_t> pointsNearSegment(const HashGrid& grid, const PointCloud& cloud, const Eigen::Vector3d& a,
-                                                    const Eigen::Vector3d& b, double reach) {
-  // The cells of the capsule's bounding box whose centre lies within the reach and half a cell's
-  // diagonal of the segment: every cell that can hold a point within the reach, each read once.
-  const double cellSize = grid.cellSize();
+/// The points of `cells`' cloud that `keep` accepts within `reach` of the segment from a to b, in
+/// index order. The segment is looked along in pieces about as long as the reach, each through the
+/// cells of its own box: one box round a long diagonal segment would hold far more than the capsule.
+template <class Keep>
+std::vector<std::uint32_t> pointsNearSegment(const PointCells& cells, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                             double reach, Keep&& keep) {
   const Eigen::Vector3d margin = Eigen::Vector3d::Constant(reach);
-  const Eigen::Vector3i low = grid.cellOf(a.cwiseMin(b) - margin);
-  const Eigen::Vector3i high = grid.cellOf(a.cwiseMax(b) + margin);
-  const double cellReach = reach + 0.5 * std::sqrt(3.0) * cellSize;
+  const double step = std::max(reach, cells.cellSize());
+  const int pieces = std::max(1, static_cast<int>(std::ceil((b - a).norm() / step)));
   std::vector<std::uint32_t> near;
-  for (int x = low.x(); x <= high.x(); ++x) {
-    for (int y = low.y(); y <= high.y(); ++y) {
-      for (int z = low.z(); z <= high.z(); ++z) {
-        const Eigen::Vector3d center = (Eigen::Vector3d(x, y, z).array() + 0.5).matrix() * cellSize;
-        if (pointSegmentDistance(center, a, b) > cellReach) continue;
-        const auto* bucket = grid.find(Eigen::Vector3i(x, y, z));
-        if (!bucket) continue;
-        for (std::uint32_t i : *bucket) {
-          if (pointSegmentDistance(cloud.positions[i].cast<double>(), a, b) <= reach) near.push_back(i);
-        }
-      }
-    }
+  for (int k = 0; k < pieces; ++k) {
+    const Eigen::Vector3d from = a + (b - a) * (static_cast<double>(k) / pieces);
+    const Eigen::Vector3d to = a + (b - a) * (static_cast<double>(k + 1) / pieces);
+    cells.forEachInCells(cells.cellOf(from.cwiseMin(to) - margin), cells.cellOf(from.cwiseMax(to) + margin),
+                         [&](std::uint32_t i) {
+                           if (pointSegmentDistance(cells.cloud().positions[i].cast<double>(), a, b) <= reach && keep(i)) {
+                             near.push_back(i);
+                           }
+                         });
   }
   std::sort(near.begin(), near.end());
+  near.erase(std::unique(near.begin(), near.end()), near.end());
   return near;
 }
 

@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
+#include <iterator>
 #include <random>
 #include <utility>
 #include <vector>
@@ -31,11 +33,7 @@ std::vector<std::uint32_t> nearByEveryPoint(const PointCloud& cloud, const Eigen
 
 TEST(PointsNear, ASegmentFindsEveryPointWithinItsReachAndNoOther) {
   const PointCloud cloud = randomCloud(20000, 7);
-  const double cellSize = 0.25;
-  HashGrid grid(cellSize);
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    grid.insert(grid.cellOf(cloud.positions[i].cast<double>()), static_cast<std::uint32_t>(i));
-  }
+  const PointCells cells(cloud, 0.25);
   struct Case {
     Eigen::Vector3d a, b;
     double reach;
@@ -50,17 +48,28 @@ TEST(PointsNear, ASegmentFindsEveryPointWithinItsReachAndNoOther) {
   for (const Case& c : cases) {
     const auto expected = nearByEveryPoint(cloud, c.a, c.b, c.reach);
     ASSERT_FALSE(expected.empty());
-    EXPECT_EQ(pointsNearSegment(grid, cloud, c.a, c.b, c.reach), expected);
+    EXPECT_EQ(pointsNearSegment(cells, c.a, c.b, c.reach, [](std::size_t) { return true; }), expected);
+    // Only the points `keep` accepts.
+    std::vector<std::uint32_t> even;
+    std::copy_if(expected.begin(), expected.end(), std::back_inserter(even), [](std::uint32_t i) { return i % 2 == 0; });
+    EXPECT_EQ(pointsNearSegment(cells, c.a, c.b, c.reach, [](std::size_t i) { return i % 2 == 0; }), even);
   }
 }
 
 TEST(PointsNear, SpheresHoldTheirPointsInIndexOrder) {
   const PointCloud cloud = randomCloud(5000, 3);
-  const std::vector<std::pair<Eigen::Vector3d, double>> spheres = {
-      {{0.0, 0.0, 0.0}, 0.5}, {{2.9, -2.9, 0.0}, 0.8}, {{0.2, 0.1, 0.0}, 0.3}};
-  const auto inside = pointsInSpheres(cloud, spheres, 0.25, [](std::size_t i) { return i % 3 != 0; });
+  // One sphere reaching past the points' box, one holding none of them.
+  const std::vector<std::pair<Eigen::Vector3d, double>> spheres = {{{0.0, 0.0, 0.0}, 0.5},
+                                                                    {{2.9, -2.9, 0.0}, 0.8},
+                                                                    {{0.2, 0.1, 0.0}, 0.3},
+                                                                    {{9.0, 9.0, 9.0}, 0.5}};
+  const auto keep = [](std::size_t i) { return i % 3 != 0; };
+  const auto inside = pointsInSpheres(cloud, spheres, 0.25, keep);
+  // The same from the cloud filed by cells once.
+  EXPECT_EQ(pointsInSpheres(PointCells(cloud, 0.25), spheres, keep), inside);
   ASSERT_EQ(inside.size(), spheres.size());
-  for (std::size_t s = 0; s < spheres.size(); ++s) {
+  EXPECT_TRUE(inside.back().empty());
+  for (std::size_t s = 0; s + 1 < spheres.size(); ++s) {
     std::vector<std::uint32_t> expected;
     for (std::size_t i = 0; i < cloud.size(); ++i) {
       if (i % 3 != 0 && (cloud.positions[i].cast<double>() - spheres[s].first).norm() <= spheres[s].second) {

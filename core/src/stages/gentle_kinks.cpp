@@ -396,9 +396,9 @@ bool insideAnotherTube(const PipeSegment& piece, const std::vector<PipeSegment>&
 
 }  // namespace
 
-GentleKinks splitAtGentleKinks(const PointCloud& cloud, std::vector<PipeSegment>& pipes,
-                               const std::vector<Eigen::Vector3d>& directions, double cellSize,
-                               const JointsParams& params) {
+GentleKinks splitAtGentleKinks(const PointCells& cells, std::vector<PipeSegment>& pipes,
+                               const std::vector<Eigen::Vector3d>& directions, const JointsParams& params) {
+  const PointCloud& cloud = cells.cloud();
   GentleKinks kinks;
   for (std::size_t a = 0; a < pipes.size(); ++a) {
     for (std::size_t b = a + 1; b < pipes.size(); ++b) {
@@ -411,10 +411,6 @@ GentleKinks splitAtGentleKinks(const PointCloud& cloud, std::vector<PipeSegment>
   std::vector<char> explained(cloud.size(), 0);
   for (const PipeSegment& pipe : pipes) {
     for (std::uint32_t i : pipe.inliers) explained[i] = 1;
-  }
-  HashGrid unexplained(cellSize);
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    if (!explained[i]) unexplained.insert(unexplained.cellOf(cloud.positions[i].cast<double>()), static_cast<std::uint32_t>(i));
   }
   const double legReach = kMaxOvershoot + params.maxCompletionLength;
   const std::size_t found = pipes.size();
@@ -429,8 +425,8 @@ GentleKinks splitAtGentleKinks(const PointCloud& cloud, std::vector<PipeSegment>
       if ((cloud.positions[i].cast<double>() - end).dot(outward) >= -kMaxOvershoot - pipe.radius) candidates.push_back(i);
     }
     const double reach = pipe.radius + params.supportDistance + legReach * std::sin(radians(kMaxKinkDeg));
-    const auto near = pointsNearSegment(unexplained, cloud, end - kMaxOvershoot * outward,
-                                        end + params.maxCompletionLength * outward, reach);
+    const auto near = pointsNearSegment(cells, end - kMaxOvershoot * outward, end + params.maxCompletionLength * outward,
+                                        reach, [&](std::size_t i) { return !explained[i]; });
     candidates.insert(candidates.end(), near.begin(), near.end());
     std::sort(candidates.begin(), candidates.end());
     legs[key] = legBeyondKink(cloud, pipe, side, directions, candidates, params);

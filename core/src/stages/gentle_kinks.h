@@ -6,6 +6,7 @@
 #include "piperun/point_cloud.h"
 #include "piperun/stages/extents.h"
 #include "piperun/stages/joints.h"
+#include "points_near.h"
 
 #include <cstddef>
 #include <vector>
@@ -29,9 +30,8 @@ struct GentleKinks {
 /// pipe looks for the leg beyond such a bend that no stage found, along one of `directions` (the
 /// network's), from its own inliers and the points no pipe explains; a leg found is split from the
 /// pipe in the same way and appended to `pipes` (not when `params.maxCompletionLength` is 0, which
-/// turns the searches for missed pipes off). `cellSize`: of the grid gathering points near ends.
-GentleKinks splitAtGentleKinks(const PointCloud& cloud, std::vector<PipeSegment>& pipes,
-                               const std::vector<Eigen::Vector3d>& directions, double cellSize,
-                               const JointsParams& params);
+/// turns the searches for missed pipes off). `cells`: the scan's points filed by cell.
+GentleKinks splitAtGentleKinks(const PointCells& cells, std::vector<PipeSegment>& pipes,
+                               const std::vector<Eigen::Vector3d>& directions, const JointsParams& params);
 
 }  // namespace piperun

@@ -913,7 +913,7 @@ struct Resolution {
 /// `explained` flags the points that are inliers of some pipe; pipes from `completionsFrom` on are
 /// completions of free ends.
 Resolution resolveJoints(const JointsInput& input, const JointsParams& params, const std::vector<char>& explained,
-                         std::size_t completionsFrom, double cellSize, Progress& progress) {
+                         std::size_t completionsFrom, const PointCells& cells, Progress& progress) {
   const auto& pipes = input.pipes;
   const int pipeCount = static_cast<int>(pipes.size());
   const JointBuilder builder(input, params, explained);
@@ -921,7 +921,7 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
 
   double largestRadius = 0.0;
   for (const auto& pipe : pipes) largestRadius = std::max(largestRadius, pipe.radius);
-  const HashGrid pipeGrid = pipeAxisGrid(pipes, cellSize);
+  const HashGrid pipeGrid = pipeAxisGrid(pipes, cells.cellSize());
 
   // Hypotheses, in a deterministic order (by end, then by partner).
   auto& hypotheses = resolution.hypotheses;
@@ -956,7 +956,7 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
 
   std::vector<std::pair<Eigen::Vector3d, double>> spheres;
   for (const auto& hypothesis : hypotheses) spheres.emplace_back(hypothesis.center, hypothesis.reach);
-  const auto nearby = pointsInSpheres(input.cloud, spheres, cellSize, [](std::size_t) { return true; });
+  const auto nearby = pointsInSpheres(cells, spheres, [](std::size_t) { return true; });
   progress.checkCancelled();
   tbb::parallel_for(std::size_t{0}, hypotheses.size(),
                     [&](std::size_t h) { builder.reconstruct(hypotheses[h], nearby[h]); });
@@ -2377,7 +2377,7 @@ std::vector<std::pair<std::size_t, std::size_t>> endPairsWithin(const std::vecto
 /// from `lookingFrom` on; best-supported first, a point supports one completion.
 std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsParams& params,
                                          const std::vector<char>& explained, const Resolution& resolution,
-                                         const PlaneCells& planes, std::size_t lookingFrom, double cellSize,
+                                         const PlaneCells& planes, std::size_t lookingFrom, const PointCells& cells,
                                          bool fromBends) {
   const JointBuilder builder(input, params, explained);
   const Completer completer(input, params, builder, fromBends, planes);
@@ -2402,7 +2402,7 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
       spheres.emplace_back(ends.back().point, completer.reach(ends.back()));
     }
   }
-  const auto nearby = pointsInSpheres(input.cloud, spheres, cellSize, [&](std::size_t i) { return !explained[i]; });
+  const auto nearby = pointsInSpheres(cells, spheres, [&](std::size_t i) { return !explained[i]; });
   const auto directions = networkDirections(input.pipes);
   std::vector<std::optional<Completion>> completed(ends.size());
   tbb::parallel_for(std::size_t{0}, ends.size(),
@@ -2423,13 +2423,10 @@ std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsP
   // Branches off those pipes' bodies, from the unexplained points filed by position.
   std::vector<std::vector<Completion>> branches(mains.size());
   if (params.minBranchRadius > 0.0 && !fromBends) {
-    HashGrid pointGrid(cellSize);
-    for (std::size_t i = 0; i < input.cloud.size(); ++i) {
-      if (!explained[i]) pointGrid.insert(pointGrid.cellOf(input.cloud.positions[i].cast<double>()), static_cast<std::uint32_t>(i));
-    }
     tbb::parallel_for(std::size_t{0}, mains.size(), [&](std::size_t m) {
       const PipeSegment& main = input.pipes[static_cast<std::size_t>(mains[m])];
-      const auto near = pointsNearSegment(pointGrid, input.cloud, main.start, main.end, completer.branchReach(mains[m]));
+      const auto near = pointsNearSegment(cells, main.start, main.end, completer.branchReach(mains[m]),
+                                          [&](std::size_t i) { return !explained[i]; });
       branches[m] = completer.branchesOf(mains[m], directions, near);
     });
   }
@@ -2501,7 +2498,7 @@ struct Adoption {
 /// Pipes from `completionsFrom` on are completions already.
 std::optional<Adoption> adoptCompletions(const JointsInput& input, const JointsParams& params,
                                          const std::vector<char>& explained, std::vector<Completion> completions,
-                                         std::size_t completionsFrom, double cellSize, Progress& progress) {
+                                         std::size_t completionsFrom, const PointCells& cells, Progress& progress) {
   const std::size_t pipeCount = input.pipes.size();
   while (!completions.empty()) {
     std::vector<PipeSegment> augmented = input.pipes;
@@ -2511,7 +2508,7 @@ std::optional<Adoption> adoptCompletions(const JointsInput& input, const JointsP
       for (std::uint32_t i : completion.pipe.inliers) augmentedExplained[i] = 1;
     }
     Resolution again =
-        resolveJoints({input.cloud, augmented}, params, augmentedExplained, completionsFrom, cellSize, progress);
+        resolveJoints({input.cloud, augmented}, params, augmentedExplained, completionsFrom, cells, progress);
     std::vector<char> joined(completions.size(), 0);
     const auto takes = [&](const Hypothesis& hypothesis, std::size_t c) {
       const int startKey = 2 * static_cast<int>(pipeCount + c);
@@ -2619,7 +2616,7 @@ void chooseElbows(std::vector<Hypothesis>& candidates, std::vector<std::size_t> 
 /// where the pipe would run). Nothing was seen on those stretches, so the elbow's confidence stays
 /// low: it is proposed, for review. Returns the bridged stretches.
 std::vector<PipeSegment> bridgeOccludedCorners(const JointsInput& input, const JointsParams& params,
-                                               const std::vector<char>& explained, double cellSize,
+                                               const std::vector<char>& explained, const PointCells& cells,
                                                Resolution& resolution) {
   std::vector<PipeSegment> stretches;
   if (params.occludedSearchDiameters <= params.searchDiameters) return stretches;
@@ -2654,7 +2651,7 @@ std::vector<PipeSegment> bridgeOccludedCorners(const JointsInput& input, const J
 
   std::vector<std::pair<Eigen::Vector3d, double>> spheres;
   for (const auto& candidate : candidates) spheres.emplace_back(candidate.center, candidate.reach);
-  const auto nearby = pointsInSpheres(input.cloud, spheres, cellSize, [](std::size_t) { return true; });
+  const auto nearby = pointsInSpheres(cells, spheres, [](std::size_t) { return true; });
   tbb::parallel_for(std::size_t{0}, candidates.size(),
                     [&](std::size_t h) { builder.reconstruct(candidates[h], nearby[h]); });
 
@@ -2698,7 +2695,7 @@ std::vector<PipeSegment> bridgeOccludedCorners(const JointsInput& input, const J
 /// straight up to its end (other points near the corner vote for wider bends). Returns the
 /// stretches carried on.
 std::vector<PipeSegment> reachThinRuns(const JointsInput& input, const JointsParams& params,
-                                       const std::vector<char>& explained, double cellSize, Resolution& resolution) {
+                                       const std::vector<char>& explained, const PointCells& cells, Resolution& resolution) {
   std::vector<PipeSegment> stretches;
   if (params.maxThinStretch <= 0.0) return stretches;
   const auto& pipes = input.pipes;
@@ -2738,11 +2735,7 @@ std::vector<PipeSegment> reachThinRuns(const JointsInput& input, const JointsPar
 
   std::vector<std::pair<Eigen::Vector3d, double>> spheres;
   for (const auto& candidate : candidates) spheres.emplace_back(candidate.center, candidate.reach);
-  const auto nearby = pointsInSpheres(input.cloud, spheres, cellSize, [](std::size_t) { return true; });
-  HashGrid pointGrid(cellSize);
-  for (std::size_t i = 0; i < input.cloud.size(); ++i) {
-    pointGrid.insert(pointGrid.cellOf(input.cloud.positions[i].cast<double>()), static_cast<std::uint32_t>(i));
-  }
+  const auto nearby = pointsInSpheres(cells, spheres, [](std::size_t) { return true; });
   std::vector<PipeSegment> thin(candidates.size());
   std::vector<double> seen(candidates.size(), 0.0);
   std::vector<char> viable(candidates.size(), 0);
@@ -2757,8 +2750,8 @@ std::vector<PipeSegment> reachThinRuns(const JointsInput& input, const JointsPar
     thin[h] = *stretch;
     const double length = (stretch->end - stretch->start).norm();
     const Eigen::Vector3d axis = (stretch->end - stretch->start) / length;
-    const auto near = pointsNearSegment(pointGrid, input.cloud, stretch->start, stretch->end,
-                                        stretch->radius + params.supportDistance);
+    const auto near = pointsNearSegment(cells, stretch->start, stretch->end, stretch->radius + params.supportDistance,
+                                        [](std::size_t) { return true; });
     // Seen all along, in long sections, and how much of it in the usual short ones; stray points
     // near the axis are few. No normal is asked for: on a thin, far pipe they stray.
     const auto coarseSections = static_cast<std::size_t>(std::ceil(length / kThinSectionLength));
@@ -2954,7 +2947,6 @@ class WithLegs {
   WithLegs(const WithLegs&) = delete;
   WithLegs& operator=(const WithLegs&) = delete;
 
-  const PointCloud& cloud() const { return input_.cloud; }
   /// The input pipes, then the legs.
   const std::vector<PipeSegment>& pipes() const { return pipes_; }
   std::size_t legCount() const { return pipes_.size() - inputPipes_; }
@@ -2985,7 +2977,7 @@ struct LegJoints {
 };
 
 template <typename Make>
-LegJoints jointsAtLegEnds(const WithLegs& withLegs, JointType first, JointType second, double cellSize, Make&& make) {
+LegJoints jointsAtLegEnds(const WithLegs& withLegs, JointType first, JointType second, const PointCells& cells, Make&& make) {
   LegJoints legs;
   legs.joints.resize(withLegs.legCount());
   std::vector<std::pair<Eigen::Vector3d, double>> spheres;
@@ -2998,7 +2990,7 @@ LegJoints jointsAtLegEnds(const WithLegs& withLegs, JointType first, JointType s
     if (made.size() == 2 && made[0].type == first && made[1].type == second) legs.joints[k] = std::move(made);
     addLegSpheres(legs.joints[k], withLegs.pipes()[static_cast<std::size_t>(legPipe)], spheres);
   }
-  legs.nearby = pointsInSpheres(withLegs.cloud(), spheres, cellSize, [](std::size_t) { return true; });
+  legs.nearby = pointsInSpheres(cells, spheres, [](std::size_t) { return true; });
   return legs;
 }
 
@@ -3017,7 +3009,7 @@ LegJoints jointsAtLegEnds(const WithLegs& withLegs, JointType first, JointType s
 /// seen is proposed, for review. Returns the legs chosen, which follow `input.pipes` in
 /// `resolution`.
 std::vector<PipeSegment> joinSeenBends(const JointsInput& input, const JointsParams& params,
-                                       const std::vector<char>& explained, double cellSize, Resolution& resolution) {
+                                       const std::vector<char>& explained, const PointCells& cells, Resolution& resolution) {
   std::vector<PipeSegment> chosenLegs;
   if (params.maxCompletionLength <= 0.0) return chosenLegs;
   const auto& pipes = input.pipes;
@@ -3035,7 +3027,7 @@ std::vector<PipeSegment> joinSeenBends(const JointsInput& input, const JointsPar
     builder.tryEndPair(candidates[k].from, legFrom, made);
     builder.tryEndPair(legTo, candidates[k].to, made);
   };
-  LegJoints legJoints = jointsAtLegEnds(withLegs, JointType::Elbow, JointType::Elbow, cellSize, tryJoints);
+  LegJoints legJoints = jointsAtLegEnds(withLegs, JointType::Elbow, JointType::Elbow, cells, tryJoints);
   std::vector<std::vector<Hypothesis>>& elbows = legJoints.joints;
   const std::vector<std::vector<std::uint32_t>>& nearby = legJoints.nearby;
 
@@ -3110,7 +3102,7 @@ std::vector<PipeSegment> joinSeenBends(const JointsInput& input, const JointsPar
 /// nothingInTheWay). Their confidence is capped at the share of the leg seen: proposed, for review.
 /// The best-supported go first, an end takes one. Returns the legs.
 std::vector<PipeSegment> joinHiddenBranches(const JointsInput& input, const JointsParams& params,
-                                            const std::vector<char>& explained, double cellSize,
+                                            const std::vector<char>& explained, const PointCells& cells,
                                             Resolution& resolution) {
   std::vector<PipeSegment> chosenLegs;
   if (params.maxCompletionLength <= 0.0) return chosenLegs;
@@ -3179,7 +3171,7 @@ std::vector<PipeSegment> joinHiddenBranches(const JointsInput& input, const Join
     builder.tryEndPair(candidates[k].end, legFrom, made);
     builder.tryTee(legTo, candidates[k].main, made);
   };
-  LegJoints legJoints = jointsAtLegEnds(withLegs, JointType::Elbow, JointType::Tee, cellSize, tryJoints);
+  LegJoints legJoints = jointsAtLegEnds(withLegs, JointType::Elbow, JointType::Tee, cells, tryJoints);
   std::vector<std::vector<Hypothesis>>& joints = legJoints.joints;
   const std::vector<std::vector<std::uint32_t>>& nearby = legJoints.nearby;
 
@@ -3245,17 +3237,17 @@ struct JoinedOnce {
   std::vector<std::size_t> unjoined;  // Indices into the input pipes, ascending.
 };
 
-JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const JointsParams& params, Progress& progress) {
-  const double cellSize = std::max(params.minSearchDistance, 0.25);
+JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const PointCells& cells, const JointsParams& params,
+                    Progress& progress) {
   std::vector<PipeSegment> pipes = input.pipes;
-  const GentleKinks kinks = splitAtGentleKinks(input.cloud, pipes, networkDirections(input.pipes), cellSize, params);
+  const GentleKinks kinks = splitAtGentleKinks(cells, pipes, networkDirections(input.pipes), params);
   const std::size_t foundCount = pipes.size();  // The input pipes and the legs found beyond gentle bends.
   const JointsInput split{input.cloud, pipes};
   std::vector<char> explained(input.cloud.size(), 0);
   for (const auto& pipe : pipes) {
     for (std::uint32_t i : pipe.inliers) explained[i] = 1;
   }
-  Resolution resolution = resolveJoints(split, params, explained, foundCount, cellSize, progress);
+  Resolution resolution = resolveJoints(split, params, explained, foundCount, cells, progress);
   progress.report("joints", 0.4);
 
   // Free ends completed by the pipes the earlier stages missed; a completion is kept when it takes
@@ -3278,9 +3270,9 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Jo
     const auto completeRound = [&](bool fromBends) {
       const JointsInput current{input.cloud, pipes};
       std::vector<Completion> completions = completeFreeEnds(current, params, explainedByPipes, resolution, planes,
-                                                             fromBends ? 0 : lookingFrom, cellSize, fromBends);
+                                                             fromBends ? 0 : lookingFrom, cells, fromBends);
       auto adopted =
-          adoptCompletions(current, params, explained, std::move(completions), foundCount, cellSize, progress);
+          adoptCompletions(current, params, explained, std::move(completions), foundCount, cells, progress);
       if (!adopted) return false;
       lookingFrom = pipes.size();
       for (const Completion& completion : adopted->completions) {
@@ -3301,15 +3293,15 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Jo
     completeRound(true);
   }
   std::vector<PipeSegment> bridged =
-      bridgeOccludedCorners({input.cloud, pipes}, params, explained, cellSize, resolution);
-  for (PipeSegment& stretch : reachThinRuns({input.cloud, pipes}, params, explained, cellSize, resolution)) {
+      bridgeOccludedCorners({input.cloud, pipes}, params, explained, cells, resolution);
+  for (PipeSegment& stretch : reachThinRuns({input.cloud, pipes}, params, explained, cells, resolution)) {
     bridged.push_back(std::move(stretch));
   }
   const std::vector<PipeSegment> legsBetweenBends =
-      joinSeenBends({input.cloud, pipes}, params, explained, cellSize, resolution);
+      joinSeenBends({input.cloud, pipes}, params, explained, cells, resolution);
   pipes.insert(pipes.end(), legsBetweenBends.begin(), legsBetweenBends.end());
   const std::vector<PipeSegment> hiddenBranches =
-      joinHiddenBranches({input.cloud, pipes}, params, explained, cellSize, resolution);
+      joinHiddenBranches({input.cloud, pipes}, params, explained, cells, resolution);
   pipes.insert(pipes.end(), hiddenBranches.begin(), hiddenBranches.end());
   progress.report("joints", 0.8);
 
@@ -3429,9 +3421,11 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   // until all left do.
   std::vector<PipeSegment> pipes = input.pipes;
   const PlaneCells planes(input.planes);
+  // Every search for points near a place reads the cloud filed once by these cells.
+  const PointCells cells(input.cloud, std::max(params.minSearchDistance, 0.25));
   std::size_t dropped = 0;
   for (;;) {
-    JoinedOnce joined = joinOnce({input.cloud, pipes}, planes, params, progress);
+    JoinedOnce joined = joinOnce({input.cloud, pipes}, planes, cells, params, progress);
     if (joined.unjoined.empty()) {
       JointsResult& result = joined.result;
       result.diagnostics.unjoinedPipes = dropped;
