@@ -31,7 +31,10 @@ class HashGrid {
   Eigen::Vector3i cellOf(const Eigen::Vector3d& p) const { return (p / cell_).array().floor().cast<int>(); }
   void insert(const Eigen::Vector3i& cell, std::uint32_t value) {
     const std::uint32_t id = cellIds_.insert(cellKey(cell));
-    if (id == buckets_.size()) buckets_.emplace_back();
+    if (id == buckets_.size()) {
+      buckets_.emplace_back();
+      cells_.push_back(cell);
+    }
     auto& bucket = buckets_[id];
     if (bucket.empty() || bucket.back() != value) bucket.push_back(value);
   }
@@ -51,20 +54,39 @@ class HashGrid {
     }
   }
   /// Calls visit(value) for the payloads of every cell overlapping the cube of half-size `reach`
-  /// around `p` (a value may come several times).
+  /// around `p` (a value may come several times), cell by cell in x, y, z order.
   template <class Visit>
   void forEachInCube(const Eigen::Vector3d& p, double reach, Visit&& visit) const {
-    forEachCellInCube(p, reach, [&](const Eigen::Vector3i& cell) {
-      if (const auto* bucket = find(cell)) {
-        for (std::uint32_t value : *bucket) visit(value);
-      }
+    const Eigen::Vector3i low = cellOf(p - Eigen::Vector3d::Constant(reach));
+    const Eigen::Vector3i high = cellOf(p + Eigen::Vector3d::Constant(reach));
+    const double cubeCells = ((high - low).cast<double>().array() + 1.0).prod();
+    if (cubeCells <= static_cast<double>(cells_.size())) {
+      forEachCellInCube(p, reach, [&](const Eigen::Vector3i& cell) {
+        if (const auto* bucket = find(cell)) {
+          for (std::uint32_t value : *bucket) visit(value);
+        }
+      });
+      return;
+    }
+    // A cube of more cells than the grid fills (a thick pipe's reach over a few pipes' axes): the
+    // filled cells inside it, in the same order.
+    std::vector<std::uint32_t> inside;
+    for (std::uint32_t id = 0; id < cells_.size(); ++id) {
+      if ((cells_[id].array() >= low.array()).all() && (cells_[id].array() <= high.array()).all()) inside.push_back(id);
+    }
+    std::sort(inside.begin(), inside.end(), [&](std::uint32_t a, std::uint32_t b) {
+      return std::lexicographical_compare(cells_[a].data(), cells_[a].data() + 3, cells_[b].data(), cells_[b].data() + 3);
     });
+    for (std::uint32_t id : inside) {
+      for (std::uint32_t value : buckets_[id]) visit(value);
+    }
   }
 
  private:
   double cell_;
   CellTable cellIds_;                                // cell key → index into buckets_
   std::vector<std::vector<std::uint32_t>> buckets_;  // the payloads of each cell, in insertion order
+  std::vector<Eigen::Vector3i> cells_;               // the cell of each bucket
 };
 
 /// The points of a cloud filed by cell once, for searches that each look at a few places: a scan's

@@ -31,6 +31,34 @@ std::vector<std::uint32_t> nearByEveryPoint(const PointCloud& cloud, const Eigen
   return near;
 }
 
+TEST(PointsNear, ACubeVisitsItsCellsPayloadsInCellOrderWhateverItsSize) {
+  // A few pipes' worth of payloads in a grid of 0.25 m cells, some cells holding several.
+  HashGrid grid(0.25);
+  std::mt19937 random(11);
+  std::uniform_int_distribution<int> coordinate(-12, 12);
+  for (std::uint32_t value = 0; value < 60; ++value) {
+    grid.insert(Eigen::Vector3i(coordinate(random), coordinate(random), coordinate(random)), value);
+  }
+  // Every cell of the cube in x, y, z order, as a cell-by-cell walk gives them.
+  const auto expected = [&](const Eigen::Vector3d& p, double reach) {
+    std::vector<std::uint32_t> values;
+    grid.forEachCellInCube(p, reach, [&](const Eigen::Vector3i& cell) {
+      if (const auto* bucket = grid.find(cell)) values.insert(values.end(), bucket->begin(), bucket->end());
+    });
+    return values;
+  };
+  // A cube of fewer cells than the grid fills, and cubes of far more (read from the filled cells).
+  for (const double reach : {0.3, 2.0, 5.0}) {
+    const Eigen::Vector3d p(0.4, -0.7, 0.1);
+    std::vector<std::uint32_t> visited;
+    grid.forEachInCube(p, reach, [&](std::uint32_t value) { visited.push_back(value); });
+    EXPECT_EQ(visited, expected(p, reach)) << "reach " << reach;
+    if (reach == 5.0) {
+      EXPECT_EQ(visited.size(), 60U);
+    }
+  }
+}
+
 TEST(PointsNear, ASegmentFindsEveryPointWithinItsReachAndNoOther) {
   const PointCloud cloud = randomCloud(20000, 7);
   const PointCells cells(cloud, 0.25);

@@ -255,22 +255,22 @@ class GridVotes {
   /// The peaks of at least `minimum` summed votes at bins that were voted for, highest first (of
   /// equal neighbours the first bin is the peak; equal peaks in bin order).
   std::vector<Peak> peaks(float minimum) const {
-    std::vector<float> summed(votes_.size(), 0.0F);
-    for (int row = 0; row < rows_; ++row) {
-      for (int column = 0; column < columns_; ++column) {
-        float sum = 0.0F;
-        forNeighbours(row, column, [&](int r, int c) { sum += votes_[bin(r, c)]; });
-        summed[bin(row, column)] = sum;
-      }
-    }
+    // Summed where a voted bin needs it only: most of a long pipe's bins hold no vote. (Votes are
+    // whole numbers, so every order of summing gives the same sums.)
+    const auto summed = [&](int row, int column) {
+      float sum = 0.0F;
+      forNeighbours(row, column, [&](int r, int c) { sum += votes_[bin(r, c)]; });
+      return sum;
+    };
     std::vector<Peak> found;
     for (int row = 0; row < rows_; ++row) {
       for (int column = 0; column < columns_; ++column) {
-        const float here = summed[bin(row, column)];
-        if (votes_[bin(row, column)] == 0.0F || here < minimum) continue;
+        if (votes_[bin(row, column)] == 0.0F) continue;
+        const float here = summed(row, column);
+        if (here < minimum) continue;
         bool highest = true;
         forNeighbours(row, column, [&](int r, int c) {
-          const float there = summed[bin(r, c)];
+          const float there = summed(r, c);
           if ((r != row || c != column) && (there > here || (there == here && bin(r, c) < bin(row, column)))) {
             highest = false;
           }
@@ -1339,30 +1339,37 @@ class Completer {
         1 + static_cast<int>(std::floor(std::log(maxRadius / params_.minBranchRadius) / std::log(kBranchRadiusStep)));
     const auto radiusOf = [&](int k) { return params_.minBranchRadius * std::pow(kBranchRadiusStep, k); };
     const double maxLean = std::sin(radians(kCompletionNormalAngleDeg));
+    std::vector<Eigen::Vector3d> offsets;  // Of the nearby points from the main's start.
+    offsets.reserve(nearby.size());
+    for (std::uint32_t i : nearby) offsets.push_back(input_.cloud.positions[i].cast<double>() - mainPipe.start);
     for (const Eigen::Vector3d& direction : directions) {
       const double cosine = direction.dot(u);
       if (std::fabs(cosine) > std::cos(radians(params_.minTeeAngleDeg))) continue;
       const double sine = std::sqrt(1.0 - cosine * cosine);
       const Eigen::Vector3d inPlane = (u - cosine * direction) / sine;
       const double wall = mainPipe.radius / sine;  // From the main's axis to its wall, along the branch.
+      // The voters on either side of the main, from one pass: a point lies on one side at most (both
+      // sides' offsets are each other's negatives, exactly).
+      const Eigen::Vector3d asidePositive = direction.cross(inPlane);
+      std::array<std::vector<BranchVoter>, 2> votersBySide;  // Along +direction, along −direction.
+      for (std::size_t k = 0; k < nearby.size(); ++k) {
+        const Eigen::Vector3d& w = offsets[k];
+        const double h = w.dot(asidePositive);
+        if (std::fabs(h) >= maxRadius) continue;
+        const double ahead = w.dot(direction);
+        const double distanceAlong = std::fabs(ahead);
+        if (distanceAlong < wall + band || distanceAlong > wall + params_.maxCompletionLength) continue;
+        if (!input_.cloud.normals.empty() &&
+            std::fabs(input_.cloud.normals[nearby[k]].cast<double>().dot(direction)) > maxLean) {
+          continue;
+        }
+        const bool positive = ahead > 0.0;
+        votersBySide[positive ? 0 : 1].push_back({w.dot(inPlane), positive ? h : -h});
+      }
       for (const double sign : {1.0, -1.0}) {
         const Eigen::Vector3d along = sign * direction;
         const Eigen::Vector3d aside = along.cross(inPlane);
-        std::vector<BranchVoter> voters;
-        for (std::uint32_t i : nearby) {
-          const Eigen::Vector3d w = input_.cloud.positions[i].cast<double>() - mainPipe.start;
-          const double distanceAlong = w.dot(along);
-          const double h = w.dot(aside);
-          if (distanceAlong < wall + band || distanceAlong > wall + params_.maxCompletionLength ||
-              std::fabs(h) >= maxRadius) {
-            continue;
-          }
-          if (!input_.cloud.normals.empty() &&
-              std::fabs(input_.cloud.normals[i].cast<double>().dot(along)) > maxLean) {
-            continue;
-          }
-          voters.push_back({w.dot(inPlane), h});
-        }
+        const std::vector<BranchVoter>& voters = votersBySide[sign > 0.0 ? 0 : 1];
         if (voters.size() < params_.minCompletionPoints) continue;
         GridVotes votes(static_cast<int>(std::ceil(length / positionBin)) + 1, radiusBins);
         for (const BranchVoter& voter : voters) {
