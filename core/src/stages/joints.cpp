@@ -1337,7 +1337,11 @@ class Completer {
     const double positionBin = 0.5 * band;
     const int radiusBins =
         1 + static_cast<int>(std::floor(std::log(maxRadius / params_.minBranchRadius) / std::log(kBranchRadiusStep)));
-    const auto radiusOf = [&](int k) { return params_.minBranchRadius * std::pow(kBranchRadiusStep, k); };
+    std::vector<double> radii(static_cast<std::size_t>(radiusBins));  // Each bin's radius, for every voter.
+    for (int k = 0; k < radiusBins; ++k) {
+      radii[static_cast<std::size_t>(k)] = params_.minBranchRadius * std::pow(kBranchRadiusStep, k);
+    }
+    const auto radiusOf = [&](int k) { return radii[static_cast<std::size_t>(k)]; };
     const double maxLean = std::sin(radians(kCompletionNormalAngleDeg));
     std::vector<Eigen::Vector3d> offsets;  // Of the nearby points from the main's start.
     offsets.reserve(nearby.size());
