@@ -7,6 +7,7 @@
 
 #include "piperun/point_cloud.h"
 
+#include "bounds.h"
 #include "cell_table.h"
 #include "segment_distance.h"
 #include "sort_by_key.h"
@@ -96,18 +97,14 @@ class PointCells {
  public:
   PointCells(const PointCloud& cloud, double cellSize) : cloud_(&cloud), cell_(cellSize) {
     if (cloud.size() == 0) return;
-    low_ = cellOf(cloud.positions[0].cast<double>());
-    Eigen::Vector3i high = low_;
-    for (const Eigen::Vector3f& position : cloud.positions) {
-      const Eigen::Vector3i cell = cellOf(position.cast<double>());
-      low_ = low_.cwiseMin(cell);
-      high = high.cwiseMax(cell);
-    }
-    size_ = (high - low_).cast<std::int64_t>().array() + 1;
+    // The cells of the box's corners bound every point's cell (floor is monotonic).
+    const BoundingBox box = finiteBounds(cloud.positions).box;
+    low_ = cellOf(box.min);
+    size_ = (cellOf(box.max) - low_).cast<std::int64_t>().array() + 1;
     std::vector<KeyedItem> keyed(cloud.size());
-    for (std::size_t i = 0; i < cloud.size(); ++i) {
+    tbb::parallel_for(std::size_t{0}, cloud.size(), [&](std::size_t i) {
       keyed[i] = {numberOf(cellOf(cloud.positions[i].cast<double>())), static_cast<std::uint32_t>(i)};
-    }
+    });
     stableSortByKey(keyed, keyOfItem);
     cells_ = groupByKey(keyed);
   }
@@ -123,10 +120,10 @@ class PointCells {
     low = low.cwiseMax(low_);
     high = high.cwiseMin((low_.cast<std::int64_t>().array() + size_ - 1).matrix().cast<int>());
     if ((low.array() > high.array()).any()) return;
+    const auto& numbers = cells_.keys;
     for (int z = low.z(); z <= high.z(); ++z) {
       for (int y = low.y(); y <= high.y(); ++y) {
         const std::uint64_t last = numberOf(Eigen::Vector3i(high.x(), y, z));
-        const auto& numbers = cells_.keys;
         auto cell = std::lower_bound(numbers.begin(), numbers.end(), numberOf(Eigen::Vector3i(low.x(), y, z)));
         for (; cell != numbers.end() && *cell <= last; ++cell) {
           const auto g = static_cast<std::size_t>(cell - numbers.begin());
@@ -144,7 +141,7 @@ class PointCells {
 
   const PointCloud* cloud_;
   double cell_;
-  Eigen::Vector3i low_ = Eigen::Vector3i::Zero();             // the lowest cell of the bounding box
+  Eigen::Vector3i low_ = Eigen::Vector3i::Zero();                           // the bounding box's lowest cell
   Eigen::Array3<std::int64_t> size_ = Eigen::Array3<std::int64_t>::Zero();  // cells along each axis
   KeyGroups cells_;  // the points by cell number, in index order within a cell
 };
