@@ -642,6 +642,36 @@ TEST(Joints, TheLegBeyondAGentleBendThatOnePipeWasFittedAcrossIsFound) {
   EXPECT_LT((result.pipes[0].end + tangent * Eigen::Vector3d::UnitX()).norm(), 0.02);
 }
 
+TEST(Joints, AnEndsLegIsCompletedThoughTheEndRanOnPastTheCornerOfABendOfThirtyDegrees) {
+  // A 24 mm level pipe turns up a 30° slope (R = 3r) that no stage found; the level pipe's fit took
+  // the slope's first 6 cm too, where its axis has left by 1.25 radii (a straight fit, a
+  // completion's as well, runs on past a gentle bend while the bent pipe stays near its tube:
+  // medium seed 3's branch ran 12 cm past a 17° bend). Too steep for the gentle kinks' legs, the
+  // leg is completed from the end, its corner voted for that far behind. A pipe elsewhere runs
+  // along the slope.
+  const double r = 0.024, R = 3.0 * r, angle = 30.0 * kPi / 180.0;
+  const Eigen::Vector3d in = Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d out(std::cos(angle), 0.0, std::sin(angle));
+  const double tangent = R * std::tan(0.5 * angle);
+  ConstructedScene scene;
+  scene.addPipe(-0.8 * in, -tangent * in, r, /*listed=*/false);
+  scene.addBend(Eigen::Vector3d::Zero(), in, out, R, r);
+  scene.addPipe(tangent * out, 1.0 * out, r, /*listed=*/false);
+  scene.addFittedPipe(-0.8 * in, 0.06 * in, r, 0.03);
+  const Eigen::Vector3d elsewhere(0.0, 2.0, 0.0);
+  scene.addPipe(elsewhere, elsewhere + 1.0 * out, r);
+
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.kinkLegs, 0u);
+  EXPECT_EQ(result.diagnostics.completedPipes, 1u);
+  ASSERT_EQ(result.pipes.size(), 3u);
+  expectOnlyAnElbowAtTheOrigin(result, {1, 3});
+  const PipeSegment& leg = result.pipes[2];
+  EXPECT_GT(unitAxis(leg).dot(out), std::cos(1.0 * kPi / 180.0));
+  EXPECT_NEAR(leg.end.dot(out), 1.0, 0.02);
+  EXPECT_LT(result.pipes[0].end.x(), 0.0);
+}
+
 TEST(Joints, TheLegBeyondAGentleBendEndsAtItsLastPointNotOnStrayPointsPastIt) {
   // As above, with outliers on the leg's surface past its end, one every 16 cm (three empty 4 cm
   // sections between them), as 20 % outliers leave them: the leg ends where its own points do.

@@ -1475,6 +1475,9 @@ class Completer {
   static constexpr double kSquareNormalNoiseFactor = 1.75;
   static constexpr double kMaxSquareNormalBandRms = 0.004;
   static constexpr double kMaxSquareNormalOutOfRound = 0.0015;
+  // Gentler bends' straight legs, reaching that far behind an end, fit the end's own elbow's torus
+  // (medium seed 4: a 0.4 m leg across a 90° bend's arc, 8° off its pipe).
+  static constexpr double kMinOvershootBendDeg = 15.0;
   static constexpr double kMinRadiusTolerance = 0.0015;  // The mean offset of the points from the radius (m)...
   static constexpr double kRadiusToleranceRadii = 0.03;  // ...may be this share of the radius, or the above.
 
@@ -1519,6 +1522,17 @@ class Completer {
   /// found end may pass the corner by a radius, and on slight bends by the length over which the
   /// bent surface stays within the support band.
   double cornerBehindEnd(double r, double bend) const { return r + params_.supportDistance / std::sin(bend); }
+
+  /// How far past a gentle bend's corner `end`'s pipe may run: a straight fit, a cylinder's or a
+  /// completion's, takes the bent pipe's first stretch while that stays within about a radius of
+  /// its axis (medium seed 3: a 24 mm branch ran 0.12 m past a 17° bend). Not past half the pipe,
+  /// and not below kMinOvershootBendDeg (0: no such reach).
+  double overshoot(const PipeEnd& end, double bend) const {
+    if (bend < radians(kMinOvershootBendDeg)) return 0.0;
+    const PipeSegment& pipe = input_.pipes[static_cast<std::size_t>(end.pipe)];
+    const double r = end.radius;
+    return std::min(0.5 * (pipe.end - pipe.start).norm(), r + (params_.supportDistance + r) / std::tan(bend));
+  }
 
   /// The direction of a pipe leaving the corner ahead of `end`, from the points around it: a point
   /// on a pipe of the end's radius has its axis one radius behind it along its normal, so each
@@ -1823,7 +1837,7 @@ class Completer {
     // The straight begins past the shortest elbow's tangent point.
     const double firstAlong = params_.minBendRadii * r * std::tan(0.5 * bend);
     const double lastAlong = firstAlong + params_.maxCompletionLength;
-    const double minCorner = -cornerBehindEnd(r, bend);
+    const double minCorner = -std::max(cornerBehindEnd(r, bend), overshoot(end, bend));
     const double maxCorner = builder_.searchDistance(r);
 
     // Each point votes for the corners that put it on the surface: (α − t sin θ)² + c² = r².
