@@ -672,6 +672,37 @@ TEST(Joints, AnEndsLegIsCompletedThoughTheEndRanOnPastTheCornerOfABendOfThirtyDe
   EXPECT_LT(result.pipes[0].end.x(), 0.0);
 }
 
+TEST(Joints, AFaceAFewCentimetresBeyondAThinPipesEndIsNoBendOfIt) {
+  // A 21 mm pipe seen from afar (three columns, normals towards the scanner) ends at x = 0 with the
+  // tangent point of a hidden bend down, or 3 cm short of a flat face across its axis (a post or a
+  // box beside its end, seen every 8 mm) that reaches 10 cm below it. A pipe elsewhere runs
+  // upright, one of the network's directions.
+  const double r = 0.021, R = 3.0 * r;
+  const auto thinEnd = [&] {
+    ConstructedScene scene;
+    scene.addPipeSeenFromAfar({-1.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, r, Eigen::Vector3d(0.0, -0.8, 0.6), 0.002,
+                              /*listed=*/true, 0.01);
+    scene.addPipe({0.0, 1.0, 0.0}, {0.0, 1.0, -1.0}, r);
+    return scene;
+  };
+  // Its own bend, seen whole: an elbow onto a stub leg.
+  ConstructedScene bend = thinEnd();
+  bend.addBend(Eigen::Vector3d(R, 0.0, 0.0), Eigen::Vector3d::UnitX(), -Eigen::Vector3d::UnitZ(), R, r);
+  const JointsResult bent = bend.connect();
+  EXPECT_EQ(bent.diagnostics.completedPipes, 1u);
+  ASSERT_EQ(bent.joints.size(), 1u);
+  EXPECT_EQ(bent.joints[0].type, JointType::Elbow);
+  // The face: in a 1 cm band about the tube (half its radius) the face's points would vote for and
+  // cover a bend turning down along it. Within 0.35 r of the tube, no bend.
+  ConstructedScene face = thinEnd();
+  for (double y = -0.03; y <= 0.03; y += 0.008) {
+    for (double z = -0.1; z <= 0.01; z += 0.008) face.addLonePoint({0.03, y, z}, -Eigen::Vector3d::UnitX());
+  }
+  const JointsResult faced = face.connect();
+  EXPECT_EQ(faced.diagnostics.completedPipes, 0u);
+  EXPECT_TRUE(faced.joints.empty());
+}
+
 TEST(Joints, TheLegBeyondAGentleBendEndsAtItsLastPointNotOnStrayPointsPastIt) {
   // As above, with outliers on the leg's surface past its end, one every 16 cm (three empty 4 cm
   // sections between them), as 20 % outliers leave them: the leg ends where its own points do.

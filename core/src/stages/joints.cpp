@@ -1478,6 +1478,8 @@ class Completer {
   // Gentler bends' straight legs, reaching that far behind an end, fit the end's own elbow's torus
   // (medium seed 4: a 0.4 m leg across a 90° bend's arc, 8° off its pipe).
   static constexpr double kMinOvershootBendDeg = 15.0;
+  // A bend's support band (legBeyondBend), in radii of its tube, where narrower than the joints'.
+  static constexpr double kBendBandRadii = 0.35;
   static constexpr double kMinRadiusTolerance = 0.0015;  // The mean offset of the points from the radius (m)...
   static constexpr double kRadiusToleranceRadii = 0.03;  // ...may be this share of the radius, or the above.
 
@@ -1907,7 +1909,9 @@ class Completer {
   std::optional<Completion> legBeyondBend(const PipeEnd& end, const Eigen::Vector3d& along, double bend,
                                           bool networks, const std::vector<std::uint32_t>& nearby) const {
     const double r = end.radius;
-    const double band = params_.supportDistance;
+    // A thin tube's support band is narrower than the joints': 1 cm is half a 21 mm tube's radius,
+    // and a face or post a few centimetres past its end would hold a bend along it.
+    const double band = std::min(params_.supportDistance, kBendBandRadii * r);
     const Eigen::Vector3d& outward = end.outward;
     // The bend plane: x along the end's extension, y towards the leg, z across.
     const Eigen::Vector3d toward = (along - std::cos(bend) * outward) / std::sin(bend);
