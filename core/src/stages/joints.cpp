@@ -1909,8 +1909,8 @@ class Completer {
   std::optional<Completion> legBeyondBend(const PipeEnd& end, const Eigen::Vector3d& along, double bend,
                                           bool networks, const std::vector<std::uint32_t>& nearby) const {
     const double r = end.radius;
-    // A thin tube's support band is narrower than the joints': 1 cm is half a 21 mm tube's radius,
-    // and a face or post a few centimetres past its end would hold a bend along it.
+    // A thin tube's support band is narrower than the joints': their default 1 cm is half a 21 mm
+    // tube's radius, and a face or post a few centimetres past its end would hold a bend along it.
     const double band = std::min(params_.supportDistance, kBendBandRadii * r);
     const Eigen::Vector3d& outward = end.outward;
     // The bend plane: x along the end's extension, y towards the leg, z across.
