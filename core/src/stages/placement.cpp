@@ -24,9 +24,12 @@
 // must look like a pipe: no surface continuing just outside the inlier band (the faces beyond a box
 // edge, whose smoothed normals mimic a small pipe), no systematic offset pattern around the axis (a
 // square post), and a mode that holds many candidates per inlier (pairs of a real pipe agree on its
-// circle; the faces of a corner agree on a ridge of circles). Cylinders that share most inliers with
-// a better supported one are dropped; every point then goes to the cylinder whose surface is
-// closest, and cylinders left with too few inliers are dropped.
+// circle; the faces of a corner agree on a ridge of circles). Where a real pipe's normals are poor for
+// its curvature its candidates too spread along a ridge, which mean-shift splits into modes each
+// short of the candidates asked; their fits converge on one cylinder, so such fits pool their
+// candidates. Cylinders that share most inliers with a better supported one are dropped; every
+// point then goes to the cylinder whose surface is closest, and cylinders left with too few
+// inliers are dropped.
 //
 // Random draws come from generators seeded by (seed, direction, scale, cell), and parallel loops
 // write by index, so the result does not depend on the thread count.
@@ -812,6 +815,20 @@ double outOfRoundness(const CylinderFit& fit, const PointCloud& cloud, const Str
   return offsets.outOfRoundness(minSectorPoints);
 }
 
+std::size_t sharedCount(const std::vector<std::uint32_t>& a, const std::vector<std::uint32_t>& b) {
+  std::size_t shared = 0;
+  for (auto i = a.begin(), j = b.begin(); i != a.end() && j != b.end();) {
+    if (*i < *j) {
+      ++i;
+    } else if (*j < *i) {
+      ++j;
+    } else {
+      ++shared, ++i, ++j;
+    }
+  }
+  return shared;
+}
+
 // ---------------------------------------------------------------------------------------------
 // One direction.
 
@@ -820,10 +837,77 @@ struct DirectionOutcome {
   std::vector<int> candidateMode;  // per candidate: index into the modes, -1 for none
   std::vector<Cylinder> fits;      // refined, inliers as cloud indices (ascending)
   std::vector<Eigen::Vector3d> fitCircles;  // per fit: its mode's (cx, cy, r) in the plane
+  std::vector<char> fitPooled;     // per fit: taken from pooled short modes (see pooledShortModes)
   std::vector<int> modeFit;        // per mode: index into fits, -1 when its fit failed
   std::size_t projectedPoints = 0;
   std::size_t circles = 0;
 };
+
+/// Whether a circle's candidates (`support`) make a cylinder of `inliers`: a weakly supported
+/// circle is taken only on a clean scan (an unwidened band), and where its candidates are dense for
+/// its inliers: noise, outliers and the faces of posts make modes of their own, their candidates
+/// spread thin over many points.
+bool wellSupported(int support, bool widened, std::size_t inliers, const PlacementParams& params) {
+  return support >= params.minCandidates ||
+         (!widened && support >= kJoinedShareFactor * params.minCandidateShare * static_cast<double>(inliers));
+}
+
+/// A fit whose mode alone held too few candidates (see wellSupported).
+struct ShortFit {
+  Cylinder cylinder;
+  bool widened = false;
+};
+
+/// Where a pipe's normals are poor for its curvature (a wide pipe seen as a few scan columns), its
+/// pairs' normal lines meet along a ridge of circles through the true one, and mean-shift splits
+/// the ridge into several modes, each short of the candidates asked, whose fits converge on the
+/// same cylinder. Such fits that share most inliers pool their candidates, and the best supported
+/// of them is taken (into `fitted`, at its mode) when the pool makes it well supported and no fit
+/// already taken along the direction holds most of its inliers. Returns, per mode, the mode whose
+/// fit took its candidates so (itself for that mode; -1 for none).
+std::vector<int> pooledShortModes(std::vector<std::optional<ShortFit>>& shortFits, const PlacementParams& params,
+                                  std::vector<std::optional<Cylinder>>& fitted) {
+  std::vector<std::size_t> order;
+  for (std::size_t m = 0; m < shortFits.size(); ++m) {
+    if (shortFits[m]) order.push_back(m);
+  }
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return shortFits[a]->cylinder.candidates > shortFits[b]->cylinder.candidates;
+  });
+  const auto copies = [](const Cylinder& a, const Cylinder& b) {
+    return sharedCount(a.inliers, b.inliers) >= kDuplicateShare * static_cast<double>(std::min(a.inliers.size(), b.inliers.size()));
+  };
+  std::vector<std::size_t> leaders;
+  std::vector<std::size_t> leaderOf(shortFits.size(), 0);
+  std::vector<int> pooled(shortFits.size(), 0);
+  for (const std::size_t m : order) {
+    const Cylinder& fit = shortFits[m]->cylinder;
+    const auto leader = std::find_if(leaders.begin(), leaders.end(),
+                                     [&](std::size_t l) { return copies(shortFits[l]->cylinder, fit); });
+    leaderOf[m] = leader == leaders.end() ? m : *leader;
+    if (leaderOf[m] == m) leaders.push_back(m);
+    pooled[leaderOf[m]] += fit.candidates;
+  }
+  std::vector<char> taken(shortFits.size(), 0);
+  for (const std::size_t l : leaders) {
+    if (pooled[l] == shortFits[l]->cylinder.candidates) continue;  // no mode of its own pooled with it
+    Cylinder& fit = shortFits[l]->cylinder;
+    if (!wellSupported(pooled[l], shortFits[l]->widened, fit.inliers.size(), params)) continue;
+    if (std::any_of(fitted.begin(), fitted.end(), [&](const std::optional<Cylinder>& other) {
+          return other && copies(*other, fit);
+        })) {
+      continue;
+    }
+    fit.candidates = pooled[l];
+    fitted[l] = std::move(fit);
+    taken[l] = 1;
+  }
+  std::vector<int> pooledInto(shortFits.size(), -1);
+  for (const std::size_t m : order) {
+    if (taken[leaderOf[m]]) pooledInto[m] = static_cast<int>(leaderOf[m]);
+  }
+  return pooledInto;
+}
 
 DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDirection& direction, std::size_t directionIndex,
                                      const PlacementParams& params, std::uint64_t seed, Progress& progress) {
@@ -849,6 +933,7 @@ DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDir
 
   const InlierSearch search(cloud, stripe, params);
   std::vector<std::optional<Cylinder>> fitted(modes.circles.size());
+  std::vector<std::optional<ShortFit>> shortFits(modes.circles.size());
   tbb::parallel_for(std::size_t{0}, modes.circles.size(), [&](std::size_t m) {
     const Mode& mode = modes.circles[m];
     CylinderFit fit;
@@ -884,14 +969,10 @@ DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDir
       if (!refineAndGather()) return;
     }
     if (static_cast<int>(inliers.size()) < minCylinderInliers(params)) return;
-    // A weakly supported circle is taken only on a clean scan, and where its candidates are dense
-    // for its inliers: noise, outliers and the faces of posts make modes of their own, their
-    // candidates spread thin over many points.
-    if (mode.support < params.minCandidates &&
-        (band > params.inlierDistance ||
-         mode.support < kJoinedShareFactor * params.minCandidateShare * static_cast<double>(inliers.size()))) {
-      return;
-    }
+    // A mode too weakly supported alone may still be one of several that a pipe's candidates split
+    // into (see pooledShortModes): its fit is kept aside.
+    const bool widened = band > params.inlierDistance;
+    const bool supported = wellSupported(mode.support, widened, inliers.size(), params);
     const InlierSearch::Surroundings around = search.surroundings(fit, inliers, band);
     if (static_cast<double>(around.shell) > params.maxShellShare * static_cast<double>(inliers.size())) return;
     // A fit that needs normals across scan columns has its shape from those few columns, which are
@@ -914,8 +995,13 @@ DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDir
     cylinder.inliers.reserve(inliers.size());
     for (const std::uint32_t i : inliers) cylinder.inliers.push_back(stripe.points[i]);
     std::sort(cylinder.inliers.begin(), cylinder.inliers.end());
-    fitted[m] = std::move(cylinder);
+    if (supported) {
+      fitted[m] = std::move(cylinder);
+    } else {
+      shortFits[m] = ShortFit{std::move(cylinder), widened};
+    }
   });
+  const std::vector<int> pooledInto = pooledShortModes(shortFits, params, fitted);
 
   outcome.modeFit.assign(modes.circles.size(), -1);
   for (std::size_t m = 0; m < fitted.size(); ++m) {
@@ -923,6 +1009,11 @@ DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDir
     outcome.modeFit[m] = static_cast<int>(outcome.fits.size());
     outcome.fits.push_back(std::move(*fitted[m]));
     outcome.fitCircles.push_back(modes.circles[m].at);
+    outcome.fitPooled.push_back(pooledInto[m] >= 0);
+  }
+  // A pooled mode's candidates went to its leader's fit.
+  for (std::size_t m = 0; m < fitted.size(); ++m) {
+    if (pooledInto[m] >= 0) outcome.modeFit[m] = outcome.modeFit[static_cast<std::size_t>(pooledInto[m])];
   }
   outcome.projection.candidates.resize(candidates.size());
   for (std::size_t i = 0; i < candidates.size(); ++i) {
@@ -930,20 +1021,6 @@ DirectionOutcome placeAlongDirection(const PointCloud& cloud, const PrincipalDir
   }
   outcome.candidateMode = modes.candidateMode;
   return outcome;
-}
-
-std::size_t sharedCount(const std::vector<std::uint32_t>& a, const std::vector<std::uint32_t>& b) {
-  std::size_t shared = 0;
-  for (auto i = a.begin(), j = b.begin(); i != a.end() && j != b.end();) {
-    if (*i < *j) {
-      ++i;
-    } else if (*j < *i) {
-      ++j;
-    } else {
-      ++shared, ++i, ++j;
-    }
-  }
-  return shared;
 }
 
 double axisDistance(const Cylinder& a, const Eigen::Vector3d& p) {
@@ -1017,10 +1094,12 @@ PlacementResult placeCylinders(const PlacementInput& input, const PlacementParam
   // All fits in a fixed order; owner[f] is the fit that f's support went to (itself when kept,
   // -1 when dropped).
   std::vector<Cylinder> fits;
+  std::vector<char> pooled;
   std::vector<std::size_t> firstFit(directions.size() + 1, 0);
   for (std::size_t d = 0; d < outcomes.size(); ++d) {
     firstFit[d] = fits.size();
     for (Cylinder& fit : outcomes[d].fits) fits.push_back(std::move(fit));
+    pooled.insert(pooled.end(), outcomes[d].fitPooled.begin(), outcomes[d].fitPooled.end());
     result.diagnostics.projectedPoints += outcomes[d].projectedPoints;
     result.diagnostics.circles += outcomes[d].circles;
   }
@@ -1032,9 +1111,11 @@ PlacementResult placeCylinders(const PlacementInput& input, const PlacementParam
   for (std::size_t f = 0; f < fits.size(); ++f) {
     if (fits[f].candidates >= params.minCandidateShare * static_cast<double>(fits[f].inliers.size())) bySupport.push_back(f);
   }
-  // Copies: a fit sharing most of its inliers with a better supported one.
-  std::stable_sort(bySupport.begin(), bySupport.end(),
-                   [&](std::size_t a, std::size_t b) { return fits[a].candidates > fits[b].candidates; });
+  // Copies: a fit sharing most of its inliers with a better supported one. Fits from pooled modes
+  // come last: a circle their pipe's pairs agree on is better evidence than a pool.
+  std::stable_sort(bySupport.begin(), bySupport.end(), [&](std::size_t a, std::size_t b) {
+    return std::make_pair(pooled[a], -fits[a].candidates) < std::make_pair(pooled[b], -fits[b].candidates);
+  });
   std::vector<int> owner(fits.size(), -1);
   std::vector<std::size_t> kept;
   for (const std::size_t f : bySupport) {
@@ -1053,7 +1134,7 @@ PlacementResult placeCylinders(const PlacementInput& input, const PlacementParam
     }
   }
   for (const std::size_t f : bySupport) {
-    if (owner[f] != static_cast<int>(f)) fits[owner[f]].candidates += fits[f].candidates;
+    if (owner[f] != static_cast<int>(f) && !pooled[f]) fits[owner[f]].candidates += fits[f].candidates;
   }
   result.diagnostics.duplicates = bySupport.size() - kept.size();
   progress.checkCancelled();
