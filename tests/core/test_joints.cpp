@@ -1622,6 +1622,40 @@ TEST(Joints, AnEndIsNotCompletedByAPipeInsideAnotherPipesTube) {
   EXPECT_EQ(result.joints[0].pipeIds, (std::vector<int>{1, 2}));
 }
 
+TEST(Joints, ACompletedLegThatRunsOnIntoAPipeIsThatPipe) {
+  // Pipe 1 comes along +x and turns up an unscanned elbow into a riser, so under a strict accept
+  // threshold their joint is proposed and pipe 1's end is free. The riser's fit reaches down to
+  // 0.5 m (the merge carried its end on over points its inliers left out: their normals strayed),
+  // but its inliers begin at 0.9 m. A completion from pipe 1's end takes the left-out points up to
+  // 0.9 m: it runs on inside the riser's tube from 0.5 m, and its middle lies below the riser's
+  // fit. It is the riser seen on to the corner: one pipe, not a leg lying in another (medium seed 6).
+  const double r = 0.05, R = 0.15, fitStart = 0.5, inlierStart = 0.9;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  const int riser = scene.addPipe({0, 0, R}, {0, 0, 2.5}, r);
+  scene.pipes()[static_cast<std::size_t>(riser)].start.z() = fitStart;
+  auto& inliers = scene.pipes()[static_cast<std::size_t>(riser)].inliers;
+  inliers.erase(std::remove_if(inliers.begin(), inliers.end(),
+                               [&](std::uint32_t i) { return scene.cloud().positions[i].z() < inlierStart; }),
+                inliers.end());
+  const std::size_t riserInliers = inliers.size();
+  JointsParams strict;
+  strict.acceptConfidence = 0.75;
+  const JointsResult result = scene.connect(strict);
+  EXPECT_EQ(result.diagnostics.completedPipes, 1u);
+  EXPECT_EQ(result.diagnostics.carriedCompletions, 1u);
+  ASSERT_EQ(result.pipes.size(), 2u);
+  ASSERT_EQ(result.joints.size(), 1u);
+  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
+  EXPECT_EQ(result.joints[0].pipeIds, (std::vector<int>{1, 2}));
+  // The riser runs from the elbow's tangent point (the corner is at the origin) to its top, and
+  // holds the completion's points too.
+  const PipeSegment& carried = result.pipes[1];
+  EXPECT_NEAR(std::min(carried.start.z(), carried.end.z()), result.joints[0].bendRadius, 0.005);
+  EXPECT_NEAR(std::max(carried.start.z(), carried.end.z()), 2.5, 1e-9);
+  EXPECT_GT(carried.inliers.size(), riserInliers);
+}
+
 TEST(Joints, AnEndIsNotCompletedByALegRunningThroughAPipeBesideIt) {
   // Medium seed 13: from a 16 cm pipe's end, points of its elbow's torus and of the pipe beyond it
   // fitted a leg 0.3 m beside that pipe, the two tubes through each other, and the leg's elbow took

@@ -164,6 +164,35 @@ bool runsThroughAlongside(const PipeSegment& piece, const std::vector<PipeSegmen
   });
 }
 
+/// Where `piece` runs on along `pipe` past one of its ends: as thick, on its line, one end inside
+/// the pipe's span and the other past its end. Returns the piece's side beyond the pipe and the
+/// pipe's side it runs on past, or nullopt.
+std::optional<std::pair<int, int>> runsOnPast(const PipeSegment& piece, const PipeSegment& pipe) {
+  constexpr double kCarryAngleDeg = 3.0;     // as merge.max_angle_deg's default
+  constexpr double kCarryRadiusShare = 0.15;  // as merge.max_radius_difference's default...
+  constexpr double kMinCarryRadiusGap = 0.003;  // ...and its floor (m)
+  constexpr double kCarryOffsetRadii = 0.5;   // the piece's ends this close to the pipe's axis
+  const Eigen::Vector3d axis = unitAxis(pipe);
+  const double length = (pipe.end - pipe.start).norm();
+  if (std::fabs(unitAxis(piece).dot(axis)) < std::cos(radians(kCarryAngleDeg))) return std::nullopt;
+  if (std::fabs(piece.radius - pipe.radius) >
+      std::max(kMinCarryRadiusGap, kCarryRadiusShare * std::max(piece.radius, pipe.radius))) {
+    return std::nullopt;
+  }
+  std::array<double, 2> along{};
+  for (int side = 0; side < 2; ++side) {
+    const Eigen::Vector3d w = (side == 0 ? piece.start : piece.end) - pipe.start;
+    along[static_cast<std::size_t>(side)] = w.dot(axis);
+    if ((w - along[static_cast<std::size_t>(side)] * axis).norm() > kCarryOffsetRadii * pipe.radius) return std::nullopt;
+  }
+  const auto inside = [&](double t) { return t >= 0.0 && t <= length; };
+  for (int outer = 0; outer < 2; ++outer) {
+    const double out = along[static_cast<std::size_t>(outer)];
+    if (!inside(out) && inside(along[static_cast<std::size_t>(1 - outer)])) return std::pair{outer, out < 0.0 ? 0 : 1};
+  }
+  return std::nullopt;
+}
+
 /// Whether the tube of `piece` cuts the tube of one of `pipes` other than those in `except` (a
 /// fragment's does not count): pipes do not pass through each other.
 bool cutsAnotherPipe(const PipeSegment& piece, std::initializer_list<int> except, const std::vector<PipeSegment>& pipes,
@@ -3366,26 +3395,83 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Po
       if (middleInsideTube(pipes[static_cast<std::size_t>(p)], stretch)) absorbed[static_cast<std::size_t>(p)] = 1;
     }
   }
+  // A completion that runs on from inside a pipe's tube along its line past its end is that pipe
+  // seen on to the corner (its fit began short of it, over a stretch seen thinly): the pipe takes
+  // it over, its end carried to the completion's and the completion's joints with it, so that no
+  // pipe lies in another (medium seed 6: a 0.71 m leg over the first 0.48 m of a 12 m pipe). Only
+  // where the completion's joints all lie beyond the pipe, and the pipe's end there takes none.
+  std::vector<int> carriedBy(pipes.size(), -1);
+  std::vector<int> carriedSide(pipes.size(), 0);  // The pipe's side the completion's outer end became.
+  std::vector<std::array<char, 2>> carriedOn(pipes.size(), {0, 0});  // Per pipe, the sides a completion carried on.
+  const auto jointEndsOf = [&](std::size_t pipe) {
+    std::vector<std::pair<std::size_t, int>> ends;  // Hypothesis, side (-1: a tee's main body).
+    for (std::size_t h : chosen) {
+      const Hypothesis& joint = hypotheses[h];
+      if (joint.a.pipe == static_cast<int>(pipe)) ends.emplace_back(h, joint.a.side);
+      if (joint.type == JointType::Tee) {
+        if (joint.mainPipe == static_cast<int>(pipe)) ends.emplace_back(h, -1);
+      } else if (joint.b.pipe == static_cast<int>(pipe)) {
+        ends.emplace_back(h, joint.b.side);
+      }
+    }
+    return ends;
+  };
+  for (std::size_t c = foundCount; c < pipes.size(); ++c) {
+    if (absorbed[c]) continue;
+    for (std::size_t p = 0; p < pipes.size(); ++p) {
+      if (p == c || absorbed[p] || carriedBy[p] >= 0 || isFragment(pipes[p], params)) continue;
+      const auto sides = runsOnPast(pipes[c], pipes[p]);
+      if (!sides) continue;
+      const auto [outer, pipeSide] = *sides;
+      if (carriedOn[p][static_cast<std::size_t>(pipeSide)]) continue;
+      const auto ownEnds = jointEndsOf(c);
+      const auto pipeEnds = jointEndsOf(p);
+      if (std::any_of(ownEnds.begin(), ownEnds.end(), [&, outer = outer](const auto& end) { return end.second != outer; }) ||
+          std::any_of(pipeEnds.begin(), pipeEnds.end(), [&, pipeSide = pipeSide](const auto& end) { return end.second == pipeSide; })) {
+        continue;
+      }
+      PipeSegment& pipe = pipes[p];
+      (pipeSide == 0 ? pipe.start : pipe.end) = outer == 0 ? pipes[c].start : pipes[c].end;
+      std::vector<std::uint32_t> inliers;
+      std::set_union(pipe.inliers.begin(), pipe.inliers.end(), pipes[c].inliers.begin(), pipes[c].inliers.end(),
+                     std::back_inserter(inliers));
+      pipe.inliers = std::move(inliers);
+      carriedBy[c] = static_cast<int>(p);
+      carriedSide[c] = pipeSide;
+      carriedOn[p][static_cast<std::size_t>(pipeSide)] = 1;
+      break;
+    }
+  }
+  const auto holder = [&](int pipe) {
+    return carriedBy[static_cast<std::size_t>(pipe)] >= 0 ? carriedBy[static_cast<std::size_t>(pipe)] : pipe;
+  };
+
   // Input pipes that had to take a joint (weakly supported circles, few inliers) and that no chosen
   // joint took (absorbed ones go anyway).
   std::vector<char> inJoint(pipes.size(), 0);
   for (std::size_t h : chosen) {
     const auto [first, second] = hypotheses[h].joinedPipes();
-    inJoint[static_cast<std::size_t>(first)] = inJoint[static_cast<std::size_t>(second)] = 1;
+    inJoint[static_cast<std::size_t>(holder(first))] = inJoint[static_cast<std::size_t>(holder(second))] = 1;
   }
   for (std::size_t p = 0; p < input.pipes.size(); ++p) {
     if (pipes[p].mustJoin && !inJoint[p] && !absorbed[p]) joined.unjoined.push_back(p);
   }
 
-  // Pipe ids: input order, absorbed fragments left out.
+  // Pipe ids: input order, absorbed fragments and carried completions left out.
   std::vector<int> idOf(static_cast<std::size_t>(pipeCount), 0);
   int pipeIds = 0;
   for (int p = 0; p < pipeCount; ++p) {
-    if (absorbed[static_cast<std::size_t>(p)]) continue;
+    if (absorbed[static_cast<std::size_t>(p)] || carriedBy[static_cast<std::size_t>(p)] >= 0) continue;
     idOf[static_cast<std::size_t>(p)] = ++pipeIds;
     result.pipes.push_back(pipes[static_cast<std::size_t>(p)]);
   }
-  result.diagnostics.absorbedFragments = static_cast<std::size_t>(pipeCount - pipeIds);
+  for (int p = 0; p < pipeCount; ++p) {
+    if (carriedBy[static_cast<std::size_t>(p)] >= 0) idOf[static_cast<std::size_t>(p)] = idOf[static_cast<std::size_t>(holder(p))];
+  }
+  result.diagnostics.absorbedFragments =
+      static_cast<std::size_t>(std::count(absorbed.begin(), absorbed.end(), 1));
+  result.diagnostics.carriedCompletions =
+      static_cast<std::size_t>(std::count_if(carriedBy.begin(), carriedBy.end(), [](int p) { return p >= 0; }));
 
   // Joints, ordered by the pipes they join; elbows trim or extend their pipes to the tangent points.
   std::vector<std::tuple<int, int, int, std::size_t>> keyed;  // first pipe id, second pipe id, type, hypothesis
@@ -3401,7 +3487,9 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Po
     if (hypothesis.type == JointType::Elbow) {
       for (const auto& [end, point] : {std::pair{hypothesis.a, hypothesis.newA}, std::pair{hypothesis.b, hypothesis.newB}}) {
         PipeSegment& pipe = result.pipes[static_cast<std::size_t>(idOf[static_cast<std::size_t>(end.pipe)] - 1)];
-        (end.side == 0 ? pipe.start : pipe.end) = point;
+        const int carried = carriedBy[static_cast<std::size_t>(end.pipe)];
+        const int side = carried >= 0 ? carriedSide[static_cast<std::size_t>(end.pipe)] : end.side;
+        (side == 0 ? pipe.start : pipe.end) = point;
       }
     }
     Joint joint;
