@@ -164,33 +164,49 @@ bool runsThroughAlongside(const PipeSegment& piece, const std::vector<PipeSegmen
   });
 }
 
-/// Where `piece` runs on along `pipe` past one of its ends: as thick, on its line, one end inside
-/// the pipe's span and the other past its end. Returns the piece's side beyond the pipe and the
-/// pipe's side it runs on past, or nullopt.
-std::optional<std::pair<int, int>> runsOnPast(const PipeSegment& piece, const PipeSegment& pipe) {
-  constexpr double kCarryAngleDeg = 3.0;     // as merge.max_angle_deg's default
-  constexpr double kCarryRadiusShare = 0.15;  // as merge.max_radius_difference's default...
-  constexpr double kMinCarryRadiusGap = 0.003;  // ...and its floor (m)
-  constexpr double kCarryOffsetRadii = 0.5;   // the piece's ends this close to the pipe's axis
+/// Where a shorter piece lies on a pipe's line, inside its tube (see pieceOnLine).
+struct PieceOnLine {
+  int outer = 0;       // The piece's side past the pipe's end, or nearer it...
+  int pipeSide = 0;    // ...and that end's side of the pipe.
+  bool within = false;  // Wholly inside the pipe's span...
+  double fromEnd = 0.0;  // ...this far from that end (m).
+};
+
+/// Whether the shorter `piece` is `pipe` again: as thick, on its line (both ends within half a
+/// radius of its axis, at most 5° off it), and either lying wholly inside the pipe's span or
+/// running on from inside it past one of its ends.
+std::optional<PieceOnLine> pieceOnLine(const PipeSegment& piece, const PipeSegment& pipe) {
+  constexpr double kOnLineAngleDeg = 5.0;        // a piece fitted along a direction a few degrees off
+  constexpr double kOnLineRadiusShare = 0.15;    // as merge.max_radius_difference's default...
+  constexpr double kMinOnLineRadiusGap = 0.003;  // ...and its floor (m)
+  constexpr double kOnLineOffsetRadii = 0.5;
   const Eigen::Vector3d axis = unitAxis(pipe);
   const double length = (pipe.end - pipe.start).norm();
-  if (std::fabs(unitAxis(piece).dot(axis)) < std::cos(radians(kCarryAngleDeg))) return std::nullopt;
+  if ((piece.end - piece.start).norm() >= length) return std::nullopt;
+  if (std::fabs(unitAxis(piece).dot(axis)) < std::cos(radians(kOnLineAngleDeg))) return std::nullopt;
   if (std::fabs(piece.radius - pipe.radius) >
-      std::max(kMinCarryRadiusGap, kCarryRadiusShare * std::max(piece.radius, pipe.radius))) {
+      std::max(kMinOnLineRadiusGap, kOnLineRadiusShare * std::max(piece.radius, pipe.radius))) {
     return std::nullopt;
   }
   std::array<double, 2> along{};
   for (int side = 0; side < 2; ++side) {
     const Eigen::Vector3d w = (side == 0 ? piece.start : piece.end) - pipe.start;
     along[static_cast<std::size_t>(side)] = w.dot(axis);
-    if ((w - along[static_cast<std::size_t>(side)] * axis).norm() > kCarryOffsetRadii * pipe.radius) return std::nullopt;
+    if ((w - along[static_cast<std::size_t>(side)] * axis).norm() > kOnLineOffsetRadii * pipe.radius) return std::nullopt;
   }
   const auto inside = [&](double t) { return t >= 0.0 && t <= length; };
   for (int outer = 0; outer < 2; ++outer) {
     const double out = along[static_cast<std::size_t>(outer)];
-    if (!inside(out) && inside(along[static_cast<std::size_t>(1 - outer)])) return std::pair{outer, out < 0.0 ? 0 : 1};
+    if (!inside(out) && inside(along[static_cast<std::size_t>(1 - outer)])) {
+      return PieceOnLine{outer, out < 0.0 ? 0 : 1, false, 0.0};
+    }
   }
-  return std::nullopt;
+  if (!inside(along[0]) || !inside(along[1])) return std::nullopt;
+  const double toStart = std::min(along[0], along[1]);
+  const double toEnd = length - std::max(along[0], along[1]);
+  const int pipeSide = toStart <= toEnd ? 0 : 1;
+  const int outer = (along[0] <= along[1]) == (pipeSide == 0) ? 0 : 1;
+  return PieceOnLine{outer, pipeSide, true, std::min(toStart, toEnd)};
 }
 
 /// Whether the tube of `piece` cuts the tube of one of `pipes` other than those in `except` (a
@@ -3395,14 +3411,22 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Po
       if (middleInsideTube(pipes[static_cast<std::size_t>(p)], stretch)) absorbed[static_cast<std::size_t>(p)] = 1;
     }
   }
-  // A completion that runs on from inside a pipe's tube along its line past its end is that pipe
-  // seen on to the corner (its fit began short of it, over a stretch seen thinly): the pipe takes
-  // it over, its end carried to the completion's and the completion's joints with it, so that no
-  // pipe lies in another (medium seed 6: a 0.71 m leg over the first 0.48 m of a 12 m pipe). Only
-  // where the completion's joints all lie beyond the pipe, and the pipe's end there takes none.
+  // A shorter pipe on a pipe's line and in its tube (see pieceOnLine) is that pipe again: a
+  // completion that took the points its inliers left out (medium seed 6: a 0.71 m leg over the
+  // first 0.48 m of a 12 m pipe whose fit began short of the corner), or a piece fitted in another
+  // tile or along another direction. The pipe takes it over (its points, its joints, its outer end
+  // when that lies past the pipe's), so that no pipe lies in another and the run goes on: a piece
+  // that takes no joint anywhere in the pipe's span; one whose joints all lie at its outer side
+  // when it runs on past the pipe's end or lies within a diameter of it, and that end takes none.
   std::vector<int> carriedBy(pipes.size(), -1);
-  std::vector<int> carriedSide(pipes.size(), 0);  // The pipe's side the completion's outer end became.
-  std::vector<std::array<char, 2>> carriedOn(pipes.size(), {0, 0});  // Per pipe, the sides a completion carried on.
+  std::vector<int> carriedSide(pipes.size(), 0);  // The pipe's side the piece's outer end became.
+  std::vector<std::array<char, 2>> carriedOn(pipes.size(), {0, 0});  // Per pipe, the sides a piece with joints was merged at.
+  std::vector<char> carries(pipes.size(), 0);
+  std::vector<char> droppedTwin(hypotheses.size(), 0);  // A merged piece's joints that its pipe took too.
+  const auto otherPipeOf = [](const Hypothesis& joint, int pipe) {
+    const auto [first, second] = joint.joinedPipes();
+    return first == pipe ? second : first;
+  };
   const auto jointEndsOf = [&](std::size_t pipe) {
     std::vector<std::pair<std::size_t, int>> ends;  // Hypothesis, side (-1: a tee's main body).
     for (std::size_t h : chosen) {
@@ -3416,29 +3440,56 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Po
     }
     return ends;
   };
-  for (std::size_t c = foundCount; c < pipes.size(); ++c) {
-    if (absorbed[c]) continue;
+  for (std::size_t c = 0; c < pipes.size(); ++c) {
+    if (absorbed[c] || carries[c]) continue;  // A pipe that took a piece over stays.
     for (std::size_t p = 0; p < pipes.size(); ++p) {
       if (p == c || absorbed[p] || carriedBy[p] >= 0 || isFragment(pipes[p], params)) continue;
-      const auto sides = runsOnPast(pipes[c], pipes[p]);
-      if (!sides) continue;
-      const auto [outer, pipeSide] = *sides;
+      const auto onLine = pieceOnLine(pipes[c], pipes[p]);
+      if (!onLine) continue;
+      const int outer = onLine->outer;
+      const int pipeSide = onLine->pipeSide;
       if (carriedOn[p][static_cast<std::size_t>(pipeSide)]) continue;
       const auto ownEnds = jointEndsOf(c);
-      const auto pipeEnds = jointEndsOf(p);
-      if (std::any_of(ownEnds.begin(), ownEnds.end(), [&, outer = outer](const auto& end) { return end.second != outer; }) ||
-          std::any_of(pipeEnds.begin(), pipeEnds.end(), [&, pipeSide = pipeSide](const auto& end) { return end.second == pipeSide; })) {
-        continue;
+      const bool jointless = ownEnds.empty();
+      // The piece's joints that the pipe's end takes as well (the same kind, with the same pipe):
+      // the piece was fitted again and so was its joint.
+      std::vector<std::size_t> duplicated;
+      if (!(onLine->within && jointless)) {
+        if ((onLine->within && onLine->fromEnd > 2.0 * pipes[p].radius) ||
+            std::any_of(ownEnds.begin(), ownEnds.end(), [&](const auto& end) { return end.second != outer; })) {
+          continue;
+        }
+        bool endTaken = false;
+        for (const auto& [h, side] : jointEndsOf(p)) {
+          if (side != pipeSide) continue;
+          const auto twin = std::find_if(ownEnds.begin(), ownEnds.end(), [&, h = h](const auto& own) {
+            return hypotheses[own.first].type == hypotheses[h].type &&
+                   otherPipeOf(hypotheses[own.first], static_cast<int>(c)) == otherPipeOf(hypotheses[h], static_cast<int>(p));
+          });
+          if (twin == ownEnds.end()) {
+            endTaken = true;
+            break;
+          }
+          duplicated.push_back(twin->first);
+        }
+        if (endTaken) continue;
       }
+      for (const std::size_t h : duplicated) droppedTwin[h] = 1;
       PipeSegment& pipe = pipes[p];
-      (pipeSide == 0 ? pipe.start : pipe.end) = outer == 0 ? pipes[c].start : pipes[c].end;
+      // The pipe reaches on to the piece's outer end when that lies past its own (its elbow's
+      // tangent point, if it takes one, is set below either way) and takes no joint of its own there.
+      const Eigen::Vector3d& outerEnd = outer == 0 ? pipes[c].start : pipes[c].end;
+      Eigen::Vector3d& pipeEnd = pipeSide == 0 ? pipe.start : pipe.end;
+      const Eigen::Vector3d inward = pipeSide == 0 ? unitAxis(pipe) : Eigen::Vector3d(-unitAxis(pipe));
+      if (duplicated.empty() && (outerEnd - pipeEnd).dot(inward) < 0.0) pipeEnd = outerEnd;
       std::vector<std::uint32_t> inliers;
       std::set_union(pipe.inliers.begin(), pipe.inliers.end(), pipes[c].inliers.begin(), pipes[c].inliers.end(),
                      std::back_inserter(inliers));
       pipe.inliers = std::move(inliers);
       carriedBy[c] = static_cast<int>(p);
       carriedSide[c] = pipeSide;
-      carriedOn[p][static_cast<std::size_t>(pipeSide)] = 1;
+      if (!jointless) carriedOn[p][static_cast<std::size_t>(pipeSide)] = 1;
+      carries[p] = 1;
       break;
     }
   }
@@ -3457,7 +3508,7 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Po
     if (pipes[p].mustJoin && !inJoint[p] && !absorbed[p]) joined.unjoined.push_back(p);
   }
 
-  // Pipe ids: input order, absorbed fragments and carried completions left out.
+  // Pipe ids: input order, absorbed fragments and pieces merged at ends left out.
   std::vector<int> idOf(static_cast<std::size_t>(pipeCount), 0);
   int pipeIds = 0;
   for (int p = 0; p < pipeCount; ++p) {
@@ -3470,12 +3521,13 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Po
   }
   result.diagnostics.absorbedFragments =
       static_cast<std::size_t>(std::count(absorbed.begin(), absorbed.end(), 1));
-  result.diagnostics.carriedCompletions =
+  result.diagnostics.piecesAtEnds =
       static_cast<std::size_t>(std::count_if(carriedBy.begin(), carriedBy.end(), [](int p) { return p >= 0; }));
 
   // Joints, ordered by the pipes they join; elbows trim or extend their pipes to the tangent points.
   std::vector<std::tuple<int, int, int, std::size_t>> keyed;  // first pipe id, second pipe id, type, hypothesis
   for (std::size_t h : chosen) {
+    if (droppedTwin[h]) continue;
     const auto [first, second] = hypotheses[h].joinedPipes();
     keyed.emplace_back(idOf[static_cast<std::size_t>(first)], idOf[static_cast<std::size_t>(second)],
                        static_cast<int>(hypotheses[h].type), h);

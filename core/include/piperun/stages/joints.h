@@ -102,8 +102,6 @@ struct JointsResult {
     std::size_t completedPipes = 0;        ///< Pipes found beyond free ends (appended after the input pipes)...
     std::size_t legsBetweenEnds = 0;       ///< ...of them, legs joining two parallel pipes' ends (a U-turn or offset)...
     std::size_t branchPipes = 0;           ///< ...and branches found off pipes' bodies (appended with them).
-    std::size_t carriedCompletions = 0;    ///< Completions that ran on from inside a pipe's tube past its end,
-                                           ///< merged into that pipe (its end carried to theirs, their joints its).
     std::size_t splitKinks = 0;            ///< Pairs of pipes overlapping at a gentle bend, split at its corner...
     std::size_t kinkLegs = 0;              ///< ...and legs found beyond a bend one pipe was fitted across (appended
                                            ///< after the input pipes, before the completed ones).
@@ -114,6 +112,8 @@ struct JointsResult {
                                            ///< the completed pipes)...
     std::size_t hiddenLegs = 0;            ///< ...and legs a bend of which was not seen, between pipes turning square or offset.
     std::size_t hiddenBranches = 0;        ///< Legs hidden with their elbow and tee, from an end to a main's body.
+    std::size_t piecesAtEnds = 0;          ///< Shorter pipes on a pipe's line at its end (completions running on
+                                           ///< into it, pieces fitted again) merged into it, their joints its.
     std::size_t unjoinedPipes = 0;         ///< Input pipes that had to take a joint (PipeSegment::mustJoin) and took
                                            ///< none: left out, the rest joined again without them.
     double seconds = 0.0;
