@@ -435,7 +435,7 @@ int runReconstruct(const ReconstructOptions& options) {
   };
   const auto accepted = std::count_if(network.joints.begin(), network.joints.end(),
                                       [](const Joint& j) { return j.status == JointStatus::Accepted; });
-  if (pipeline.isFresh(Stage::Joints)) std::printf("joints: %zu elbows, %zu tees, %zu boundary joints (%zu accepted, %zu proposed), %zu runs, %zu %s completed beyond free ends (%zu between two ends), %zu %s found off pipes, %zu %s split and %zu %s found at gentle bends, %zu %s across hidden corners, %zu %s onto pipes running on thinly and %zu hardly seen, %zu %s between seen bends and %zu between unseen, %zu hidden %s from an end to a main, %zu %s merged into the pipe at whose end %s, %zu weakly supported %s left out for taking no joint  [%.2f s]\n",
+  if (pipeline.isFresh(Stage::Joints)) std::printf("joints: %zu elbows, %zu tees, %zu boundary joints (%zu accepted, %zu proposed), %zu runs, %zu %s completed beyond free ends (%zu between two ends), %zu %s found off pipes, %zu %s split and %zu %s found at gentle bends, %zu %s across hidden corners, %zu %s onto pipes running on thinly and %zu hardly seen, %zu %s between seen bends and %zu between unseen, %zu hidden %s from an end to a main, %zu %s merged into the pipe on whose line %s, %zu weakly supported %s left out for taking no joint  [%.2f s]\n",
               static_cast<std::size_t>(countJoints(JointType::Elbow)), static_cast<std::size_t>(countJoints(JointType::Tee)),
               static_cast<std::size_t>(countJoints(JointType::Boundary)), static_cast<std::size_t>(accepted),
               network.joints.size() - static_cast<std::size_t>(accepted), network.runs.size(),

@@ -3417,7 +3417,8 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Po
   // tile or along another direction. The pipe takes it over (its points, its joints, its outer end
   // when that lies past the pipe's), so that no pipe lies in another and the run goes on: a piece
   // that takes no joint anywhere in the pipe's span; one whose joints all lie at its outer side
-  // when it runs on past the pipe's end or lies within a diameter of it, and that end takes none.
+  // when it runs on past the pipe's end or lies within a diameter of it, and that end takes none,
+  // or only the same joints again (those twins go).
   std::vector<int> carriedBy(pipes.size(), -1);
   std::vector<int> carriedSide(pipes.size(), 0);  // The pipe's side the piece's outer end became.
   std::vector<std::array<char, 2>> carriedOn(pipes.size(), {0, 0});  // Per pipe, the sides a piece with joints was merged at.
@@ -3472,7 +3473,8 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Po
           }
           duplicated.push_back(twin->first);
         }
-        if (endTaken) continue;
+        // A piece with a twin there brings no joint of its own to that end.
+        if (endTaken || (!duplicated.empty() && duplicated.size() != ownEnds.size())) continue;
       }
       for (const std::size_t h : duplicated) droppedTwin[h] = 1;
       PipeSegment& pipe = pipes[p];
