@@ -685,7 +685,7 @@ TEST(Joints, AFaceAFewCentimetresBeyondAThinPipesEndIsNoBendOfIt) {
     scene.addPipe({0.0, 1.0, 0.0}, {0.0, 1.0, -1.0}, r);
     return scene;
   };
-  // With its own bend seen whole, the end takes an elbow onto a stub leg.
+  // Control: with its own bend seen whole beyond it, the thin end takes an elbow onto a stub leg.
   ConstructedScene bend = thinEnd();
   bend.addBend(Eigen::Vector3d(R, 0.0, 0.0), Eigen::Vector3d::UnitX(), -Eigen::Vector3d::UnitZ(), R, r);
   const JointsResult bent = bend.connect();

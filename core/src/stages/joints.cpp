@@ -43,6 +43,7 @@
 #include "piperun/stages/joints.h"
 
 #include "piperun/edit/runs.h"
+#include "piperun/stages/merge.h"
 
 #include "angles.h"
 #include "points_near.h"
@@ -176,18 +177,14 @@ struct PieceOnLine {
 /// radius of its axis, at most 5° off it), and either lying wholly inside the pipe's span or
 /// running on from inside it past one of its ends.
 std::optional<PieceOnLine> pieceOnLine(const PipeSegment& piece, const PipeSegment& pipe) {
-  constexpr double kOnLineAngleDeg = 5.0;        // a piece fitted along a direction a few degrees off
-  constexpr double kOnLineRadiusShare = 0.15;    // as merge.max_radius_difference's default...
-  constexpr double kMinOnLineRadiusGap = 0.003;  // ...and its floor (m)
+  constexpr double kOnLineAngleDeg = 5.0;  // a piece fitted along a direction a few degrees off
   constexpr double kOnLineOffsetRadii = 0.5;
   const Eigen::Vector3d axis = unitAxis(pipe);
   const double length = (pipe.end - pipe.start).norm();
   if ((piece.end - piece.start).norm() >= length) return std::nullopt;
   if (std::fabs(unitAxis(piece).dot(axis)) < std::cos(radians(kOnLineAngleDeg))) return std::nullopt;
-  if (std::fabs(piece.radius - pipe.radius) >
-      std::max(kMinOnLineRadiusGap, kOnLineRadiusShare * std::max(piece.radius, pipe.radius))) {
-    return std::nullopt;
-  }
+  // As thick as the merge stage asks of one pipe's pieces, by its default.
+  if (!radiiAgree(piece.radius, pipe.radius, MergeParams{}.maxRadiusDifference)) return std::nullopt;
   std::array<double, 2> along{};
   for (int side = 0; side < 2; ++side) {
     const Eigen::Vector3d w = (side == 0 ? piece.start : piece.end) - pipe.start;
@@ -3443,6 +3440,8 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Po
   };
   for (std::size_t c = 0; c < pipes.size(); ++c) {
     if (absorbed[c] || carries[c]) continue;  // A pipe that took a piece over stays.
+    const auto ownEnds = jointEndsOf(c);
+    const bool jointless = ownEnds.empty();
     for (std::size_t p = 0; p < pipes.size(); ++p) {
       if (p == c || absorbed[p] || carriedBy[p] >= 0 || isFragment(pipes[p], params)) continue;
       const auto onLine = pieceOnLine(pipes[c], pipes[p]);
@@ -3450,8 +3449,6 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Po
       const int outer = onLine->outer;
       const int pipeSide = onLine->pipeSide;
       if (carriedOn[p][static_cast<std::size_t>(pipeSide)]) continue;
-      const auto ownEnds = jointEndsOf(c);
-      const bool jointless = ownEnds.empty();
       // The piece's joints that the pipe's end takes as well (the same kind, with the same pipe):
       // the piece was fitted again and so was its joint.
       std::vector<std::size_t> duplicated;

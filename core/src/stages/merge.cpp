@@ -55,8 +55,7 @@ bool samePipe(const PipeSegment& a, const PipeSegment& b, const MergeParams& par
   const Eigen::Vector3d db = unitAxis(b);
   if (std::fabs(da.dot(db)) < std::cos(radians(params.maxAngleDeg))) return false;
 
-  const double larger = std::max(a.radius, b.radius);
-  if (std::fabs(a.radius - b.radius) > std::max(0.003, params.maxRadiusDifference * larger)) return false;
+  if (!radiiAgree(a.radius, b.radius, params.maxRadiusDifference)) return false;
 
   // The shorter pipe's ends lie on the longer one's axis: measured from the longer one's middle, a
   // degree between the axes would put a short piece near its end off by a centimetre per metre.

@@ -4,6 +4,8 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
+#include <cmath>
 #include <optional>
 #include <utility>
 
@@ -22,6 +24,12 @@ inline Eigen::Vector3d unitAxis(const PipeSegment& segment) {
 inline double distanceToLine(const Eigen::Vector3d& p, const Eigen::Vector3d& origin, const Eigen::Vector3d& axis) {
   const Eigen::Vector3d offset = p - origin;
   return (offset - offset.dot(axis) * axis).norm();
+}
+
+/// Whether two pipes are as thick: radii within `share` of the larger, or within 3 mm.
+inline bool radiiAgree(double a, double b, double share) {
+  constexpr double kMinRadiusGap = 0.003;  // (m) below this, the fits of few points differ by noise
+  return std::abs(a - b) <= std::max(kMinRadiusGap, share * std::max(a, b));
 }
 
 /// Whether the middle of `piece` lies inside the tube of `pipe` (within its radius of the axis,
