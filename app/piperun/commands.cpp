@@ -435,13 +435,13 @@ int runReconstruct(const ReconstructOptions& options) {
   };
   const auto accepted = std::count_if(network.joints.begin(), network.joints.end(),
                                       [](const Joint& j) { return j.status == JointStatus::Accepted; });
-  if (pipeline.isFresh(Stage::Joints)) std::printf("joints: %zu elbows, %zu tees, %zu boundary joints (%zu accepted, %zu proposed), %zu runs, %zu %s completed beyond free ends (%zu between two ends), %zu %s found off pipes, %zu %s split and %zu %s found at gentle bends, %zu %s across hidden corners, %zu %s onto pipes running on thinly and %zu hardly seen, %zu %s between seen bends and %zu between unseen, %zu hidden %s from an end to a main, %zu %s merged into the pipe on whose line %s, %zu weakly supported %s left out for taking no joint  [%.2f s]\n",
+  if (pipeline.isFresh(Stage::Joints)) std::printf("joints: %zu elbows, %zu tees, %zu boundary joints (%zu accepted, %zu proposed), %zu runs, %zu %s completed beyond free ends (%zu between two ends, %zu carried on past the completion length), %zu %s found off pipes, %zu %s split and %zu %s found at gentle bends, %zu %s across hidden corners, %zu %s onto pipes running on thinly and %zu hardly seen, %zu %s between seen bends and %zu between unseen, %zu hidden %s from an end to a main, %zu %s merged into the pipe on whose line %s, %zu weakly supported %s left out for taking no joint  [%.2f s]\n",
               static_cast<std::size_t>(countJoints(JointType::Elbow)), static_cast<std::size_t>(countJoints(JointType::Tee)),
               static_cast<std::size_t>(countJoints(JointType::Boundary)), static_cast<std::size_t>(accepted),
               network.joints.size() - static_cast<std::size_t>(accepted), network.runs.size(),
               pipeline.jointsResult()->diagnostics.completedPipes,
               pipeline.jointsResult()->diagnostics.completedPipes == 1 ? "pipe" : "pipes",
-              pipeline.jointsResult()->diagnostics.legsBetweenEnds,
+              pipeline.jointsResult()->diagnostics.legsBetweenEnds, pipeline.jointsResult()->diagnostics.carriedLegs,
               pipeline.jointsResult()->diagnostics.branchPipes,
               pipeline.jointsResult()->diagnostics.branchPipes == 1 ? "branch" : "branches",
               pipeline.jointsResult()->diagnostics.splitKinks,

@@ -1484,6 +1484,36 @@ TEST(Joints, ALegBeyondACompletedLegIsCompletedInTheNextRound) {
   EXPECT_EQ(result.runs[0].pipeIds, (std::vector<int>{1, 4, 5}));
 }
 
+TEST(Joints, ALegLongerThanTheCompletionLooksCarriesOnToTheCornerBeyond) {
+  // As above, with a thin pipe (r = 24 mm, R = 3r) whose leg rises 1.18 m to its tangent point:
+  // the completion looks 1 m past the corner, and from there the tail's corner lies 0.25 m on,
+  // beyond a 24 mm pipe's reach (0.19 m). The leg carries on over its points to its tangent point
+  // first, and its free end then finds the tail.
+  const double r = 0.024, R = 3.0 * r, rise = 1.25;
+  ConstructedScene scene;
+  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
+  scene.addElbow({-R, 0, R}, {-R, 0, 0}, -Eigen::Vector3d::UnitY(), kPi / 2, r);
+  scene.addPipe({0, 0, R}, {0, 0, rise - R}, r, false);
+  scene.addElbow({0, R, rise - R}, {0, 0, rise - R}, -Eigen::Vector3d::UnitX(), kPi / 2, r);
+  scene.addPipe({0, R, rise}, {0, 0.6, rise}, r, false);
+  scene.addPipe({3, 0, 0}, {3, 1.2, 0}, r);
+  scene.addPipe({6, 0, 0}, {6, 0, 1.2}, r);
+
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.completedPipes, 2u);
+  EXPECT_EQ(result.diagnostics.carriedLegs, 1u);
+  ASSERT_EQ(result.pipes.size(), 5u);
+  const PipeSegment& leg = result.pipes[3];
+  EXPECT_NEAR(std::max(leg.start.z(), leg.end.z()), rise - R, 0.01);
+  ASSERT_EQ(result.joints.size(), 2u);
+  for (const Joint& joint : result.joints) {
+    EXPECT_EQ(joint.type, JointType::Elbow);
+    EXPECT_NEAR(joint.bendRadius, R, 0.1 * R);
+  }
+  ASSERT_EQ(result.runs.size(), 3u);
+  EXPECT_EQ(result.runs[0].pipeIds, (std::vector<int>{1, 4, 5}));
+}
+
 TEST(Joints, ALegSeenOnlyAsAFragmentIsCompletedAndTheFragmentGoes) {
   // Only 8 cm of the 30 cm leg were scanned, and placement fitted them as a pipe shorter than its
   // diameter: a fragment, which takes no joint. Its points are the leg's only ones; the completion

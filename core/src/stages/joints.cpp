@@ -29,7 +29,8 @@
 //    continued radius all around (a square post's faces and corners do not) and be neither a flat
 //    face (normals of one direction on points in a line) nor the edge of a post (normals on two
 //    directions at right angles); it is kept when it takes the elbow with the end it grew from
-//    (steps 1–3 run again with it). Likewise every pipe looks along its body for a thin branch seen
+//    (steps 1–3 run again with it); one that ran to the completion's length carries on over its
+//    points where they stop just past it (carryOnCappedLegs). Likewise every pipe looks along its body for a thin branch seen
 //    in a few scan columns: its axis meets the main's, so each unexplained point votes for where
 //    along the main and how thick; a peak's branch passes the same tests and must take the tee.
 //    The pipes so found look on in turn, round by round, until a round finds none.
@@ -50,6 +51,7 @@
 #include "sector_offsets.h"
 #include "sort_by_key.h"
 #include "segment_distance.h"
+#include "stages/end_extension.h"
 #include "stages/gentle_kinks.h"
 #include "stages/section_runs.h"
 #include "stages/segment_axis.h"
@@ -102,6 +104,11 @@ constexpr double kUnvotedEndSlack = 0.04;
 // Rounds of completion at most: the pipes one round finds look for what lies beyond them in the
 // next, until a round finds none (medium scenes need two).
 constexpr int kMaxCompletionRounds = 4;
+// A completed leg that ran to the completion's length carries on past it by at most this (m; see
+// carryOnCappedLegs): on small 1–60, legs carried on 0.5–2 m were clutter's...
+constexpr double kMaxCarry = 0.3;
+// ...and its points are looked at this many sections farther, so that a run going on past it shows.
+constexpr double kCarrySlackSections = 3.0;
 // Points this close to the axis of a stretch an elbow would bridge across an occlusion, in its
 // pipe's radius, are something else standing where the pipe would run (see bridgeOccludedCorners).
 constexpr double kOccludedCoreRadii = 0.5;
@@ -3308,6 +3315,48 @@ struct JoinedOnce {
   std::vector<std::size_t> unjoined;  // Indices into the input pipes, ascending.
 };
 
+/// The legs among `completions` (the last pipes of `pipes`) that ran to the completion's length carry
+/// on past it over their surface points, as merged pipes' ends do (see extension), up to kMaxCarry:
+/// the completion looks no farther, so a leg longer than that stops short of its far corner, out
+/// of its end's reach when the pipe is thin. Their points join `explained` and `explainedByPipes`.
+/// Returns how many carried on.
+std::size_t carryOnCappedLegs(const PointCloud& cloud, const std::vector<Completion>& completions,
+                              std::vector<PipeSegment>& pipes, const JointsParams& params, const PointCells& cells,
+                              std::vector<char>& explained, std::vector<char>& explainedByPipes) {
+  const MergeParams merge;  // The merge stage's rule for points on the surface, as it extends ends.
+  const double reach = kMaxCarry + kCarrySlackSections * kSectionLength;
+  const std::size_t firstLeg = pipes.size() - completions.size();
+  std::vector<std::size_t> capped;
+  std::vector<std::pair<Eigen::Vector3d, double>> spheres;
+  for (std::size_t c = 0; c < completions.size(); ++c) {
+    const PipeSegment& leg = pipes[firstLeg + c];
+    // A leg between two ends runs to the far one's corner already.
+    if (completions[c].between || (leg.end - leg.start).norm() < params.maxCompletionLength - 2.0 * kSectionLength) {
+      continue;
+    }
+    capped.push_back(firstLeg + c);
+    spheres.emplace_back(leg.end + 0.5 * reach * unitAxis(leg), std::hypot(0.5 * reach, 2.0 * (leg.radius + surfaceBand(leg))));
+  }
+  const auto nearby = pointsInSpheres(cells, spheres, [](std::uint32_t) { return true; });
+  std::size_t carried = 0;
+  for (std::size_t k = 0; k < capped.size(); ++k) {
+    PipeSegment& leg = pipes[capped[k]];
+    const Eigen::Vector3d outward = unitAxis(leg);
+    std::vector<std::uint32_t> surface;
+    const double length = extension(cloud, leg, leg.end, outward, reachBeforeOtherPipes(pipes, capped[k], leg.end, outward, reach),
+                                    nearby[k], explained, merge, surface);
+    // Running on farther, the points are rarely the leg's: a hanger rod down to the floor, a floor's
+    // seam, a neighbour on its line.
+    if (!(length > 0.0) || length > kMaxCarry) continue;
+    leg.end += length * outward;
+    for (std::uint32_t i : surface) explained[i] = explainedByPipes[i] = 1;
+    leg.inliers.insert(leg.inliers.end(), surface.begin(), surface.end());
+    std::sort(leg.inliers.begin(), leg.inliers.end());
+    ++carried;
+  }
+  return carried;
+}
+
 JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const PointCells& cells, const JointsParams& params,
                     Progress& progress) {
   std::vector<PipeSegment> pipes = input.pipes;
@@ -3325,6 +3374,7 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Po
   // an elbow with the end it grew from (the others go and the rest are resolved again). The pipes
   // found so look on in turn: a leg completed between two elbows, or a branch, ends freely too.
   std::size_t completed = 0;
+  std::size_t carried = 0;
   std::size_t legsBetween = 0;
   std::size_t branches = 0;
   if (params.maxCompletionLength > 0.0) {
@@ -3354,6 +3404,7 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Po
       pipes = std::move(adopted->pipes);
       explained = std::move(adopted->explained);
       resolution = std::move(adopted->resolution);
+      carried += carryOnCappedLegs(input.cloud, adopted->completions, pipes, params, cells, explained, explainedByPipes);
       return true;
     };
     // Rounds of straight legs and branches until one finds none; then one of legs seen only on
@@ -3381,6 +3432,7 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Po
   result.diagnostics = resolution.diagnostics;
   result.diagnostics.completedPipes = completed;
   result.diagnostics.legsBetweenEnds = legsBetween;
+  result.diagnostics.carriedLegs = carried;
   result.diagnostics.branchPipes = branches;
   result.diagnostics.splitKinks = kinks.splitPairs;
   result.diagnostics.kinkLegs = kinks.legsFound;

@@ -24,6 +24,7 @@
 
 #include "angles.h"
 #include "points_near.h"
+#include "stages/end_extension.h"
 #include "stages/section_runs.h"
 #include "stages/segment_axis.h"
 #include "union_find.h"
@@ -146,6 +147,8 @@ bool longerFirst(const PipeSegment& a, const PipeSegment& b) {
   return a.radius < b.radius;
 }
 
+}  // namespace
+
 /// The band around a pipe's surface its points lie in: three times its RMS offset, at least 6 mm.
 double surfaceBand(const PipeSegment& pipe) {
   constexpr double kMinBand = 0.006;
@@ -242,6 +245,8 @@ double reachBeforeOtherPipes(const std::vector<PipeSegment>& pipes, std::size_t 
   }
   return reach;
 }
+
+namespace {
 
 /// Whether point i lies on the surface of `other`: within its band, between its caps, its normal
 /// near radial there.
