@@ -204,8 +204,18 @@ class ConstructedScene {
   JointsResult connect(const JointsParams& params = {}) const {
     return connectPipes({cloud_, pipes_, planes_.positions.empty() ? nullptr : &planes_}, params);
   }
-  /// A point removed as part of a large plane (PreprocessResult::planePoints).
-  void addRemovedPlanePoint(const Eigen::Vector3d& p) { planes_.positions.push_back(p.cast<float>()); }
+  /// A point removed as part of a large plane (PreprocessResult::planePoints), with its normal
+  /// (zero: not known).
+  void addRemovedPlanePoint(const Eigen::Vector3d& p, const Eigen::Vector3d& normal = Eigen::Vector3d::Zero()) {
+    planes_.positions.push_back(p.cast<float>());
+    planes_.normals.push_back(normal.cast<float>());
+  }
+  /// A floor at height z over x, y in [-extent, extent], removed as a plane (a point every 2 cm).
+  void addRemovedFloor(double z, double extent) {
+    for (double x = -extent; x <= extent; x += 0.02) {
+      for (double y = -extent; y <= extent; y += 0.02) addRemovedPlanePoint({x, y, z}, Eigen::Vector3d::UnitZ());
+    }
+  }
   /// Adds the points of `other` (not its pipes).
   void addPointsOf(const ConstructedScene& other) {
     for (std::size_t i = 0; i < other.cloud_.positions.size(); ++i) {
@@ -1593,6 +1603,38 @@ TEST(Joints, ALegOverPointsARemovedPlaneLeftIsThatPlanesAndNotCompleted) {
     for (double z = 0.0; z <= 1.0; z += 0.01) byAWall.addRemovedPlanePoint({x, r + 0.02, z});
   }
   ASSERT_NO_FATAL_FAILURE(expectUprightLegCompletedAtTheOrigin(byAWall.connect()));
+}
+
+TEST(Joints, NoPipeOrLegReachesBelowTheGround) {
+  // A riser (pipe 1) comes down to an elbow (R = 3r) turning level into a leg no pipe covers, its
+  // axis at z = 0. Over a floor just under the leg, the leg is completed with its elbow. Over a
+  // floor 1.5 cm above the leg's bottom (the lowest floor, nothing scanned under it: the ground), a
+  // tube there would run through it: such a fit is the floor's points by a riser's foot, and no leg
+  // is completed; given as a pipe, it is left out.
+  const double r = 0.05, R = 0.15;
+  const auto scene = [&](double floor, bool legListed) {
+    ConstructedScene riserToFloor;
+    riserToFloor.addPipe({0, 0, 1.5}, {0, 0, R}, r);
+    riserToFloor.addElbow({R, 0, R}, {0, 0, R}, -Eigen::Vector3d::UnitY(), kPi / 2, r);
+    riserToFloor.addPipe({R, 0, 0}, {0.8, 0, 0}, r, legListed);
+    riserToFloor.addRemovedFloor(floor, 1.5);
+    return riserToFloor;
+  };
+  const JointsResult overFloor = scene(-r - 0.01, false).connect();
+  EXPECT_EQ(overFloor.diagnostics.completedPipes, 1u);
+  EXPECT_EQ(overFloor.diagnostics.underGround, 0u);
+  ASSERT_EQ(overFloor.joints.size(), 1u);
+  EXPECT_EQ(overFloor.joints[0].type, JointType::Elbow);
+
+  const JointsResult throughFloor = scene(-r + 0.015, false).connect();
+  EXPECT_EQ(throughFloor.diagnostics.completedPipes, 0u);
+  EXPECT_GE(throughFloor.diagnostics.underGround, 1u);
+  EXPECT_TRUE(throughFloor.joints.empty());
+
+  const JointsResult givenThroughFloor = scene(-r + 0.015, true).connect();
+  EXPECT_EQ(givenThroughFloor.pipes.size(), 1u);
+  EXPECT_GE(givenThroughFloor.diagnostics.underGround, 1u);
+  EXPECT_TRUE(givenThroughFloor.joints.empty());
 }
 
 TEST(Joints, AnEndThatOnlyAProposedJointTookIsStillCompleted) {

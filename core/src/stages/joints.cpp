@@ -1,8 +1,9 @@
 // Joints and pipe-runs (paper §6).
 //
-// 0. Pipes that overlap at a gentle bend, one fitted across it, are split at its corner first,
-//    and a pipe fitted across such a bend with no pipe found beyond it yields the leg beyond
-//    (gentle_kinks.h): no hypothesis below would join them.
+// 0. Pipes whose tube reaches below the ground (the lowest floor, nothing scanned under it) go,
+//    and no leg completed later may reach there (Ground). Pipes that overlap at a gentle bend, one
+//    fitted across it, are split at its corner, and a pipe fitted across such a bend with no pipe
+//    found beyond it yields the leg beyond (gentle_kinks.h): no hypothesis below would join them.
 // 1. Hypotheses. A hash grid over the pipes' axis samples gives, for each pipe end, the pipes
 //    near it. Each end–end pair whose axes continue each other is a boundary-joint hypothesis;
 //    each end–end pair whose axes meet ahead of both ends at a bend angle is an elbow hypothesis;
@@ -1180,6 +1181,60 @@ struct LineFitSums {
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> solver(covariance, Eigen::EigenvaluesOnly);
     return count * std::max(0.0, solver.eigenvalues()(0));
   }
+};
+
+/// The ground: the lowest level of the removed planes that face up (floors), when no more than a
+/// trace of the scan lies below it. Nothing was seen under it and no pipe runs through it: a tube
+/// reaching below it is a fit to the floor's points by a riser's foot, not a pipe.
+class Ground {
+ public:
+  Ground(const PointCloud* planes, const PointCloud& cloud) {
+    if (!planes || planes->normals.empty()) return;
+    const double minUp = std::cos(radians(kMaxFloorTiltDeg));
+    std::vector<double> heights;
+    for (std::size_t i = 0; i < planes->size(); ++i) {
+      if (std::fabs(planes->normals[i].z()) >= minUp) heights.push_back(planes->positions[i].z());
+    }
+    if (heights.empty()) return;
+    // The lowest level holding a good share of the floors' points (a stray low patch does not count).
+    const double lowest = *std::min_element(heights.begin(), heights.end());
+    const double highest = *std::max_element(heights.begin(), heights.end());
+    std::vector<std::size_t> perLevel(static_cast<std::size_t>((highest - lowest) / kLevelStep) + 1, 0);
+    for (const double z : heights) ++perLevel[static_cast<std::size_t>((z - lowest) / kLevelStep)];
+    std::size_t level = 0;
+    while (static_cast<double>(perLevel[level]) < kMinGroundShare * static_cast<double>(heights.size())) ++level;
+    const double from = lowest + (static_cast<double>(level) - 1.0) * kLevelStep;
+    const double to = lowest + (static_cast<double>(level) + 2.0) * kLevelStep;
+    double sum = 0.0;
+    std::size_t count = 0;
+    for (const double z : heights) {
+      if (z < from || z >= to) continue;
+      sum += z;
+      ++count;
+    }
+    const double height = sum / static_cast<double>(count);
+    // A floor with the scan under it (a deck over pipes, a camera's frame) is no ground.
+    const auto below = std::count_if(cloud.positions.begin(), cloud.positions.end(),
+                                     [&](const Eigen::Vector3f& p) { return p.z() < height - kLevelStep; });
+    if (static_cast<double>(below) <= kMaxShareBelowGround * static_cast<double>(cloud.size())) height_ = height;
+  }
+
+  /// Whether the tube of `pipe` reaches below the ground by more than the floor's noise.
+  bool under(const PipeSegment& pipe) const {
+    if (!height_) return false;
+    const Eigen::Vector3d axis = unitAxis(pipe);
+    const double lowest = std::min(pipe.start.z(), pipe.end.z()) -
+                          pipe.radius * std::sqrt(std::max(0.0, 1.0 - axis.z() * axis.z()));
+    return lowest < *height_ - kGroundTolerance;
+  }
+
+ private:
+  static constexpr double kMaxFloorTiltDeg = 10.0;      // Plane points whose normals lie this near vertical are floors'.
+  static constexpr double kLevelStep = 0.02;            // Floors' heights are binned this finely (m).
+  static constexpr double kMinGroundShare = 0.05;       // The ground's level holds this share of the floors' points...
+  static constexpr double kMaxShareBelowGround = 0.001; // ...and at most this share of the scan lies under it.
+  static constexpr double kGroundTolerance = 0.005;     // A tube may reach this far below it (m): a pipe lying on it.
+  std::optional<double> height_;
 };
 
 /// The 1 cm cells holding points removed as large planes: a point lies by a plane when a cell within
@@ -3357,8 +3412,8 @@ std::size_t carryOnCappedLegs(const PointCloud& cloud, const std::vector<Complet
   return carried;
 }
 
-JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const PointCells& cells, const JointsParams& params,
-                    Progress& progress) {
+JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Ground& ground, const PointCells& cells,
+                    const JointsParams& params, Progress& progress) {
   std::vector<PipeSegment> pipes = input.pipes;
   const GentleKinks kinks = splitAtGentleKinks(cells, pipes, networkDirections(input.pipes), params);
   const std::size_t foundCount = pipes.size();  // The input pipes and the legs found beyond gentle bends.
@@ -3375,6 +3430,7 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Po
   // found so look on in turn: a leg completed between two elbows, or a branch, ends freely too.
   std::size_t completed = 0;
   std::size_t carried = 0;
+  std::size_t underGround = 0;
   std::size_t legsBetween = 0;
   std::size_t branches = 0;
   if (params.maxCompletionLength > 0.0) {
@@ -3392,6 +3448,11 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Po
       const JointsInput current{input.cloud, pipes};
       std::vector<Completion> completions = completeFreeEnds(current, params, explainedByPipes, resolution, planes,
                                                              fromBends ? 0 : lookingFrom, cells, fromBends);
+      const auto found = completions.size();
+      completions.erase(std::remove_if(completions.begin(), completions.end(),
+                                       [&](const Completion& completion) { return ground.under(completion.pipe); }),
+                        completions.end());
+      underGround += found - completions.size();
       auto adopted =
           adoptCompletions(current, params, explained, std::move(completions), foundCount, cells, progress);
       if (!adopted) return false;
@@ -3433,6 +3494,7 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Po
   result.diagnostics.completedPipes = completed;
   result.diagnostics.legsBetweenEnds = legsBetween;
   result.diagnostics.carriedLegs = carried;
+  result.diagnostics.underGround = underGround;
   result.diagnostics.branchPipes = branches;
   result.diagnostics.splitKinks = kinks.splitPairs;
   result.diagnostics.kinkLegs = kinks.legsFound;
@@ -3641,14 +3703,20 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   // until all left do.
   std::vector<PipeSegment> pipes = input.pipes;
   const PlaneCells planes(input.planes);
+  const Ground ground(input.planes, input.cloud);
+  const auto pipesBefore = pipes.size();
+  pipes.erase(std::remove_if(pipes.begin(), pipes.end(), [&](const PipeSegment& pipe) { return ground.under(pipe); }),
+              pipes.end());
+  const std::size_t inputUnderGround = pipesBefore - pipes.size();
   // Every search for points near a place reads the cloud filed once by these cells.
   const PointCells cells(input.cloud, std::max(params.minSearchDistance, 0.25));
   std::size_t dropped = 0;
   for (;;) {
-    JoinedOnce joined = joinOnce({input.cloud, pipes}, planes, cells, params, progress);
+    JoinedOnce joined = joinOnce({input.cloud, pipes}, planes, ground, cells, params, progress);
     if (joined.unjoined.empty()) {
       JointsResult& result = joined.result;
       result.diagnostics.unjoinedPipes = dropped;
+      result.diagnostics.underGround += inputUnderGround;
       progress.report("joints", 1.0);
       result.diagnostics.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
       return std::move(result);

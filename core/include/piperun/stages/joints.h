@@ -76,7 +76,8 @@ struct JointsInput {
   const PointCloud& cloud;                 ///< The preprocessed cloud (positions and normals).
   const std::vector<PipeSegment>& pipes;   ///< The merged pipes.
   /// The points removed as large planes (PreprocessResult::planePoints: floors, walls, decks), when
-  /// known: a pipe completed over points lying by them is the plane's residue (a floor's seam).
+  /// known: a pipe completed over points lying by them is the plane's residue (a floor's seam), and
+  /// the lowest of the floors, with no point under it, is the ground no pipe reaches below.
   const PointCloud* planes = nullptr;
 };
 
@@ -115,6 +116,8 @@ struct JointsResult {
     std::size_t hiddenBranches = 0;        ///< Legs hidden with their elbow and tee, from an end to a main's body.
     std::size_t piecesAtEnds = 0;          ///< Shorter pipes on a pipe's line at its end (completions running on
                                            ///< into it, pieces fitted again) merged into it, their joints its.
+    std::size_t underGround = 0;           ///< Input pipes and completed legs whose tube reached below the ground (the
+                                           ///< lowest floor, with no scan under it), left out.
     std::size_t unjoinedPipes = 0;         ///< Input pipes that had to take a joint (PipeSegment::mustJoin) and took
                                            ///< none: left out, the rest joined again without them.
     double seconds = 0.0;
