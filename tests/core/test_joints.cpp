@@ -1759,6 +1759,32 @@ TEST(Joints, APieceFittedAgainInsideAPipeIsThatPipe) {
   EXPECT_NEAR(result.pipes[1].end.z(), 2.5, 1e-9);
 }
 
+TEST(Joints, ABranchFittedTwiceIsOnePipeWithOneTee) {
+  // A branch (r = 3 cm) leaves a main along +x and turns up at an elbow (R = 3r). Another tile
+  // fitted it again, 0.2° off, from 2 mm nearer the main to 3 cm into the elbow (large seed 1).
+  // Both meet the main: a tee each, one of them spurious. The copy, taking no joint the branch
+  // does not take too, is the branch again.
+  const double r = 0.03, R = 0.09, reach = 0.8;
+  ConstructedScene scene;
+  scene.addPipe({0, -1.5, 0}, {0, 1.5, 0}, 0.1);
+  const int branch = scene.addPipe({0.12, 0, 0}, {reach - R, 0, 0}, r);
+  scene.addBend({reach, 0, 0}, Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitZ(), R, r);
+  scene.addPipe({reach, 0, R}, {reach, 0, 1.2}, r);
+  PipeSegment copy = scene.pipes()[static_cast<std::size_t>(branch)];
+  copy.start = {0.118, 0, 0};
+  copy.end = {reach - R + 0.03, 0, 0.0025};
+  scene.pipes().push_back(copy);
+
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.piecesAtEnds, 1u);
+  ASSERT_EQ(result.pipes.size(), 3u);
+  ASSERT_EQ(result.joints.size(), 2u);
+  const auto tees = std::count_if(result.joints.begin(), result.joints.end(),
+                                  [](const Joint& joint) { return joint.type == JointType::Tee; });
+  EXPECT_EQ(tees, 1);
+  ASSERT_EQ(result.runs.size(), 1u);
+}
+
 TEST(Joints, AnEndIsNotCompletedByALegRunningThroughAPipeBesideIt) {
   // Medium seed 13: from a 16 cm pipe's end, points of its elbow's torus and of the pipe beyond it
   // fitted a leg 0.3 m beside that pipe, the two tubes through each other, and the leg's elbow took

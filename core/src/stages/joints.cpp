@@ -173,12 +173,17 @@ bool runsThroughAlongside(const PipeSegment& piece, const std::vector<PipeSegmen
   });
 }
 
+/// A piece on a pipe's line covering at least this share of its length is a copy of it (see
+/// joinOnce's merge of pieces).
+constexpr double kMinCopyShare = 0.8;
+
 /// Where a shorter piece lies on a pipe's line, inside its tube (see pieceOnLine).
 struct PieceOnLine {
   int outer = 0;       // The piece's side past the pipe's end, or nearer it...
   int pipeSide = 0;    // ...and that end's side of the pipe.
   bool within = false;  // Wholly inside the pipe's span...
   double fromEnd = 0.0;  // ...this far from that end (m).
+  double overlap = 0.0;  // The length of the pipe's span the piece covers (m).
 };
 
 /// Whether the shorter `piece` is `pipe` again: as thick, on its line (both ends within half a
@@ -200,10 +205,11 @@ std::optional<PieceOnLine> pieceOnLine(const PipeSegment& piece, const PipeSegme
     if ((w - along[static_cast<std::size_t>(side)] * axis).norm() > kOnLineOffsetRadii * pipe.radius) return std::nullopt;
   }
   const auto inside = [&](double t) { return t >= 0.0 && t <= length; };
+  const double overlap = std::min(length, std::max(along[0], along[1])) - std::max(0.0, std::min(along[0], along[1]));
   for (int outer = 0; outer < 2; ++outer) {
     const double out = along[static_cast<std::size_t>(outer)];
     if (!inside(out) && inside(along[static_cast<std::size_t>(1 - outer)])) {
-      return PieceOnLine{outer, out < 0.0 ? 0 : 1, false, 0.0};
+      return PieceOnLine{outer, out < 0.0 ? 0 : 1, false, 0.0, overlap};
     }
   }
   if (!inside(along[0]) || !inside(along[1])) return std::nullopt;
@@ -211,7 +217,7 @@ std::optional<PieceOnLine> pieceOnLine(const PipeSegment& piece, const PipeSegme
   const double toEnd = length - std::max(along[0], along[1]);
   const int pipeSide = toStart <= toEnd ? 0 : 1;
   const int outer = (along[0] <= along[1]) == (pipeSide == 0) ? 0 : 1;
-  return PieceOnLine{outer, pipeSide, true, std::min(toStart, toEnd)};
+  return PieceOnLine{outer, pipeSide, true, std::min(toStart, toEnd), overlap};
 }
 
 /// Whether the tube of `piece` cuts the tube of one of `pipes` other than those in `except` (a
@@ -3552,14 +3558,40 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Gr
     }
     return ends;
   };
+  const auto twinOf = [&](std::size_t h, std::size_t pipe, const std::vector<std::pair<std::size_t, int>>& ends,
+                          std::size_t endsPipe) {
+    return std::find_if(ends.begin(), ends.end(), [&](const auto& end) {
+      return hypotheses[end.first].type == hypotheses[h].type &&
+             otherPipeOf(hypotheses[end.first], static_cast<int>(endsPipe)) ==
+                 otherPipeOf(hypotheses[h], static_cast<int>(pipe));
+    });
+  };
+  const auto lengthOf = [&](std::size_t pipe) { return (pipes[pipe].end - pipes[pipe].start).norm(); };
   for (std::size_t c = 0; c < pipes.size(); ++c) {
-    if (absorbed[c] || carries[c]) continue;  // A pipe that took a piece over stays.
+    if (absorbed[c] || carries[c] || carriedBy[c] >= 0) continue;  // A pipe that took a piece over stays.
     const auto ownEnds = jointEndsOf(c);
     const bool jointless = ownEnds.empty();
     for (std::size_t p = 0; p < pipes.size(); ++p) {
       if (p == c || absorbed[p] || carriedBy[p] >= 0 || isFragment(pipes[p], params)) continue;
       const auto onLine = pieceOnLine(pipes[c], pipes[p]);
       if (!onLine) continue;
+      // Covering most of the pipe, the piece is the pipe fitted again (in another tile): when the pipe
+      // takes no joint the piece does not take too (the same kind, with the same pipe), it goes into
+      // the piece, which keeps its own joints, and its twins go.
+      if (!jointless && !carries[p] && onLine->overlap >= kMinCopyShare * lengthOf(p)) {
+        const auto pipeEnds = jointEndsOf(p);
+        if (std::all_of(pipeEnds.begin(), pipeEnds.end(),
+                        [&](const auto& end) { return twinOf(end.first, p, ownEnds, c) != ownEnds.end(); })) {
+          for (const auto& end : pipeEnds) droppedTwin[end.first] = 1;
+          std::vector<std::uint32_t> inliers;
+          std::set_union(pipes[c].inliers.begin(), pipes[c].inliers.end(), pipes[p].inliers.begin(),
+                         pipes[p].inliers.end(), std::back_inserter(inliers));
+          pipes[c].inliers = std::move(inliers);
+          carriedBy[p] = static_cast<int>(c);
+          carries[c] = 1;
+          continue;
+        }
+      }
       const int outer = onLine->outer;
       const int pipeSide = onLine->pipeSide;
       if (carriedOn[p][static_cast<std::size_t>(pipeSide)]) continue;
@@ -3574,10 +3606,7 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Gr
         bool endTaken = false;
         for (const auto& [h, side] : jointEndsOf(p)) {
           if (side != pipeSide) continue;
-          const auto twin = std::find_if(ownEnds.begin(), ownEnds.end(), [&, h = h](const auto& own) {
-            return hypotheses[own.first].type == hypotheses[h].type &&
-                   otherPipeOf(hypotheses[own.first], static_cast<int>(c)) == otherPipeOf(hypotheses[h], static_cast<int>(p));
-          });
+          const auto twin = twinOf(h, p, ownEnds, c);
           if (twin == ownEnds.end()) {
             endTaken = true;
             break;
