@@ -1461,12 +1461,10 @@ TEST(Joints, ALegHiddenFromItsBendToAMainBesideItIsProposedWithItsTee) {
   EXPECT_TRUE(unseen.joints.empty());
 }
 
-TEST(Joints, ALegBeyondACompletedLegIsCompletedInTheNextRound) {
-  // Pipe 1 comes along +x to a corner at the origin and turns up (R = 3r, r = 5 cm) into a 60 cm
-  // leg, which turns along +y into a 60 cm tail ending freely: both are points only, as legs too
-  // short for the Gaussian sphere. The tail's corner lies beyond the first leg, out of pipe 1's
-  // reach; the completed leg's free end finds it. Pipes 2 and 3, far off, run along y and z.
-  const double r = 0.05, R = 0.15, rise = 0.6;
+/// Pipe 1 comes along +x to a corner at the origin and turns up (bend radius R) into a leg rising
+/// to `rise`, which turns along +y into a tail reaching y = 0.6 and ending freely: both are points
+/// only. Pipes 2 and 3, far off, run along y and z.
+ConstructedScene legRisingIntoATail(double r, double R, double rise) {
   ConstructedScene scene;
   scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
   scene.addElbow({-R, 0, R}, {-R, 0, 0}, -Eigen::Vector3d::UnitY(), kPi / 2, r);
@@ -1475,8 +1473,15 @@ TEST(Joints, ALegBeyondACompletedLegIsCompletedInTheNextRound) {
   scene.addPipe({0, R, rise}, {0, 0.6, rise}, r, false);
   scene.addPipe({3, 0, 0}, {3, 1.2, 0}, r);
   scene.addPipe({6, 0, 0}, {6, 0, 1.2}, r);
+  return scene;
+}
 
-  const JointsResult result = scene.connect();
+TEST(Joints, ALegBeyondACompletedLegIsCompletedInTheNextRound) {
+  // R = 3r, r = 5 cm: a leg and a tail each reaching 60 cm from their corners, too short for the
+  // Gaussian sphere. The tail's corner lies beyond the first leg, out of pipe 1's reach; the
+  // completed leg's free end finds it.
+  const double r = 0.05, R = 0.15, rise = 0.6;
+  const JointsResult result = legRisingIntoATail(r, R, rise).connect();
   EXPECT_EQ(result.diagnostics.completedPipes, 2u);
   ASSERT_EQ(result.pipes.size(), 5u);
   const PipeSegment& leg = result.pipes[3];  // Completed pipes come after the input pipes, round by round.
@@ -1500,16 +1505,7 @@ TEST(Joints, ALegLongerThanTheCompletionLooksCarriesOnToTheCornerBeyond) {
   // beyond a 24 mm pipe's reach (0.19 m). The leg carries on over its points to its tangent point
   // first, and its free end then finds the tail.
   const double r = 0.024, R = 3.0 * r, rise = 1.25;
-  ConstructedScene scene;
-  scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
-  scene.addElbow({-R, 0, R}, {-R, 0, 0}, -Eigen::Vector3d::UnitY(), kPi / 2, r);
-  scene.addPipe({0, 0, R}, {0, 0, rise - R}, r, false);
-  scene.addElbow({0, R, rise - R}, {0, 0, rise - R}, -Eigen::Vector3d::UnitX(), kPi / 2, r);
-  scene.addPipe({0, R, rise}, {0, 0.6, rise}, r, false);
-  scene.addPipe({3, 0, 0}, {3, 1.2, 0}, r);
-  scene.addPipe({6, 0, 0}, {6, 0, 1.2}, r);
-
-  const JointsResult result = scene.connect();
+  const JointsResult result = legRisingIntoATail(r, R, rise).connect();
   EXPECT_EQ(result.diagnostics.completedPipes, 2u);
   EXPECT_EQ(result.diagnostics.carriedLegs, 1u);
   ASSERT_EQ(result.pipes.size(), 5u);
