@@ -31,9 +31,10 @@
 //    face (normals of one direction on points in a line) nor the edge of a post (normals on two
 //    directions at right angles); it is kept when it takes the elbow with the end it grew from
 //    (steps 1–3 run again with it); one that ran to the completion's length carries on over its
-//    points where they stop just past it (carryOnCappedLegs). Likewise every pipe looks along its body for a thin branch seen
-//    in a few scan columns: its axis meets the main's, so each unexplained point votes for where
-//    along the main and how thick; a peak's branch passes the same tests and must take the tee.
+//    points where they stop just past it (carryOnCappedLegs). Likewise every pipe looks along its
+//    body for a thin branch seen in a few scan columns: its axis meets the main's, so each
+//    unexplained point votes for where along the main and how thick; a peak's branch passes the
+//    same tests and must take the tee.
 //    The pipes so found look on in turn, round by round, until a round finds none.
 // 5. Ends still free: two look farther for each other across a corner hidden behind something
 //    (bridgeOccludedCorners), one reaches a pipe seen running on thinly to its corner from metres
@@ -3568,7 +3569,8 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Gr
   };
   const auto lengthOf = [&](std::size_t pipe) { return (pipes[pipe].end - pipes[pipe].start).norm(); };
   for (std::size_t c = 0; c < pipes.size(); ++c) {
-    if (absorbed[c] || carries[c] || carriedBy[c] >= 0) continue;  // A pipe that took a piece over stays.
+    // A pipe that took a piece over stays; one that went into a piece as its copy is done.
+    if (absorbed[c] || carries[c] || carriedBy[c] >= 0) continue;
     const auto ownEnds = jointEndsOf(c);
     const bool jointless = ownEnds.empty();
     for (std::size_t p = 0; p < pipes.size(); ++p) {

@@ -81,12 +81,14 @@ struct JointsInput {
   const PointCloud* planes = nullptr;
 };
 
-/// The joined network in the cloud's frame. The pipes keep their input order, less the fragments
-/// an elbow absorbed and the pipes that had to take a joint and took none, followed by the legs found beyond gentle bends that one pipe was fitted
-/// across, then the pipes completed beyond free ends or found as branches (round by round), then
-/// the legs between two bends (seen or hidden), with ids from 1 in that order (elbows move their ends to the tangent points, and two pipes
-/// overlapping at a gentle bend end at its corner, each axis refitted on its side); joint ids
-/// continue after the last pipe id.
+/// The joined network in the cloud's frame. The pipes keep their input order, less those reaching
+/// below the ground, the fragments an elbow absorbed, the pieces merged into a pipe on whose line
+/// they lay and the pipes that had to take a joint and took none; followed by the legs found beyond
+/// gentle bends that one pipe was fitted across, then the pipes completed beyond free ends or found
+/// as branches (round by round), then the legs between two bends (seen or hidden), with ids from 1
+/// in that order (elbows move their ends to the tangent points, and two pipes overlapping at a
+/// gentle bend end at its corner, each axis refitted on its side); joint ids continue after the
+/// last pipe id.
 /// Runs are the connected components of the pipes over accepted joints, every pipe in exactly one
 /// run, numbered from 1 in the order of their first pipe.
 struct JointsResult {
