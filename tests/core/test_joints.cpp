@@ -695,7 +695,7 @@ TEST(Joints, AFaceAFewCentimetresBeyondAThinPipesEndIsNoBendOfIt) {
     scene.addPipe({0.0, 1.0, 0.0}, {0.0, 1.0, -1.0}, r);
     return scene;
   };
-  // Control: with its own bend seen whole beyond it, the thin end takes an elbow onto a stub leg.
+  // First the pipe's own bend, seen whole beyond its end: the thin end takes an elbow onto a stub leg.
   ConstructedScene bend = thinEnd();
   bend.addBend(Eigen::Vector3d(R, 0.0, 0.0), Eigen::Vector3d::UnitX(), -Eigen::Vector3d::UnitZ(), R, r);
   const JointsResult bent = bend.connect();

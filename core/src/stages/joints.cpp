@@ -3568,6 +3568,15 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Gr
     });
   };
   const auto lengthOf = [&](std::size_t pipe) { return (pipes[pipe].end - pipes[pipe].start).norm(); };
+  // `into` takes over the points of `from`, which goes into it.
+  const auto takeOver = [&](std::size_t into, std::size_t from) {
+    std::vector<std::uint32_t> inliers;
+    std::set_union(pipes[into].inliers.begin(), pipes[into].inliers.end(), pipes[from].inliers.begin(),
+                   pipes[from].inliers.end(), std::back_inserter(inliers));
+    pipes[into].inliers = std::move(inliers);
+    carriedBy[from] = static_cast<int>(into);
+    carries[into] = 1;
+  };
   for (std::size_t c = 0; c < pipes.size(); ++c) {
     // A pipe that took a piece over stays; one that went into a piece as its copy is done.
     if (absorbed[c] || carries[c] || carriedBy[c] >= 0) continue;
@@ -3585,12 +3594,7 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Gr
         if (std::all_of(pipeEnds.begin(), pipeEnds.end(),
                         [&](const auto& end) { return twinOf(end.first, p, ownEnds, c) != ownEnds.end(); })) {
           for (const auto& end : pipeEnds) droppedTwin[end.first] = 1;
-          std::vector<std::uint32_t> inliers;
-          std::set_union(pipes[c].inliers.begin(), pipes[c].inliers.end(), pipes[p].inliers.begin(),
-                         pipes[p].inliers.end(), std::back_inserter(inliers));
-          pipes[c].inliers = std::move(inliers);
-          carriedBy[p] = static_cast<int>(c);
-          carries[c] = 1;
+          takeOver(c, p);
           continue;
         }
       }
@@ -3626,14 +3630,9 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Gr
       Eigen::Vector3d& pipeEnd = pipeSide == 0 ? pipe.start : pipe.end;
       const Eigen::Vector3d inward = pipeSide == 0 ? unitAxis(pipe) : Eigen::Vector3d(-unitAxis(pipe));
       if (duplicated.empty() && (outerEnd - pipeEnd).dot(inward) < 0.0) pipeEnd = outerEnd;
-      std::vector<std::uint32_t> inliers;
-      std::set_union(pipe.inliers.begin(), pipe.inliers.end(), pipes[c].inliers.begin(), pipes[c].inliers.end(),
-                     std::back_inserter(inliers));
-      pipe.inliers = std::move(inliers);
-      carriedBy[c] = static_cast<int>(p);
+      takeOver(p, c);
       carriedSide[c] = pipeSide;
       if (!jointless) carriedOn[p][static_cast<std::size_t>(pipeSide)] = 1;
-      carries[p] = 1;
       break;
     }
   }
