@@ -1724,20 +1724,20 @@ TEST(Joints, ACompletedLegThatRunsOnIntoAPipeIsThatPipe) {
   EXPECT_GT(carried.inliers.size(), riserInliers);
 }
 
-TEST(Joints, APieceFittedAgainInsideAPipeIsThatPipe) {
-  // A riser's first 0.3 m above its elbow fitted twice: once as the riser, once as a piece of its
-  // own (another tile's fit, 2° off), which took those points. The elbow goes to the riser; the
-  // piece takes no joint and lies in the riser's tube: it is the riser again, and its points are
-  // the riser's (medium seed 20, small seed 55).
+/// A riser's first 0.3 m above its elbow (R = 3r) fitted twice: once as the riser, once as a piece
+/// of its own (another tile's fit, 2° off), which took those points. Also gives the points the
+/// riser and the piece hold together.
+ConstructedScene riserWithAPieceFittedAgain(std::size_t& riserPoints, bool pieceMustJoin) {
   const double r = 0.05, R = 0.15, pieceLength = 0.3, tilt = 0.006;
   ConstructedScene scene;
   scene.addPipe({-1.5, 0, 0}, {-R, 0, 0}, r);
   scene.addBend(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitZ(), R, r);
   const int riser = scene.addPipe({0, 0, R}, {0, 0, 2.5}, r);
   PipeSegment piece = scene.pipes()[static_cast<std::size_t>(riser)];
-  const std::size_t riserPoints = piece.inliers.size();
+  riserPoints = piece.inliers.size();
   piece.start = {tilt, 0, R};
   piece.end = {-tilt, 0, R + pieceLength};
+  piece.mustJoin = pieceMustJoin;
   piece.inliers.clear();
   std::vector<std::uint32_t> riserInliers;
   for (const std::uint32_t i : scene.pipes()[static_cast<std::size_t>(riser)].inliers) {
@@ -1745,7 +1745,15 @@ TEST(Joints, APieceFittedAgainInsideAPipeIsThatPipe) {
   }
   scene.pipes()[static_cast<std::size_t>(riser)].inliers = riserInliers;
   scene.pipes().push_back(piece);
-  const JointsResult result = scene.connect();
+  return scene;
+}
+
+TEST(Joints, APieceFittedAgainInsideAPipeIsThatPipe) {
+  // The elbow goes to the riser; the piece takes no joint and lies in the riser's tube: it is the
+  // riser again, and its points are the riser's (medium seed 20, small seed 55).
+  const double R = 0.15;
+  std::size_t riserPoints = 0;
+  const JointsResult result = riserWithAPieceFittedAgain(riserPoints, false).connect();
   EXPECT_EQ(result.diagnostics.piecesAtEnds, 1u);
   ASSERT_NO_FATAL_FAILURE(expectOnlyAnElbowOfBendRadius(result, R, 0.05 * R));
   ASSERT_EQ(result.pipes.size(), 2u);
@@ -1753,6 +1761,18 @@ TEST(Joints, APieceFittedAgainInsideAPipeIsThatPipe) {
   EXPECT_EQ(result.pipes[1].inliers.size(), riserPoints);
   EXPECT_NEAR(result.pipes[1].start.z(), R, 0.005);
   EXPECT_NEAR(result.pipes[1].end.z(), 2.5, 1e-9);
+}
+
+TEST(Joints, AWeaklySupportedPieceInAPipeTakesThatPipesJoints) {
+  // The piece came from a weakly supported circle, so it stays only when it takes a joint: going
+  // into the riser, it takes the riser's elbow, and its points stay the riser's.
+  std::size_t riserPoints = 0;
+  const JointsResult result = riserWithAPieceFittedAgain(riserPoints, true).connect();
+  EXPECT_EQ(result.diagnostics.unjoinedPipes, 0u);
+  EXPECT_EQ(result.diagnostics.piecesAtEnds, 1u);
+  ASSERT_EQ(result.pipes.size(), 2u);
+  ASSERT_EQ(result.joints.size(), 1u);
+  EXPECT_EQ(result.pipes[1].inliers.size(), riserPoints);
 }
 
 TEST(Joints, ABranchFittedTwiceIsOnePipeWithOneTee) {

@@ -3648,7 +3648,10 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Gr
     inJoint[static_cast<std::size_t>(holder(first))] = inJoint[static_cast<std::size_t>(holder(second))] = 1;
   }
   for (std::size_t p = 0; p < input.pipes.size(); ++p) {
-    if (pipes[p].mustJoin && !inJoint[p] && !absorbed[p]) joined.unjoined.push_back(p);
+    // A piece that went into another pipe takes that pipe's joints.
+    if (pipes[p].mustJoin && !inJoint[static_cast<std::size_t>(holder(static_cast<int>(p)))] && !absorbed[p]) {
+      joined.unjoined.push_back(p);
+    }
   }
 
   // Pipe ids: input order, absorbed fragments and pieces merged at ends left out.
