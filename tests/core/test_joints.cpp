@@ -652,6 +652,34 @@ TEST(Joints, TheLegBeyondAGentleBendThatOnePipeWasFittedAcrossIsFound) {
   EXPECT_LT((result.pipes[0].end + tangent * Eigen::Vector3d::UnitX()).norm(), 0.02);
 }
 
+TEST(Joints, TheLevelLegUnderASlopeFittedAcrossItsBendIsFoundThoughNoLevelPipeRunsThatWay) {
+  // A level leg along +x turns at the origin up a 6° slope (r 5 cm, R 15 cm: a branch leaving a
+  // header level, then falling; small seed 24). No stage found the level leg: the slope's fit runs 0.3 m
+  // into it, tilted less than 5° from the slope. A pipe elsewhere runs along the slope, none level
+  // along x: the leg's direction is the level one under the slope.
+  const double r = 0.05, R = 0.15;
+  const Eigen::Vector3d in = Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d out(std::cos(kSixDegrees), 0.0, std::sin(kSixDegrees));
+  const double tangent = R * std::tan(0.5 * kSixDegrees);
+  ConstructedScene scene;
+  scene.addPipe(-0.8 * in, -tangent * in, r, /*listed=*/false);
+  scene.addBend(Eigen::Vector3d::Zero(), in, out, R, r);
+  scene.addPipe(tangent * out, 1.2 * out, r, /*listed=*/false);
+  const int slope = scene.addFittedPipe(Eigen::Vector3d(-0.3, 0.0, -0.002), 1.2 * out, r);
+  EXPECT_LT(std::acos(unitAxis(scene.pipes()[static_cast<std::size_t>(slope)]).dot(out)), 5.0 * kPi / 180.0);
+  const Eigen::Vector3d elsewhere(0.0, 2.0, 0.0);
+  scene.addPipe(elsewhere, elsewhere + 1.0 * out, r);
+
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.kinkLegs, 1u);
+  ASSERT_EQ(result.pipes.size(), 3u);
+  expectOnlyAnElbowAtTheOrigin(result, {1, 3});
+  // The leg (appended after the input pipes) is level and runs back to the level pipe's last point.
+  const PipeSegment& leg = result.pipes[2];
+  EXPECT_GT(std::fabs(unitAxis(leg).dot(in)), std::cos(0.3 * kPi / 180.0));
+  EXPECT_NEAR(std::min(leg.start.x(), leg.end.x()), -0.8, 0.02);
+}
+
 TEST(Joints, AnEndsLegIsCompletedThoughTheEndRanOnPastTheCornerOfABendOfThirtyDegrees) {
   // A 24 mm level pipe turns up a 30° slope (R = 3r) that no stage found; the level pipe's fit took
   // the slope's first 6 cm too, where its axis has left by 1.25 radii (a straight fit, a

@@ -385,6 +385,25 @@ std::optional<PipeSegment> legBeyondKink(const PointCloud& cloud, const PipeSegm
   return leg;
 }
 
+/// `directions` and, for each sloping gently (kMinKinkDeg to kMaxKinkDeg off level, z up), the level
+/// direction under it, unless one of `directions` runs so already: a sloping line turns off a level
+/// one (a drain leaving a header) whether or not another level pipe runs that way.
+std::vector<Eigen::Vector3d> withLevelUnderSlopes(const std::vector<Eigen::Vector3d>& directions) {
+  std::vector<Eigen::Vector3d> all = directions;
+  for (const Eigen::Vector3d& direction : directions) {
+    const Eigen::Vector3d level(direction.x(), direction.y(), 0.0);
+    if (level.norm() < 1e-9) continue;
+    const double slope = degrees(std::acos(std::min(1.0, level.norm())));
+    if (slope < kMinKinkDeg || slope > kMaxKinkDeg) continue;
+    const Eigen::Vector3d unit = level.normalized();
+    const bool known = std::any_of(all.begin(), all.end(), [&](const Eigen::Vector3d& other) {
+      return std::fabs(other.dot(unit)) >= std::cos(radians(kMinKinkDeg));
+    });
+    if (!known) all.push_back(unit);
+  }
+  return all;
+}
+
 /// Whether the middle of `piece` lies inside the tube of one of `pipes` other than `except`: the
 /// leg beyond a bend was found already.
 bool insideAnotherTube(const PipeSegment& piece, const std::vector<PipeSegment>& pipes, std::size_t except) {
@@ -413,6 +432,7 @@ GentleKinks splitAtGentleKinks(const PointCells& cells, std::vector<PipeSegment>
     for (std::uint32_t i : pipe.inliers) explained[i] = 1;
   }
   const double legReach = kMaxOvershoot + params.maxCompletionLength;
+  const std::vector<Eigen::Vector3d> legDirections = withLevelUnderSlopes(directions);
   const std::size_t found = pipes.size();
   std::vector<std::optional<PipeSegment>> legs(2 * found);
   tbb::parallel_for(std::size_t{0}, legs.size(), [&](std::size_t key) {
@@ -429,7 +449,7 @@ GentleKinks splitAtGentleKinks(const PointCells& cells, std::vector<PipeSegment>
                                         reach, [&](std::size_t i) { return !explained[i]; });
     candidates.insert(candidates.end(), near.begin(), near.end());
     std::sort(candidates.begin(), candidates.end());
-    legs[key] = legBeyondKink(cloud, pipe, side, directions, candidates, params);
+    legs[key] = legBeyondKink(cloud, pipe, side, legDirections, candidates, params);
   });
   // In end order: a leg found already (inside another pipe's tube, or over points an earlier leg
   // took) is not found again.
