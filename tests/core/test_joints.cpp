@@ -654,9 +654,9 @@ TEST(Joints, TheLegBeyondAGentleBendThatOnePipeWasFittedAcrossIsFound) {
 
 TEST(Joints, TheLevelLegUnderASlopeFittedAcrossItsBendIsFoundThoughNoLevelPipeRunsThatWay) {
   // A level leg along +x turns at the origin up a 6° slope (r 5 cm, R 15 cm: a branch leaving a
-  // header level, then falling; small seed 24). No stage found the level leg: the slope's fit runs 0.3 m
-  // into it, tilted less than 5° from the slope. A pipe elsewhere runs along the slope, none level
-  // along x: the leg's direction is the level one under the slope.
+  // header level, then falling; small seed 24). No stage found the level leg: the slope's fit runs
+  // 0.3 m into it, tilted less than 5° from the slope. A pipe elsewhere runs along the slope, none
+  // level along x: the leg's direction is the level one under the slope.
   const double r = 0.05, R = 0.15;
   const Eigen::Vector3d in = Eigen::Vector3d::UnitX();
   const Eigen::Vector3d out(std::cos(kSixDegrees), 0.0, std::sin(kSixDegrees));
