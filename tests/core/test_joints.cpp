@@ -652,19 +652,28 @@ TEST(Joints, TheLegBeyondAGentleBendThatOnePipeWasFittedAcrossIsFound) {
   EXPECT_LT((result.pipes[0].end + tangent * Eigen::Vector3d::UnitX()).norm(), 0.02);
 }
 
-TEST(Joints, TheLevelLegUnderASlopeFittedAcrossItsBendIsFoundThoughNoLevelPipeRunsThatWay) {
-  // A level leg along +x turns at the origin up a 6° slope (r 5 cm, R 15 cm: a branch leaving a
-  // header level, then falling; small seed 24). No stage found the level leg: the slope's fit runs
-  // 0.3 m into it, tilted less than 5° from the slope. A pipe elsewhere runs along the slope, none
-  // level along x: the leg's direction is the level one under the slope.
-  const double r = 0.05, R = 0.15;
+/// The scan of a level pipe along +x from x = -0.8 turning at the origin up a slope of `angle` in
+/// the x–z plane (bend radius R) that runs to `slopeEnd` along it; no pipe listed yet.
+ConstructedScene levelPipeTurningUp(double r, double R, double angle, double slopeEnd) {
   const Eigen::Vector3d in = Eigen::Vector3d::UnitX();
-  const Eigen::Vector3d out(std::cos(kSixDegrees), 0.0, std::sin(kSixDegrees));
-  const double tangent = R * std::tan(0.5 * kSixDegrees);
+  const Eigen::Vector3d out(std::cos(angle), 0.0, std::sin(angle));
+  const double tangent = R * std::tan(0.5 * angle);
   ConstructedScene scene;
   scene.addPipe(-0.8 * in, -tangent * in, r, /*listed=*/false);
   scene.addBend(Eigen::Vector3d::Zero(), in, out, R, r);
-  scene.addPipe(tangent * out, 1.2 * out, r, /*listed=*/false);
+  scene.addPipe(tangent * out, slopeEnd * out, r, /*listed=*/false);
+  return scene;
+}
+
+TEST(Joints, TheLevelLegUnderASlopeFittedAcrossItsBendIsFoundThoughNoLevelPipeRunsThatWay) {
+  // A level leg along +x turns at the origin up a 6° slope (r 5 cm, R 15 cm: a branch leaving its
+  // header level, then sloping; small seed 24). No stage found the level leg: the slope's fit runs
+  // 0.3 m into it, tilted less than 5° from the slope. A pipe elsewhere runs along the slope, none
+  // level along x: the leg's direction is the level one under the slope.
+  const double r = 0.05;
+  const Eigen::Vector3d in = Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d out(std::cos(kSixDegrees), 0.0, std::sin(kSixDegrees));
+  ConstructedScene scene = levelPipeTurningUp(r, 3.0 * r, kSixDegrees, 1.2);
   const int slope = scene.addFittedPipe(Eigen::Vector3d(-0.3, 0.0, -0.002), 1.2 * out, r);
   EXPECT_LT(std::acos(unitAxis(scene.pipes()[static_cast<std::size_t>(slope)]).dot(out)), 5.0 * kPi / 180.0);
   const Eigen::Vector3d elsewhere(0.0, 2.0, 0.0);
@@ -687,14 +696,10 @@ TEST(Joints, AnEndsLegIsCompletedThoughTheEndRanOnPastTheCornerOfABendOfThirtyDe
   // medium seed 3's branch ran 12 cm past a 17° bend). Too steep for the gentle kinks' legs, the
   // leg is completed from the end, its corner voted for that far behind. A pipe elsewhere runs
   // along the slope.
-  const double r = 0.024, R = 3.0 * r, angle = 30.0 * kPi / 180.0;
+  const double r = 0.024, angle = 30.0 * kPi / 180.0;
   const Eigen::Vector3d in = Eigen::Vector3d::UnitX();
   const Eigen::Vector3d out(std::cos(angle), 0.0, std::sin(angle));
-  const double tangent = R * std::tan(0.5 * angle);
-  ConstructedScene scene;
-  scene.addPipe(-0.8 * in, -tangent * in, r, /*listed=*/false);
-  scene.addBend(Eigen::Vector3d::Zero(), in, out, R, r);
-  scene.addPipe(tangent * out, 1.0 * out, r, /*listed=*/false);
+  ConstructedScene scene = levelPipeTurningUp(r, 3.0 * r, angle, 1.0);
   scene.addFittedPipe(-0.8 * in, 0.06 * in, r, 0.03);
   const Eigen::Vector3d elsewhere(0.0, 2.0, 0.0);
   scene.addPipe(elsewhere, elsewhere + 1.0 * out, r);
