@@ -1,0 +1,86 @@
+#pragma once
+// The joints stage's completion of free ends (see joints.cpp, step 4): pipes the earlier stages
+// missed, found beyond an end or off a pipe's body.
+
+#include "stages/joint_resolution.h"
+#include "cell_table.h"
+#include "points_near.h"
+#include "sort_by_key.h"
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+namespace piperun::joints {
+
+/// The 1 cm cells holding points removed as large planes: a point lies by a plane when a cell within
+/// one of its own holds one (within 1–2 cm of a plane point). Kept as sorted cell keys, built once
+/// per joining: a large scan's floors hold millions of points, too many to file again each round.
+class PlaneCells {
+ public:
+  explicit PlaneCells(const PointCloud* planes) {
+    if (!planes) return;
+    keys_.reserve(planes->size());
+    for (const Eigen::Vector3f& position : planes->positions) keys_.push_back(cellKey(cellOf(position.cast<double>())));
+    stableSortByKey(keys_, [](std::uint64_t key) { return key; });
+    keys_.erase(std::unique(keys_.begin(), keys_.end()), keys_.end());
+  }
+
+  bool by(const Eigen::Vector3d& p) const {
+    if (keys_.empty()) return false;
+    const Eigen::Vector3i cell = cellOf(p);
+    for (int k = 0; k < 27; ++k) {
+      const Eigen::Vector3i near = cell + Eigen::Vector3i(k % 3 - 1, k / 3 % 3 - 1, k / 9 - 1);
+      if (std::binary_search(keys_.begin(), keys_.end(), cellKey(near))) return true;
+    }
+    return false;
+  }
+
+ private:
+  static constexpr double kCellSize = 0.01;
+  static Eigen::Vector3i cellOf(const Eigen::Vector3d& p) { return (p / kCellSize).array().floor().cast<int>(); }
+
+  std::vector<std::uint64_t> keys_;
+};
+
+/// A pipe the earlier stages missed, found beyond a free end: short legs between elbows and tails
+/// into equipment hold too few points for the Gaussian sphere, but knowing the radius, the end and
+/// the network's directions leaves only the corner's place to find.
+struct Completion {
+  PipeEnd from;   // The end it continues beyond an elbow...
+  int main = -1;  // ...or, when not negative, the pipe it branches from at a tee.
+  PipeSegment pipe;  // From the corner beyond `from` (the main's wall) to its last supported section.
+  bool between = false;  // A leg up to the corner beyond a second end (see Completer::legBetween).
+  std::size_t bendSupport = 0;  // Points on the elbow's bend, for a leg found from them (see legBeyondBend)...
+  double bendSeenShare = 1.0;   // ...and the share of its turn they show, when it was seen from its start only.
+
+  /// The points that support it: on its pipe, and on the bend it was found from.
+  std::size_t support() const { return pipe.inliers.size() + bendSupport; }
+};
+
+/// Completions of the ends no accepted joint took, and branches off the pipes' bodies, of the pipes
+/// from `lookingFrom` on; best-supported first, a point supports one completion.
+std::vector<Completion> completeFreeEnds(const JointsInput& input, const JointsParams& params,
+                                         const std::vector<char>& explained, const Resolution& resolution,
+                                         const PlaneCells& planes, std::size_t lookingFrom, const PointCells& cells,
+                                         bool fromBends);
+
+/// Completions that each take their joint: an end's completion the elbow with that end, a branch the
+/// tee with its main.
+struct Adoption {
+  std::vector<Completion> completions;
+  std::vector<PipeSegment> pipes;  // The input pipes followed by the completions...
+  std::vector<char> explained;     // ...the points their inliers explain...
+  Resolution resolution;           // ...and their joints.
+};
+
+/// The completions adopted among `completions` of `input.pipes`: resolved again with them, those that
+/// take no joint go and the rest are resolved again, until all take theirs; nullopt when none does.
+/// Pipes from `completionsFrom` on are completions already.
+std::optional<Adoption> adoptCompletions(const JointsInput& input, const JointsParams& params,
+                                         const std::vector<char>& explained, std::vector<Completion> completions,
+                                         std::size_t completionsFrom, const PointCells& cells, Progress& progress);
+
+}  // namespace piperun::joints

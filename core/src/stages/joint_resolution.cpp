@@ -1,0 +1,247 @@
+// Hypotheses between pipes, reconstructed and resolved (see joint_resolution.h).
+
+#include "stages/joint_resolution.h"
+
+#include "angles.h"
+#include "points_near.h"
+#include "stages/segment_axis.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <utility>
+#include <vector>
+
+namespace piperun::joints {
+
+namespace {
+
+// A cylinder fitted across an elbow's bend (see liesOnArc): its middle within this many radii of
+// the arc, its ends within this many, at most this share of the arc's length, and at least this
+// far off both pipes' lines (deg).
+constexpr double kChordMiddleRadii = 0.5;
+constexpr double kChordEndRadii = 2.0;
+constexpr double kMaxChordArcShare = 1.5;
+constexpr double kMinChordOffLineDeg = 15.0;
+
+/// A spatial index over the pipes' axes: each pipe (by index) is filed in the cells its axis samples,
+/// half a cell apart, fall in.
+HashGrid pipeAxisGrid(const std::vector<PipeSegment>& pipes, double cellSize) {
+  HashGrid grid(cellSize);
+  for (std::size_t p = 0; p < pipes.size(); ++p) {
+    const PipeSegment& pipe = pipes[p];
+    const double length = (pipe.end - pipe.start).norm();
+    const int steps = std::max(1, static_cast<int>(std::ceil(length / (0.5 * cellSize))));
+    for (int k = 0; k <= steps; ++k) {
+      const Eigen::Vector3d sample = pipe.start + (pipe.end - pipe.start) * (static_cast<double>(k) / steps);
+      grid.insert(grid.cellOf(sample), static_cast<std::uint32_t>(p));
+    }
+  }
+  return grid;
+}
+
+}  // namespace
+
+bool liesOnArc(const PipeSegment& pipe, const Hypothesis& elbow) {
+  const auto nearArc = [&](const Eigen::Vector3d& point, double within) {
+    return std::any_of(elbow.axis.begin(), elbow.axis.end(),
+                       [&](const Eigen::Vector3d& sample) { return (sample - point).norm() <= within; });
+  };
+  if (nearArc(pipe.start, pipe.radius) && nearArc(pipe.end, pipe.radius)) return true;
+  // A cylinder fitted across the bend (a noisy bend's points fit one along a tangent or chord of
+  // the arc) leaves the arc at one end: its middle lies on the arc, it runs off both pipes' lines
+  // (a piece of either pipe runs along one), and it is at most half as long again as the arc.
+  double arcLength = 0.0;
+  for (std::size_t k = 1; k < elbow.axis.size(); ++k) arcLength += (elbow.axis[k] - elbow.axis[k - 1]).norm();
+  const Eigen::Vector3d axis = unitAxis(pipe);
+  const double maxCosine = std::cos(radians(kMinChordOffLineDeg));
+  return std::fabs(axis.dot(elbow.a.outward)) <= maxCosine && std::fabs(axis.dot(elbow.b.outward)) <= maxCosine &&
+         (pipe.end - pipe.start).norm() <= kMaxChordArcShare * arcLength &&
+         nearArc(0.5 * (pipe.start + pipe.end), kChordMiddleRadii * pipe.radius) &&
+         nearArc(pipe.start, kChordEndRadii * pipe.radius) && nearArc(pipe.end, kChordEndRadii * pipe.radius);
+}
+
+Resolution resolveJoints(const JointsInput& input, const JointsParams& params, const std::vector<char>& explained,
+                         std::size_t completionsFrom, const PointCells& cells, Progress& progress) {
+  const auto& pipes = input.pipes;
+  const int pipeCount = static_cast<int>(pipes.size());
+  const JointBuilder builder(input, params, explained);
+  Resolution resolution;
+
+  double largestRadius = 0.0;
+  for (const auto& pipe : pipes) largestRadius = std::max(largestRadius, pipe.radius);
+  const HashGrid pipeGrid = pipeAxisGrid(pipes, cells.cellSize());
+
+  // Hypotheses, in a deterministic order (by end, then by partner).
+  auto& hypotheses = resolution.hypotheses;
+  std::vector<int> near;
+  const auto fragment = [&](int p) { return isFragment(pipes[static_cast<std::size_t>(p)], params); };
+  for (int p = 0; p < pipeCount; ++p) {
+    if (fragment(p)) continue;
+    for (int side = 0; side < 2; ++side) {
+      const PipeEnd end = endOf(pipes, p, side);
+      const double partnerRadius = end.radius / params.minRadiusRatio;
+      // (A tee's main may be the thickest pipe of all: see teeAt.)
+      const double reach = std::max({builder.searchDistance(partnerRadius), builder.boundaryGapLimit(partnerRadius),
+                                     builder.searchDistance(largestRadius)}) +
+                           largestRadius;
+      near.clear();
+      pipeGrid.forEachInCube(end.point, reach, [&](std::uint32_t other) {
+        if (static_cast<int>(other) != p && !fragment(static_cast<int>(other))) near.push_back(static_cast<int>(other));
+      });
+      std::sort(near.begin(), near.end());
+      near.erase(std::unique(near.begin(), near.end()), near.end());
+      for (int other : near) {
+        ++resolution.diagnostics.candidatePairs;
+        builder.tryTee(end, other, hypotheses);
+        for (int otherSide = 0; otherSide < 2; ++otherSide) {
+          if (2 * other + otherSide < end.key()) continue;  // Each end pair once.
+          builder.tryEndPair(end, endOf(pipes, other, otherSide), hypotheses);
+        }
+      }
+    }
+  }
+  progress.checkCancelled();
+
+  std::vector<std::pair<Eigen::Vector3d, double>> spheres;
+  for (const auto& hypothesis : hypotheses) spheres.emplace_back(hypothesis.center, hypothesis.reach);
+  const auto nearby = pointsInSpheres(cells, spheres, [](std::size_t) { return true; });
+  progress.checkCancelled();
+  tbb::parallel_for(std::size_t{0}, hypotheses.size(),
+                    [&](std::size_t h) { builder.reconstruct(hypotheses[h], nearby[h]); });
+  progress.checkCancelled();
+  // A completion starts at the shortest elbow's tangent point, so the bend voted with it says
+  // nothing of the corner's shape: only the pipes found by the earlier stages are looked at.
+  const auto measured = [&](const PipeEnd& end) { return static_cast<std::size_t>(end.pipe) < completionsFrom; };
+  for (std::size_t h = 0, count = hypotheses.size(); h < count; ++h) {
+    if (!measured(hypotheses[h].a) || !measured(hypotheses[h].b)) continue;
+    if (auto tee = builder.teeForBendlessCorner(hypotheses[h], nearby[h])) {
+      hypotheses[h].valid = false;
+      hypotheses.push_back(std::move(*tee));
+    }
+  }
+
+  // A pipe of an elbow's radius lying on the arc of an elbow hypothesis between two other pipes,
+  // one confident enough to be accepted, may be a piece of that elbow's arc fitted as a cylinder.
+  // Its joints wait for that elbow: they take their ends no earlier than it would.
+  constexpr double kNoArc = 2.0;  // Above every confidence.
+  std::vector<double> arcConfidence(static_cast<std::size_t>(pipeCount), kNoArc);
+  for (const Hypothesis& elbow : hypotheses) {
+    if (!elbow.valid || elbow.type != JointType::Elbow || elbow.confidence < params.acceptConfidence) continue;
+    pipeGrid.forEachInCube(elbow.center, elbow.reach, [&](std::uint32_t p) {
+      const PipeSegment& pipe = pipes[p];
+      const double radiusRatio = std::min(pipe.radius, elbow.a.radius) / std::max(pipe.radius, elbow.a.radius);
+      if (static_cast<int>(p) != elbow.a.pipe && static_cast<int>(p) != elbow.b.pipe && !fragment(static_cast<int>(p)) &&
+          radiusRatio >= params.minRadiusRatio && liesOnArc(pipe, elbow)) {
+        arcConfidence[p] = std::min(arcConfidence[p], elbow.confidence);
+      }
+    });
+  }
+  const auto onArc = [&](int p) { return arcConfidence[static_cast<std::size_t>(p)] < kNoArc; };
+  const auto otherPipe = [](const Hypothesis& joint) {
+    return joint.type == JointType::Tee ? joint.mainPipe : joint.b.pipe;
+  };
+  const auto rank = [&](std::size_t h) {
+    const Hypothesis& joint = hypotheses[h];
+    const double waitsFor = std::min(arcConfidence[static_cast<std::size_t>(joint.a.pipe)],
+                                     arcConfidence[static_cast<std::size_t>(otherPipe(joint))]);
+    // (confidence, whether it does not wait): an elbow goes before the joints that wait for it.
+    return std::pair{std::min(joint.confidence, waitsFor), joint.confidence < waitsFor};
+  };
+
+  // Conflicts: the best-supported hypothesis takes its ends first.
+  std::vector<std::size_t> order;
+  for (std::size_t h = 0; h < hypotheses.size(); ++h) {
+    if (!hypotheses[h].valid) continue;
+    ++resolution.diagnostics.hypotheses[static_cast<std::size_t>(hypotheses[h].type)];
+    order.push_back(h);
+  }
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return rank(x) > rank(y); });
+  auto& takenBy = resolution.takenBy;
+  takenBy.assign(2 * static_cast<std::size_t>(pipeCount), -1);
+  const auto taken = [&](const PipeEnd& end) { return takenBy[static_cast<std::size_t>(end.key())] >= 0; };
+  // A tee whose main stops short of the junction carries the main's line on past that end, as far
+  // as the junction at least: no joint may turn the end nearer (a riser that bends at an elbow does
+  // not run on to a tee above it). By end: how far past it a chosen tee carries its line.
+  std::vector<double> carriedPast(takenBy.size(), -std::numeric_limits<double>::infinity());
+  const auto turnsAhead = [](const Hypothesis& joint, const PipeEnd& end) {  // where the joint ends its line
+    if (joint.type == JointType::Boundary) return std::numeric_limits<double>::infinity();
+    return (joint.corner - end.point).dot(end.outward);
+  };
+  const auto turnedShort = [&](const Hypothesis& joint, const PipeEnd& end) {
+    return carriedPast[static_cast<std::size_t>(end.key())] > turnsAhead(joint, end);
+  };
+  const auto carriedPastTurn = [&](const Hypothesis& tee) {
+    if (!tee.mainEnd) return false;
+    const int by = takenBy[static_cast<std::size_t>(tee.mainEnd->key())];
+    if (by < 0) return false;
+    const Hypothesis& joint = hypotheses[static_cast<std::size_t>(by)];
+    const PipeEnd& end = joint.a.key() == tee.mainEnd->key() ? joint.a : joint.b;
+    return turnsAhead(joint, end) < turnsAhead(tee, *tee.mainEnd);
+  };
+  MovedEnds movedEnds(pipes);
+  for (std::size_t h : order) {
+    const Hypothesis& hypothesis = hypotheses[h];
+    const bool twoEnds = hypothesis.type != JointType::Tee;
+    const bool elbow = hypothesis.type == JointType::Elbow;
+    if (taken(hypothesis.a) || (twoEnds && taken(hypothesis.b)) || turnedShort(hypothesis, hypothesis.a) ||
+        (twoEnds && turnedShort(hypothesis, hypothesis.b)) || carriedPastTurn(hypothesis) ||
+        (elbow && !movedEnds.leaveLength(hypothesis))) {
+      ++resolution.diagnostics.conflicts;
+      continue;
+    }
+    takenBy[static_cast<std::size_t>(hypothesis.a.key())] = static_cast<int>(h);
+    if (twoEnds) takenBy[static_cast<std::size_t>(hypothesis.b.key())] = static_cast<int>(h);
+    if (hypothesis.mainEnd) {
+      double& past = carriedPast[static_cast<std::size_t>(hypothesis.mainEnd->key())];
+      past = std::max(past, turnsAhead(hypothesis, *hypothesis.mainEnd));
+    }
+    if (elbow) movedEnds.move(hypothesis);
+    resolution.chosen.push_back(h);
+  }
+
+  resolution.arcPieces.assign(static_cast<std::size_t>(pipeCount), 0);
+  auto& chosen = resolution.chosen;
+  // The pieces on the arc of an elbow chosen between two other pipes go, and their own joints
+  // with them.
+  for (std::size_t h : chosen) {
+    const Hypothesis& elbow = hypotheses[h];
+    if (elbow.type != JointType::Elbow || onArc(elbow.a.pipe) || onArc(elbow.b.pipe)) continue;
+    pipeGrid.forEachInCube(elbow.center, elbow.reach, [&](std::uint32_t p) {
+      if (onArc(static_cast<int>(p)) && static_cast<int>(p) != elbow.a.pipe && static_cast<int>(p) != elbow.b.pipe &&
+          liesOnArc(pipes[p], elbow)) {
+        resolution.arcPieces[p] = 1;
+      }
+    });
+  }
+  const auto onPiece = [&](std::size_t h) {
+    return resolution.arcPieces[static_cast<std::size_t>(hypotheses[h].a.pipe)] ||
+           resolution.arcPieces[static_cast<std::size_t>(otherPipe(hypotheses[h]))];
+  };
+  for (std::size_t h : chosen) {
+    if (!onPiece(h)) continue;
+    takenBy[static_cast<std::size_t>(hypotheses[h].a.key())] = -1;
+    if (hypotheses[h].type != JointType::Tee) takenBy[static_cast<std::size_t>(hypotheses[h].b.key())] = -1;
+  }
+  chosen.erase(std::remove_if(chosen.begin(), chosen.end(), onPiece), chosen.end());
+  return resolution;
+}
+
+std::vector<PipeEnd> freeEnds(const std::vector<PipeSegment>& pipes, const JointsParams& params,
+                              const Resolution& resolution) {
+  std::vector<PipeEnd> ends;
+  for (int p = 0; p < static_cast<int>(pipes.size()); ++p) {
+    const auto pipe = static_cast<std::size_t>(p);
+    if (isFragment(pipes[pipe], params) || resolution.arcPieces[pipe]) continue;
+    for (int side = 0; side < 2; ++side) {
+      if (resolution.takenBy[static_cast<std::size_t>(2 * p + side)] < 0) ends.push_back(endOf(pipes, p, side));
+    }
+  }
+  return ends;
+}
+
+}  // namespace piperun::joints
