@@ -440,6 +440,7 @@ class Completer {
   // the leg takes the end's axis and radius, fitted on one side of its pipe, and a wide end's axis
   // is a few millimetres off along the view (medium seed 1: 2 mm on a 57 mm pipe, its leg's points
   // 1.8 mm outside the radius; 3 % allowed 1.7). Wider, posts and faces by thin ends pass.
+  static constexpr double kBesideSlack = 1e-6;  // Rounding room of the points left out by straightBeyond (m).
   static constexpr double kMinRadiusTolerance = 0.0015;
   static constexpr double kRadiusToleranceRadii = 0.035;
 
@@ -796,6 +797,14 @@ class Completer {
     const Eigen::Vector3d aside = along.cross(across);
     const double r = end.radius;
     const double band = params_.supportDistance;
+    // A point's offset along `aside` is its least distance from the leg's axis whatever the corner,
+    // and no point beyond the clutter shell counts for the leg (see completeAt): those are left out
+    // of the sphere around the end once, not at every corner tried.
+    const double reach = clutterReach(r, band) + kBesideSlack;
+    std::vector<std::uint32_t> beside;
+    for (const std::uint32_t i : nearby) {
+      if (std::fabs((input_.cloud.positions[i].cast<double>() - end.point).dot(aside)) <= reach) beside.push_back(i);
+    }
     // The straight begins past the shortest elbow's tangent point.
     const double firstAlong = params_.minBendRadii * r * std::tan(0.5 * bend);
     const double lastAlong = firstAlong + params_.maxCompletionLength;
@@ -804,7 +813,7 @@ class Completer {
 
     // Each point votes for the corners that put it on the surface: (α − t sin θ)² + c² = r².
     VoteHistogram histogram(minCorner, maxCorner, 0.5 * band / sine);
-    for (std::uint32_t i : nearby) {
+    for (std::uint32_t i : beside) {
       const Eigen::Vector3d w = input_.cloud.positions[i].cast<double>() - end.point;
       const double alpha = w.dot(across);
       const double c = w.dot(aside);
@@ -842,7 +851,7 @@ class Completer {
     std::optional<Completion> best;
     for (const double cornerDistance : histogram.peaks(kCornerPeaks)) {
       straight.corner = end.point + cornerDistance * end.outward;
-      auto candidate = completeAt(straight, nearby);
+      auto candidate = completeAt(straight, beside);
       if (candidate && (!best || candidate->inliers.size() > best->pipe.inliers.size())) {
         best = Completion{end, -1, std::move(*candidate)};
       }
@@ -876,6 +885,14 @@ class Completer {
     // The bend plane: x along the end's extension, y towards the leg, z across.
     const Eigen::Vector3d toward = (along - std::cos(bend) * outward) / std::sin(bend);
     const Eigen::Vector3d normal = outward.cross(toward);
+    // The bend, the leg and the end's extension lie in the bend plane: a point's offset across it is
+    // its least distance from any of their axes, and no point beyond the clutter shell counts (see
+    // isClutter), so those are left out of the sphere around the end once.
+    const double reach = clutterReach(r, band) + kBesideSlack;
+    std::vector<std::uint32_t> beside;
+    for (const std::uint32_t i : nearby) {
+      if (std::fabs((input_.cloud.positions[i].cast<double>() - end.point).dot(normal)) <= reach) beside.push_back(i);
+    }
     // Seen from one pipe only, a bend tighter than a short-radius elbow is a pipe's end against
     // something (a floor, a post).
     const double minBend = std::max(params_.minBendRadii, kMinOneSidedBendRadii) * r;
@@ -886,7 +903,7 @@ class Completer {
     // plane, on the leg's side of the end's line and past the earliest start: with fewer such
     // points than a completion needs, no torus is supported (and none is voted for).
     const double tube = r + band;
-    const auto possible = std::count_if(nearby.begin(), nearby.end(), [&](std::uint32_t i) {
+    const auto possible = std::count_if(beside.begin(), beside.end(), [&](std::uint32_t i) {
       const Eigen::Vector3d w = input_.cloud.positions[i].cast<double>() - end.point;
       return std::fabs(w.dot(normal)) <= tube && w.dot(toward) >= -tube && w.dot(outward) >= minStart - tube;
     });
@@ -923,7 +940,7 @@ class Completer {
       double start;
     };
     std::vector<Vote> cast;
-    for (std::uint32_t i : nearby) {
+    for (std::uint32_t i : beside) {
       const Eigen::Vector3d w = input_.cloud.positions[i].cast<double>() - end.point;
       const double z = w.dot(normal);
       if (std::fabs(z) >= r) continue;
@@ -1003,7 +1020,7 @@ class Completer {
     std::array<char, kBehindSections> straightOn{};
     const Eigen::Vector3d corner = end.point + (start + R * std::tan(0.5 * bend)) * outward;
     const Eigen::Vector3d tangentB = corner + R * std::tan(0.5 * bend) * along;
-    for (std::uint32_t i : nearby) {
+    for (std::uint32_t i : beside) {
       const Eigen::Vector3d w = input_.cloud.positions[i].cast<double>() - end.point;
       if (const auto point = onBend(w, R, start)) {
         const double distance = point->radial.norm();
@@ -1068,7 +1085,7 @@ class Completer {
     const auto sections =
         std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(params_.maxCompletionLength / kSectionLength)));
     std::vector<std::vector<std::uint32_t>> bySection(sections);
-    for (std::uint32_t i : nearby) {
+    for (std::uint32_t i : beside) {
       const Eigen::Vector3d d = input_.cloud.positions[i].cast<double>() - tangentB;
       const double distanceAlong = d.dot(along);
       if (distanceAlong < 0.0 || distanceAlong >= static_cast<double>(sections) * kSectionLength) continue;

@@ -8,15 +8,21 @@
 
 namespace piperun {
 
+/// The outer edge of the clutter shell around a tube of radius `r` (see isClutter): no point
+/// farther from its axis counts for the tube in any way.
+inline double clutterReach(double r, double band) {
+  constexpr double kMaxShell = 0.05;
+  return r + 2.0 * band + std::min(r, kMaxShell);
+}
+
 /// Whether a point `distance` from the axis of a tube of radius `r` whose surface points lie within
 /// `band` is clutter on it: well inside the tube (a wall, a box, another pipe's wall where a branch
 /// meets its main), or in a shell around it a radius wide but at most 5 cm (a wall or flange
 /// grazing the surface; wider, the shell would take a rack neighbour's wall for clutter).
 /// `unexplained` says whether the point is no pipe's inlier: only those count in the shell.
 inline bool isClutter(double distance, double r, double band, bool unexplained) {
-  constexpr double kMaxShell = 0.05;
   if (distance < r - 2.0 * band) return true;
-  return unexplained && distance > r + 2.0 * band && distance <= r + 2.0 * band + std::min(r, kMaxShell);
+  return unexplained && distance > r + 2.0 * band && distance <= clutterReach(r, band);
 }
 
 /// The last section of the run from the occupied section `from`, over gaps of at most `maxGap`
