@@ -440,9 +440,11 @@ class Completer {
   // the leg takes the end's axis and radius, fitted on one side of its pipe, and a wide end's axis
   // is a few millimetres off along the view (medium seed 1: 2 mm on a 57 mm pipe, its leg's points
   // 1.8 mm outside the radius; 3 % allowed 1.7). Wider, posts and faces by thin ends pass.
-  static constexpr double kBesideSlack = 1e-6;  // Rounding room of the points left out by straightBeyond (m).
   static constexpr double kMinRadiusTolerance = 0.0015;
   static constexpr double kRadiusToleranceRadii = 0.035;
+  // Rounding room of the points kept by nearPlane (m): the offsets it reads and those the tests read
+  // are computed from different origins.
+  static constexpr double kNearPlaneSlack = 1e-6;
 
   /// A point voting for a branch (see branchesOf), seen along the branch: its offsets across it
   /// along the main's axis (q) and off the plane of the two axes (h).
@@ -800,11 +802,7 @@ class Completer {
     // A point's offset along `aside` is its least distance from the leg's axis whatever the corner,
     // and no point beyond the clutter shell counts for the leg (see completeAt): those are left out
     // of the sphere around the end once, not at every corner tried.
-    const double reach = clutterReach(r, band) + kBesideSlack;
-    std::vector<std::uint32_t> beside;
-    for (const std::uint32_t i : nearby) {
-      if (std::fabs((input_.cloud.positions[i].cast<double>() - end.point).dot(aside)) <= reach) beside.push_back(i);
-    }
+    const std::vector<std::uint32_t> beside = nearPlane(nearby, end.point, aside, clutterReach(r, band));
     // The straight begins past the shortest elbow's tangent point.
     const double firstAlong = params_.minBendRadii * r * std::tan(0.5 * bend);
     const double lastAlong = firstAlong + params_.maxCompletionLength;
@@ -888,11 +886,7 @@ class Completer {
     // The bend, the leg and the end's extension lie in the bend plane: a point's offset across it is
     // its least distance from any of their axes, and no point beyond the clutter shell counts (see
     // isClutter), so those are left out of the sphere around the end once.
-    const double reach = clutterReach(r, band) + kBesideSlack;
-    std::vector<std::uint32_t> beside;
-    for (const std::uint32_t i : nearby) {
-      if (std::fabs((input_.cloud.positions[i].cast<double>() - end.point).dot(normal)) <= reach) beside.push_back(i);
-    }
+    const std::vector<std::uint32_t> beside = nearPlane(nearby, end.point, normal, clutterReach(r, band));
     // Seen from one pipe only, a bend tighter than a short-radius elbow is a pipe's end against
     // something (a floor, a post).
     const double minBend = std::max(params_.minBendRadii, kMinOneSidedBendRadii) * r;
@@ -1332,6 +1326,19 @@ class Completer {
     pipe.rms = onSurface.rms;
     pipe.confidence = coverage;
     return pipe;
+  }
+
+  /// The points of `nearby`, in order, within `reach` of the plane through `origin` square to the
+  /// unit `normal`.
+  std::vector<std::uint32_t> nearPlane(const std::vector<std::uint32_t>& nearby, const Eigen::Vector3d& origin,
+                                       const Eigen::Vector3d& normal, double reach) const {
+    std::vector<std::uint32_t> kept;
+    for (const std::uint32_t i : nearby) {
+      if (std::fabs((input_.cloud.positions[i].cast<double>() - origin).dot(normal)) <= reach + kNearPlaneSlack) {
+        kept.push_back(i);
+      }
+    }
+    return kept;
   }
 
   /// Whether point i's normal is within kSquareNormalAngleDeg of square to `axis`.
