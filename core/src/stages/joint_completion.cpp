@@ -778,9 +778,16 @@ class Completer {
     const double cosine = end.outward.dot(along);
     const double bend = std::acos(std::clamp(cosine, -1.0, 1.0));
     if (bend < radians(params_.minCompletionBendDeg) || bend > radians(params_.maxElbowAngleDeg)) return std::nullopt;
-    if (fromBends_) return legBeyondBend(end, along, bend, networks, nearby);
-    auto completion = straightBeyond(end, along, nearby, false);
-    if (!completion) completion = straightBeyond(end, along, nearby, true);
+    // The end's extension, the bend and the leg lie in the plane of `outward` and `along`: a point's
+    // offset across it is its least distance from any of their axes, and no point beyond the clutter
+    // shell counts for any (see isClutter; a bend's band is the joints' or narrower). Those are
+    // left out of the sphere around the end once, not at every corner and bend radius tried.
+    const Eigen::Vector3d planeNormal = along.cross(end.outward) / std::sin(bend);
+    const std::vector<std::uint32_t> beside =
+        nearPlane(nearby, end.point, planeNormal, clutterReach(end.radius, params_.supportDistance));
+    if (fromBends_) return legBeyondBend(end, along, bend, networks, beside);
+    auto completion = straightBeyond(end, along, beside, false);
+    if (!completion) completion = straightBeyond(end, along, beside, true);
     return completion;
   }
 
@@ -799,10 +806,6 @@ class Completer {
     const Eigen::Vector3d aside = along.cross(across);
     const double r = end.radius;
     const double band = params_.supportDistance;
-    // A point's offset along `aside` is its least distance from the leg's axis whatever the corner,
-    // and no point beyond the clutter shell counts for the leg (see completeAt): those are left out
-    // of the sphere around the end once, not at every corner tried.
-    const std::vector<std::uint32_t> beside = nearPlane(nearby, end.point, aside, clutterReach(r, band));
     // The straight begins past the shortest elbow's tangent point.
     const double firstAlong = params_.minBendRadii * r * std::tan(0.5 * bend);
     const double lastAlong = firstAlong + params_.maxCompletionLength;
@@ -811,7 +814,7 @@ class Completer {
 
     // Each point votes for the corners that put it on the surface: (α − t sin θ)² + c² = r².
     VoteHistogram histogram(minCorner, maxCorner, 0.5 * band / sine);
-    for (std::uint32_t i : beside) {
+    for (std::uint32_t i : nearby) {
       const Eigen::Vector3d w = input_.cloud.positions[i].cast<double>() - end.point;
       const double alpha = w.dot(across);
       const double c = w.dot(aside);
@@ -849,7 +852,7 @@ class Completer {
     std::optional<Completion> best;
     for (const double cornerDistance : histogram.peaks(kCornerPeaks)) {
       straight.corner = end.point + cornerDistance * end.outward;
-      auto candidate = completeAt(straight, beside);
+      auto candidate = completeAt(straight, nearby);
       if (candidate && (!best || candidate->inliers.size() > best->pipe.inliers.size())) {
         best = Completion{end, -1, std::move(*candidate)};
       }
@@ -883,10 +886,6 @@ class Completer {
     // The bend plane: x along the end's extension, y towards the leg, z across.
     const Eigen::Vector3d toward = (along - std::cos(bend) * outward) / std::sin(bend);
     const Eigen::Vector3d normal = outward.cross(toward);
-    // The bend, the leg and the end's extension lie in the bend plane: a point's offset across it is
-    // its least distance from any of their axes, and no point beyond the clutter shell counts (see
-    // isClutter), so those are left out of the sphere around the end once.
-    const std::vector<std::uint32_t> beside = nearPlane(nearby, end.point, normal, clutterReach(r, band));
     // Seen from one pipe only, a bend tighter than a short-radius elbow is a pipe's end against
     // something (a floor, a post).
     const double minBend = std::max(params_.minBendRadii, kMinOneSidedBendRadii) * r;
@@ -897,7 +896,7 @@ class Completer {
     // plane, on the leg's side of the end's line and past the earliest start: with fewer such
     // points than a completion needs, no torus is supported (and none is voted for).
     const double tube = r + band;
-    const auto possible = std::count_if(beside.begin(), beside.end(), [&](std::uint32_t i) {
+    const auto possible = std::count_if(nearby.begin(), nearby.end(), [&](std::uint32_t i) {
       const Eigen::Vector3d w = input_.cloud.positions[i].cast<double>() - end.point;
       return std::fabs(w.dot(normal)) <= tube && w.dot(toward) >= -tube && w.dot(outward) >= minStart - tube;
     });
@@ -934,7 +933,7 @@ class Completer {
       double start;
     };
     std::vector<Vote> cast;
-    for (std::uint32_t i : beside) {
+    for (std::uint32_t i : nearby) {
       const Eigen::Vector3d w = input_.cloud.positions[i].cast<double>() - end.point;
       const double z = w.dot(normal);
       if (std::fabs(z) >= r) continue;
@@ -1014,7 +1013,7 @@ class Completer {
     std::array<char, kBehindSections> straightOn{};
     const Eigen::Vector3d corner = end.point + (start + R * std::tan(0.5 * bend)) * outward;
     const Eigen::Vector3d tangentB = corner + R * std::tan(0.5 * bend) * along;
-    for (std::uint32_t i : beside) {
+    for (std::uint32_t i : nearby) {
       const Eigen::Vector3d w = input_.cloud.positions[i].cast<double>() - end.point;
       if (const auto point = onBend(w, R, start)) {
         const double distance = point->radial.norm();
@@ -1079,7 +1078,7 @@ class Completer {
     const auto sections =
         std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(params_.maxCompletionLength / kSectionLength)));
     std::vector<std::vector<std::uint32_t>> bySection(sections);
-    for (std::uint32_t i : beside) {
+    for (std::uint32_t i : nearby) {
       const Eigen::Vector3d d = input_.cloud.positions[i].cast<double>() - tangentB;
       const double distanceAlong = d.dot(along);
       if (distanceAlong < 0.0 || distanceAlong >= static_cast<double>(sections) * kSectionLength) continue;
