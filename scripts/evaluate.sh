@@ -14,7 +14,8 @@
 #   observable: share=… recall_observable=… (the share of the truth the scan shows, and the recall
 #               over that part; the scenes are generated with labels for it, see docs/EVALUATION.md)
 # and, without --pipes-only, the joint totals: over all the truth, over the observable joints, and
-# over the joints whose pipes the scan shows near their corners (docs/EVALUATION.md).
+# over the joints whose pipes the scan shows near their corners, then the missed joints by cause
+# (not seen at the corner, a pipe not found there, or both found and not joined; docs/EVALUATION.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PIPERUN=${PIPERUN:-build/app/piperun}
@@ -83,6 +84,9 @@ if [ ${#eval_flags[@]} -eq 0 ]; then
   echo "joints: elbows=$(total elbows) tees=$(total tees) spurious_joints=$(total spurious_joints) bend_radius_err=$median_bend"
   echo "observable joints: elbows=$(total observable_elbows) tees=$(total observable_tees)"
   echo "corner-seen joints: elbows=$(total corner_seen_elbows) tees=$(total corner_seen_tees)"
+  count() { sed -E "s/.*[[:space:]]$1=([0-9]+).*/\1/" "$results" | awk '{ a += $1 } END { printf "%d", a }'; }
+  misses() { echo "unseen=$(count "missed_$1_unseen") pipe_not_found=$(count "missed_$1_pipe_not_found") not_joined=$(count "missed_$1_not_joined")"; }
+  echo "missed joints by cause: elbows $(misses elbows), tees $(misses tees)"
   if [ "$runs" -gt 1 ]; then
     # Each run's totals over the scenes, then their mean per run (the spread is the pipeline's
     # sensitivity to its random draws).

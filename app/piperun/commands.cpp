@@ -233,6 +233,18 @@ void printJointOutcomes(const EvaluationResult& figures) {
       }
     }
     if (outcome.ownPoints >= 0) line += ", " + std::to_string(outcome.ownPoints) + " points on it";
+    if (outcome.cause != MissCause::None) {
+      line += "; " + toString(outcome.cause) + " (found near the corner:";
+      for (const double share : outcome.pipeFoundNearCorner) {
+        if (share < 0.0) {
+          line += " -";
+        } else {
+          std::snprintf(text, sizeof text, " %.0f %%", 100.0 * share);
+          line += text;
+        }
+      }
+      line += ")";
+    }
     std::printf("%s\n", line.c_str());
   }
   for (const SpuriousJoint& joint : figures.spurious) {
@@ -282,6 +294,11 @@ int runEval(const EvalOptions& options) {
       out["corner_seen_elbows_found"] = figures.foundCornerSeenElbows;
       out["corner_seen_tees_truth"] = figures.cornerSeenTees;
       out["corner_seen_tees_found"] = figures.foundCornerSeenTees;
+      const auto misses = [](const MissCounts& missed) {
+        return json{{"unseen", missed.unseen}, {"pipe_not_found", missed.pipeNotFound}, {"not_joined", missed.notJoined}};
+      };
+      out["missed_elbows"] = misses(figures.missedElbows);
+      out["missed_tees"] = misses(figures.missedTees);
     }
     if (options.joints) {
       const auto point = [](const Eigen::Vector3d& p) { return json::array({p.x(), p.y(), p.z()}); };
@@ -306,6 +323,8 @@ int runEval(const EvalOptions& options) {
           entry["corner_distance"] = outcome.cornerDistance;
         }
         if (outcome.ownPoints >= 0) entry["own_points"] = outcome.ownPoints;
+        if (!outcome.pipeFoundNearCorner.empty()) entry["pipe_found_near_corner"] = outcome.pipeFoundNearCorner;
+        if (outcome.cause != MissCause::None) entry["miss_cause"] = toString(outcome.cause);
         outcomes.push_back(std::move(entry));
       }
       json spurious = json::array();

@@ -116,7 +116,7 @@ case "$CASE" in
     # With the labelled scan, recall is also measured over the truth the scan shows.
     run 0 generate --preset small --seed 3 --density 0.25 --labels -o "$WORK/labelled.ply"
     run 0 eval --scan "$WORK/labelled.ply" "$WORK/truth.json" "$WORK/truth.json"
-    expect_out " observable=0\.[0-9]+ recall_observable=1\.000 observable_elbows=([0-9]+)/\1 observable_tees=([0-9]+)/\2 corner_seen_elbows=([0-9]+)/\3 corner_seen_tees=([0-9]+)/\4$"
+    expect_out " observable=0\.[0-9]+ recall_observable=1\.000 observable_elbows=([0-9]+)/\1 observable_tees=([0-9]+)/\2 corner_seen_elbows=([0-9]+)/\3 corner_seen_tees=([0-9]+)/\4 missed_elbows_unseen=0 missed_elbows_pipe_not_found=0 missed_elbows_not_joined=0 missed_tees_unseen=0 missed_tees_pipe_not_found=0 missed_tees_not_joined=0$"
     # Joint by joint: every truth elbow and tee found (by itself), with the points on its pipes.
     run 0 eval --joints --scan "$WORK/labelled.ply" "$WORK/truth.json" "$WORK/truth.json"
     expect_out "^joint elbow ([0-9]+) found as \1, 0\.000 m off, R ([0-9.]+) -> \2 m, at \(.*\), pipes [0-9]+ \([0-9]+ points, [0-9]+ within [0-9.]+ m\) [0-9]+ \([0-9]+ points, [0-9]+ within [0-9.]+ m\), [0-9]+ points on it$"

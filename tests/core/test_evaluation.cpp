@@ -249,6 +249,54 @@ TEST(Evaluation, AJointIsSeenAtItsCornerWhenEachPipeHasPointsNearIt) {
   EXPECT_EQ(missed.foundCornerSeenElbows, 0);
 }
 
+TEST(Evaluation, AMissedJointSaysWhetherItWasUnseenItsPipeNotFoundOrItNotJoined) {
+  const PipeNetwork truth = lShapedRun();  // elbow 4 near (2.07, 0.03, 0) joins pipes 1 and 2
+  // Ten points on each pipe within the elbow's reach (0.5 m), enough for the samples there to be
+  // observable; pipe 3 and the tee hold none.
+  const std::vector<std::tuple<int, Eigen::Vector3f, int>> nearCorner{{1, Eigen::Vector3f(1.8f, 0.0f, 0.0f), 10},
+                                                                      {2, Eigen::Vector3f(2.1f, 0.3f, 0.0f), 10}};
+  const PointCloud scan = placedLabelledScan(nearCorner);
+  PipeNetwork noElbow = truth;
+  noElbow.joints.erase(noElbow.joints.begin());
+
+  // Both pipes found where the scan shows them, the elbow not made: the joints stage's miss.
+  const EvaluationResult notJoined = evaluateNetwork(truth, noElbow, {}, &scan);
+  ASSERT_EQ(notJoined.jointOutcomes.size(), 2u);
+  EXPECT_EQ(notJoined.jointOutcomes[0].cause, MissCause::NotJoined);
+  EXPECT_EQ(notJoined.jointOutcomes[0].pipeFoundNearCorner, (std::vector<double>{1.0, 1.0}));
+  EXPECT_EQ(notJoined.missedElbows.notJoined, 1);
+  EXPECT_EQ(notJoined.missedElbows.pipeNotFound + notJoined.missedElbows.unseen, 0);
+  // The tee was found: no cause, nothing counted for tees.
+  EXPECT_EQ(notJoined.jointOutcomes[1].matchedId, 5);
+  EXPECT_EQ(notJoined.jointOutcomes[1].cause, MissCause::None);
+  EXPECT_EQ(notJoined.missedTees.unseen + notJoined.missedTees.pipeNotFound + notJoined.missedTees.notJoined, 0);
+  EXPECT_NE(formatEvaluation(notJoined).find(" missed_elbows_unseen=0 missed_elbows_pipe_not_found=0"
+                                             " missed_elbows_not_joined=1 missed_tees_unseen=0"),
+            std::string::npos);
+
+  // Pipe 2 found only from 1 m up, away from the points by the corner: a pipe not found there.
+  PipeNetwork shortPipe = noElbow;
+  shortPipe.pipes[1].start = Eigen::Vector3d(2.1, 1.0, 0);
+  const EvaluationResult pipeNotFound = evaluateNetwork(truth, shortPipe, {}, &scan);
+  EXPECT_EQ(pipeNotFound.jointOutcomes[0].cause, MissCause::PipeNotFound);
+  EXPECT_DOUBLE_EQ(pipeNotFound.jointOutcomes[0].pipeFoundNearCorner[0], 1.0);
+  EXPECT_DOUBLE_EQ(pipeNotFound.jointOutcomes[0].pipeFoundNearCorner[1], 0.0);
+  EXPECT_EQ(pipeNotFound.missedElbows.pipeNotFound, 1);
+
+  // Only four points of pipe 2 near the corner (under cornerMinPoints): unseen, found pipes or not.
+  const PointCloud thinScan = placedLabelledScan({nearCorner[0],
+                                                  {2, Eigen::Vector3f(2.1f, 0.3f, 0.0f), 4}});
+  const EvaluationResult unseen = evaluateNetwork(truth, noElbow, {}, &thinScan);
+  EXPECT_EQ(unseen.jointOutcomes[0].cause, MissCause::Unseen);
+  EXPECT_EQ(unseen.missedElbows.unseen, 1);
+  EXPECT_EQ(toString(MissCause::Unseen), "unseen");
+
+  // Found: no cause; without a scan, none told.
+  EXPECT_EQ(evaluateNetwork(truth, truth, {}, &scan).jointOutcomes[0].cause, MissCause::None);
+  EXPECT_EQ(evaluateNetwork(truth, noElbow).jointOutcomes[0].cause, MissCause::None);
+  EXPECT_TRUE(evaluateNetwork(truth, noElbow).jointOutcomes[0].pipeFoundNearCorner.empty());
+}
+
 TEST(Evaluation, JointOutcomesSayWhatWasFoundMissedAndSpurious) {
   const PipeNetwork truth = lShapedRun();  // elbow 4 joins pipes 1 and 2, tee 5 pipes 1 and 3
   PipeNetwork predicted = truth;

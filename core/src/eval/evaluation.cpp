@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <tuple>
 #include <unordered_map>
+#include <utility>
 
 namespace piperun {
 
@@ -234,6 +235,7 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
   // Recall and radius error: each truth sample looks for predicted samples within its tolerance.
   const SampleGrid predictedGrid(predictedSamples, maxTolerance);
   std::vector<double> radiusErrors;
+  std::vector<char> truthMatched(truthSamples.size(), 0);
   for (std::size_t t = 0; t < truthSamples.size(); ++t) {
     const AxisSample& sample = truthSamples[t];
     const double tolerance = toleranceOf(sample);
@@ -247,6 +249,7 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
       }
     });
     if (std::isfinite(nearest)) {
+      truthMatched[t] = 1;
       ++result.matchedTruthSamples;
       radiusErrors.push_back(std::fabs(nearestRadius - sample.radius));
     }
@@ -290,6 +293,27 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
   };
   const auto nearCorners = labelledScan ? pointsNearCorners(truth, params, *labelledScan)
                                         : std::unordered_map<const Joint*, std::vector<int>>{};
+  std::unordered_map<int, const ElementSamples*> truthElementOf;
+  for (const ElementSamples& element : truthSampled.elements) truthElementOf.emplace(element.id, &element);
+  // The share of a truth pipe's samples within `reach` of `position` that the prediction matched:
+  // of those the scan shows, or of all when it shows none there (a few scattered points); -1 when
+  // the pipe has no sample there.
+  const auto foundNear = [&](int pipe, const Eigen::Vector3d& position, double reach) {
+    const auto found = truthElementOf.find(pipe);
+    if (found == truthElementOf.end()) return -1.0;
+    int near = 0, nearMatched = 0, shown = 0, shownMatched = 0;
+    for (std::size_t s = found->second->first; s < found->second->last; ++s) {
+      if ((truthSamples[s].position - position).norm() > reach) continue;
+      ++near;
+      nearMatched += truthMatched[s];
+      if (observable[s]) {
+        ++shown;
+        shownMatched += truthMatched[s];
+      }
+    }
+    if (shown > 0) return static_cast<double>(shownMatched) / shown;
+    return near > 0 ? static_cast<double>(nearMatched) / near : -1.0;
+  };
   for (const JointType type : {JointType::Elbow, JointType::Tee, JointType::Boundary}) {
     const auto matches = matchJoints(truth, predictedJoints, type, params, predictedMatched);
     if (type == JointType::Boundary) continue;  // Generated truths list none; a bridged gap is checked below.
@@ -323,10 +347,30 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
         }
         outcome.pipePointsNearCorner = nearCorners.at(joint);
         outcome.cornerDistance = cornerReach(*joint, params);
-        if (std::all_of(outcome.pipePointsNearCorner.begin(), outcome.pipePointsNearCorner.end(),
-                        [&](int points) { return points >= params.cornerMinPoints; })) {
+        const bool cornerSeen =
+            std::all_of(outcome.pipePointsNearCorner.begin(), outcome.pipePointsNearCorner.end(),
+                        [&](int points) { return points >= params.cornerMinPoints; });
+        if (cornerSeen) {
           (elbow ? result.cornerSeenElbows : result.cornerSeenTees) += 1;
           (elbow ? result.foundCornerSeenElbows : result.foundCornerSeenTees) += p >= 0;
+        }
+        for (const int pipe : joint->pipeIds) {
+          outcome.pipeFoundNearCorner.push_back(foundNear(pipe, outcome.position, outcome.cornerDistance));
+        }
+        if (p < 0) {
+          const auto& shares = outcome.pipeFoundNearCorner;
+          MissCounts& missed = elbow ? result.missedElbows : result.missedTees;
+          if (!cornerSeen) {
+            outcome.cause = MissCause::Unseen;
+            ++missed.unseen;
+          } else if (std::any_of(shares.begin(), shares.end(),
+                                 [&](double share) { return share < params.cornerFoundShare; })) {
+            outcome.cause = MissCause::PipeNotFound;
+            ++missed.pipeNotFound;
+          } else {
+            outcome.cause = MissCause::NotJoined;
+            ++missed.notJoined;
+          }
         }
       }
       result.jointOutcomes.push_back(std::move(outcome));
@@ -365,6 +409,16 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
   return result;
 }
 
+std::string toString(MissCause cause) {
+  switch (cause) {
+    case MissCause::None: return "";
+    case MissCause::Unseen: return "unseen";
+    case MissCause::PipeNotFound: return "pipe_not_found";
+    case MissCause::NotJoined: return "not_joined";
+  }
+  return "";
+}
+
 std::string formatEvaluation(const EvaluationResult& result) {
   char line[320];
   std::snprintf(line, sizeof line,
@@ -383,6 +437,11 @@ std::string formatEvaluation(const EvaluationResult& result) {
                   result.foundCornerSeenElbows, result.cornerSeenElbows, result.foundCornerSeenTees,
                   result.cornerSeenTees);
     text += line;
+    for (const auto& [type, missed] : {std::make_pair("elbows", result.missedElbows), std::make_pair("tees", result.missedTees)}) {
+      std::snprintf(line, sizeof line, " missed_%s_unseen=%d missed_%s_pipe_not_found=%d missed_%s_not_joined=%d", type,
+                    missed.unseen, type, missed.pipeNotFound, type, missed.notJoined);
+      text += line;
+    }
   }
   return text;
 }

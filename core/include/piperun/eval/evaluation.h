@@ -31,7 +31,22 @@ struct EvaluationParams {
   double cornerMinDistance = 0.5;
   double cornerRadii = 8.0;
   int cornerMinPoints = 5;
+  /// With a labelled scan: a pipe of a missed joint counts as found at the corner when the prediction
+  /// matches at least this share of its samples within the corner's reach that are observable (of
+  /// all its samples there when none is; see MissCause).
+  double cornerFoundShare = 0.5;
 };
+
+/// Why a truth elbow or tee was missed, told with a labelled scan: the stage to look at.
+enum class MissCause {
+  None,          ///< Found, or no labelled scan to tell.
+  Unseen,        ///< A pipe is not seen at the corner (under cornerMinPoints points near it; see corner_seen).
+  PipeNotFound,  ///< Each pipe is seen at the corner, but the prediction misses one there (placement, completion).
+  NotJoined,     ///< Each pipe is seen and found at the corner, but no joint of the type matches (joints).
+};
+
+/// "unseen", "pipe_not_found", "not_joined" ("" for None).
+std::string toString(MissCause cause);
 
 /// What the evaluation made of one truth elbow or tee.
 struct JointOutcome {
@@ -48,6 +63,17 @@ struct JointOutcome {
                                      ///< joint itself; -1 when not measured.
   std::vector<int> pipePointsNearCorner;  ///< With a labelled scan: each pipe's labelled points near the joint
   double cornerDistance = 0.0;       ///< (within this of its position, m; see EvaluationParams::cornerMinDistance).
+  std::vector<double> pipeFoundNearCorner;  ///< With a labelled scan: per pipe, the share of its samples
+                                            ///< within cornerDistance that the prediction matches (see
+                                            ///< EvaluationParams::cornerFoundShare; -1: none there).
+  MissCause cause = MissCause::None;  ///< With a labelled scan, when missed: why.
+};
+
+/// Missed truth joints of one type by cause (with a labelled scan).
+struct MissCounts {
+  int unseen = 0;
+  int pipeNotFound = 0;
+  int notJoined = 0;
 };
 
 /// A predicted joint (not rejected) that matched no truth joint.
@@ -84,6 +110,8 @@ struct EvaluationResult {
   int foundCornerSeenElbows = 0;     ///< EvaluationParams::cornerMinPoints), and how many of those were found.
   int cornerSeenTees = 0;            ///< The same for tees.
   int foundCornerSeenTees = 0;
+  MissCounts missedElbows;           ///< The missed truth elbows by cause (see MissCause)...
+  MissCounts missedTees;             ///< ...and tees.
 
   int truthElbows = 0;
   int foundElbows = 0;               ///< Truth elbows matched by a predicted elbow.
@@ -106,7 +134,9 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
 
 /// "precision=0.912 recall=0.874 f1=0.893 radius_err_mm=3.1 elbows=17/20 tees=5/6 ...", then
 /// "observable=0.906 recall_observable=0.939 observable_elbows=73/89 observable_tees=20/22
-/// corner_seen_elbows=70/80 corner_seen_tees=19/21" when those were measured.
+/// corner_seen_elbows=70/80 corner_seen_tees=19/21 missed_elbows_unseen=2
+/// missed_elbows_pipe_not_found=1 missed_elbows_not_joined=0 missed_tees_unseen=1 …" when those
+/// were measured.
 std::string formatEvaluation(const EvaluationResult& result);
 
 }  // namespace piperun
