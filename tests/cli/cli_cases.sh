@@ -124,6 +124,14 @@ case "$CASE" in
     run 0 eval --json --joints "$WORK/truth.json" "$WORK/truth.json"
     expect_out '"spurious": \[\]'
     expect_out '"found": true'
+    # The truth's first joint rejected: missed, with every pipe found, so unseen or not joined.
+    sed '0,/"status": "accepted"/s//"status": "rejected"/' "$WORK/truth.json" >"$WORK/one_rejected.json"
+    run 0 eval --joints --scan "$WORK/labelled.ply" "$WORK/truth.json" "$WORK/one_rejected.json"
+    expect_out "^joint (elbow|tee) [0-9]+ missed, .*; (unseen|not_joined) \(found near the corner: 100 % 100 %\)$"
+    expect_out " missed_elbows_unseen=[0-9]+ missed_elbows_pipe_not_found=0 missed_elbows_not_joined=[0-9]+ missed_tees_unseen=[0-9]+ missed_tees_pipe_not_found=0 missed_tees_not_joined=[0-9]+$"
+    run 0 eval --json --joints --scan "$WORK/labelled.ply" "$WORK/truth.json" "$WORK/one_rejected.json"
+    expect_out '"miss_cause": "(unseen|not_joined)"'
+    expect_out '"missed_elbows": \{'
     run 1 eval --scan "$WORK/scene.ply" "$WORK/truth.json" "$WORK/truth.json"
     expect_one_line_error "the scan has no labels"
     ;;
