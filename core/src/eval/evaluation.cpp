@@ -31,6 +31,7 @@ struct ElementSamples {
 struct NetworkSamples {
   std::vector<AxisSample> samples;
   std::vector<ElementSamples> elements;
+  std::unordered_map<int, std::size_t> elementOf;  ///< Index into `elements` by element id.
 };
 
 NetworkSamples sampleNetwork(const PipeNetwork& network, double step, bool skipDiscarded, bool pipesOnly) {
@@ -38,6 +39,7 @@ NetworkSamples sampleNetwork(const PipeNetwork& network, double step, bool skipD
   const auto add = [&](int id, const std::vector<Eigen::Vector3d>& polyline, double radius) {
     const std::size_t first = sampled.samples.size();
     for (const auto& p : samplePolyline(polyline, step)) sampled.samples.push_back({p, radius});
+    sampled.elementOf.emplace(id, sampled.elements.size());
     sampled.elements.push_back({id, first, sampled.samples.size(), polyline.size() == 2});
   };
   for (const auto& pipe : network.pipes) {
@@ -62,12 +64,10 @@ struct ScanCoverage {
 /// its element, and a sample is observable when its window along the element holds enough points.
 ScanCoverage scanCoverage(const NetworkSamples& truth, const PointCloud& scan, const EvaluationParams& params) {
   ScanCoverage coverage;
-  std::unordered_map<int, std::size_t> elementOf;
-  for (std::size_t e = 0; e < truth.elements.size(); ++e) elementOf.emplace(truth.elements[e].id, e);
   std::vector<int> pointsAt(truth.samples.size(), 0);
   for (std::size_t i = 0; i < scan.size(); ++i) {
-    const auto found = elementOf.find(scan.labels[i]);
-    if (found == elementOf.end()) continue;
+    const auto found = truth.elementOf.find(scan.labels[i]);
+    if (found == truth.elementOf.end()) continue;
     const ElementSamples& element = truth.elements[found->second];
     const Eigen::Vector3d p = scan.worldPosition(i);
     std::size_t nearest = element.first;
@@ -293,16 +293,15 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
   };
   const auto nearCorners = labelledScan ? pointsNearCorners(truth, params, *labelledScan)
                                         : std::unordered_map<const Joint*, std::vector<int>>{};
-  std::unordered_map<int, const ElementSamples*> truthElementOf;
-  for (const ElementSamples& element : truthSampled.elements) truthElementOf.emplace(element.id, &element);
   // The share of a truth pipe's samples within `reach` of `position` that the prediction matched:
   // of those the scan shows, or of all when it shows none there (a few scattered points); -1 when
   // the pipe has no sample there.
   const auto foundNear = [&](int pipe, const Eigen::Vector3d& position, double reach) {
-    const auto found = truthElementOf.find(pipe);
-    if (found == truthElementOf.end()) return -1.0;
+    const auto found = truthSampled.elementOf.find(pipe);
+    if (found == truthSampled.elementOf.end()) return -1.0;
+    const ElementSamples& element = truthSampled.elements[found->second];
     int near = 0, nearMatched = 0, shown = 0, shownMatched = 0;
-    for (std::size_t s = found->second->first; s < found->second->last; ++s) {
+    for (std::size_t s = element.first; s < element.last; ++s) {
       if ((truthSamples[s].position - position).norm() > reach) continue;
       ++near;
       nearMatched += truthMatched[s];
