@@ -87,6 +87,10 @@ if [ ${#eval_flags[@]} -eq 0 ]; then
   count() { sed -E "s/.*[[:space:]]$1=([0-9]+).*/\1/" "$results" | awk '{ a += $1 } END { printf "%d", a }'; }
   misses() { echo "unseen=$(count "missed_$1_unseen") pipe_not_found=$(count "missed_$1_pipe_not_found") not_joined=$(count "missed_$1_not_joined")"; }
   echo "missed joints by cause: elbows $(misses elbows), tees $(misses tees)"
+  # What keeping the accepted elements and reviewing the proposed ones gives: the share of each
+  # status's axis samples on the truth (precision by status) and its spurious joints.
+  ratio() { sed -E "s/.*[[:space:]]$1=([0-9]+)\/([0-9]+).*/\1 \2/" "$results" | awk '{ a += $1; b += $2 } END { if (b == 0) print "n/a"; else printf "%.3f", a / b }'; }
+  echo "by review status: accepted precision=$(ratio accepted_matched) spurious_joints=$(total spurious_accepted), proposed precision=$(ratio proposed_matched) spurious_joints=$(total spurious_proposed)"
   if [ "$runs" -gt 1 ]; then
     # Each run's totals over the scenes, then their mean per run (the spread is the pipeline's
     # sensitivity to its random draws).

@@ -283,6 +283,12 @@ int runEval(const EvalOptions& options) {
                       {"predicted_joints", figures.predictedJoints},
                       {"spurious_joints", figures.spuriousJoints},
                       {"bend_radius_err", figures.bendRadiusErrorMedian}};
+    const auto byStatus = [](const ReviewShare& samples, const ReviewShare& spurious) {
+      return json{{"samples", samples.total}, {"matched_samples", samples.part}, {"joints", spurious.total},
+                  {"spurious_joints", spurious.part}};
+    };
+    out["accepted"] = byStatus(figures.acceptedSamples, figures.spuriousAccepted);
+    out["proposed"] = byStatus(figures.proposedSamples, figures.spuriousProposed);
     if (figures.observableMeasured) {
       out["observable_share"] = figures.observableShare;
       out["recall_observable"] = figures.recallObservable;

@@ -111,8 +111,15 @@ case "$CASE" in
     expect_out "^pipes: [0-9]+"
     run 0 eval "$WORK/truth.json" "$WORK/truth.json"
     expect_out "precision=1.000 recall=1.000 f1=1.000 radius_err_mm=0.0"
+    expect_out " accepted_matched=([0-9]+)/\1 proposed_matched=0/0 spurious_accepted=0/[1-9][0-9]* spurious_proposed=0/0"
     run 0 eval --json "$WORK/truth.json" "$WORK/truth.json"
     expect_out '"f1": 1.0'
+    # By review status: the truth's first joint proposed is a proposed joint on the truth.
+    sed '0,/"status": "accepted"/s//"status": "proposed"/' "$WORK/truth.json" >"$WORK/one_proposed.json"
+    run 0 eval "$WORK/truth.json" "$WORK/one_proposed.json"
+    expect_out " accepted_matched=([0-9]+)/\1 proposed_matched=([1-9][0-9]*)/\2 spurious_accepted=0/[1-9][0-9]* spurious_proposed=0/1"
+    run 0 eval --json "$WORK/truth.json" "$WORK/one_proposed.json"
+    expect_out '"proposed": \{'
     # With the labelled scan, recall is also measured over the truth the scan shows.
     run 0 generate --preset small --seed 3 --density 0.25 --labels -o "$WORK/labelled.ply"
     run 0 eval --scan "$WORK/labelled.ply" "$WORK/truth.json" "$WORK/truth.json"
@@ -243,6 +250,7 @@ case "$CASE" in
     expect_out "^run 0: elbows=[0-9]+/[0-9]+ tees=[0-9]+/[0-9]+ spurious_joints=[0-9]+/[0-9]+ f1=[0-9.]+$"
     expect_out "^run 1: elbows=[0-9]+/[0-9]+ "
     expect_out "^mean of 2 runs: elbows=[0-9]+\.[0-9]/[0-9]+ tees=[0-9]+\.[0-9]/[0-9]+ spurious_joints=[0-9]+\.[0-9]/[0-9]+ f1=[0-9.]+$"
+    expect_out "^by review status: accepted precision=[0-9.]+ spurious_joints=[0-9]+/[0-9]+, proposed precision=([0-9.]+|n/a) spurious_joints=[0-9]+/[0-9]+$"
     OUT=$(PIPERUN="$PIPERUN" bash "$script" --seeds 4 --runs 0 2>&1) && fail "evaluate.sh took --runs 0: $OUT"
     expect_out "needs a positive count"
     ;;

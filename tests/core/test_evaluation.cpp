@@ -342,6 +342,43 @@ TEST(Evaluation, JointOutcomesSayWhatWasFoundMissedAndSpurious) {
   EXPECT_EQ(unscanned.jointOutcomes[0].ownPoints, -1);
 }
 
+TEST(Evaluation, FiguresByReviewStatusSplitTheSamplesAndTheSpuriousJoints) {
+  const PipeNetwork truth = lShapedRun();  // elbow 4 joins pipes 1 and 2, tee 5 pipes 1 and 3
+  PipeNetwork predicted = truth;
+  predicted.pipes[2].status = PipeStatus::Proposed;     // pipe 3, on the truth
+  predicted.joints[0].status = JointStatus::Proposed;   // elbow 4, on the truth
+  Pipe stray = predicted.pipes[0];                      // proposed, a metre above the truth
+  stray.id = 6;
+  stray.start = Eigen::Vector3d(0, 0, 1);
+  stray.end = Eigen::Vector3d(1, 0, 1);
+  stray.status = PipeStatus::Proposed;
+  predicted.pipes.push_back(stray);
+  predicted.joints[1].axis = {Eigen::Vector3d(1.5, 0, 1), Eigen::Vector3d(1.5, 0.05, 1)};  // accepted, off the truth
+
+  const EvaluationResult result = evaluateNetwork(truth, predicted);
+  EXPECT_EQ(result.spuriousAccepted.part, 1u);
+  EXPECT_EQ(result.spuriousAccepted.total, 1u);
+  EXPECT_EQ(result.spuriousProposed.part, 0u);
+  EXPECT_EQ(result.spuriousProposed.total, 1u);
+
+  // The statuses split every predicted sample; the unmatched ones are the stray pipe's (proposed)
+  // and the moved tee's (accepted).
+  EXPECT_EQ(result.acceptedSamples.total + result.proposedSamples.total, result.predictedSamples);
+  EXPECT_EQ(result.acceptedSamples.part + result.proposedSamples.part, result.matchedPredictedSamples);
+  PipeNetwork strayAlone;
+  strayAlone.pipes = {stray};
+  const EvaluationResult strayFigures = evaluateNetwork(truth, strayAlone);
+  EXPECT_EQ(strayFigures.matchedPredictedSamples, 0u);
+  EXPECT_EQ(result.proposedSamples.total - result.proposedSamples.part, strayFigures.predictedSamples);
+  EXPECT_GT(result.proposedSamples.part, 90u);  // pipe 3 (0.95 m) and the elbow, in 1 cm steps
+  PipeNetwork teeAlone;
+  teeAlone.joints = {predicted.joints[1]};
+  const EvaluationResult teeFigures = evaluateNetwork(truth, teeAlone);
+  EXPECT_EQ(teeFigures.matchedPredictedSamples, 0u);
+  EXPECT_EQ(result.acceptedSamples.total - result.acceptedSamples.part, teeFigures.predictedSamples);
+  EXPECT_NE(formatEvaluation(result).find(" spurious_accepted=1/1 spurious_proposed=0/1"), std::string::npos);
+}
+
 TEST(Evaluation, FormatLine) {
   const EvaluationResult result = evaluateNetwork(lShapedRun(), lShapedRun());
   EXPECT_EQ(formatEvaluation(result).substr(0, 52), "precision=1.000 recall=1.000 f1=1.000 radius_err_mm=");

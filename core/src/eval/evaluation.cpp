@@ -26,6 +26,7 @@ struct ElementSamples {
   int id = 0;
   std::size_t first = 0, last = 0;
   bool straight = false;  ///< Sampled from a two-point polyline: evenly from first to last.
+  bool proposed = false;  ///< Its review status is proposed (else accepted).
 };
 
 struct NetworkSamples {
@@ -36,20 +37,20 @@ struct NetworkSamples {
 
 NetworkSamples sampleNetwork(const PipeNetwork& network, double step, bool skipDiscarded, bool pipesOnly) {
   NetworkSamples sampled;
-  const auto add = [&](int id, const std::vector<Eigen::Vector3d>& polyline, double radius) {
+  const auto add = [&](int id, const std::vector<Eigen::Vector3d>& polyline, double radius, bool proposed) {
     const std::size_t first = sampled.samples.size();
     for (const auto& p : samplePolyline(polyline, step)) sampled.samples.push_back({p, radius});
     sampled.elementOf.emplace(id, sampled.elements.size());
-    sampled.elements.push_back({id, first, sampled.samples.size(), polyline.size() == 2});
+    sampled.elements.push_back({id, first, sampled.samples.size(), polyline.size() == 2, proposed});
   };
   for (const auto& pipe : network.pipes) {
     if (skipDiscarded && pipe.status == PipeStatus::Deleted) continue;
-    add(pipe.id, {pipe.start, pipe.end}, pipe.radius);
+    add(pipe.id, {pipe.start, pipe.end}, pipe.radius, pipe.status == PipeStatus::Proposed);
   }
   if (pipesOnly) return sampled;
   for (const auto& joint : network.joints) {
     if (skipDiscarded && joint.status == JointStatus::Rejected) continue;
-    add(joint.id, joint.axis, joint.radius);
+    add(joint.id, joint.axis, joint.radius, joint.status == JointStatus::Proposed);
   }
   return sampled;
 }
@@ -207,7 +208,8 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
   }
   const NetworkSamples truthSampled = sampleNetwork(truth, params.sampleStep, false, params.pipesOnly);
   const std::vector<AxisSample>& truthSamples = truthSampled.samples;
-  const auto predictedSamples = sampleNetwork(predicted, params.sampleStep, true, params.pipesOnly).samples;
+  const NetworkSamples predictedSampled = sampleNetwork(predicted, params.sampleStep, true, params.pipesOnly);
+  const std::vector<AxisSample>& predictedSamples = predictedSampled.samples;
   const ScanCoverage coverage = labelledScan ? scanCoverage(truthSampled, *labelledScan, params) : ScanCoverage{};
   const std::vector<char>& observable = coverage.observable;
 
@@ -223,13 +225,23 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
   result.predictedSamples = predictedSamples.size();
 
   // Precision: a predicted sample counts when some truth sample has it within that sample's tolerance.
+  // Also by the review status of the sample's element.
   const SampleGrid truthGrid(truthSamples, maxTolerance);
-  for (const auto& sample : predictedSamples) {
-    bool matched = false;
-    truthGrid.forEachNear(sample.position, maxTolerance, [&](std::size_t t) {
-      if ((truthSamples[t].position - sample.position).norm() <= toleranceOf(truthSamples[t])) matched = true;
-    });
-    if (matched) ++result.matchedPredictedSamples;
+  for (const ElementSamples& element : predictedSampled.elements) {
+    ReviewShare& byStatus = element.proposed ? result.proposedSamples : result.acceptedSamples;
+    for (std::size_t p = element.first; p < element.last; ++p) {
+      bool matched = false;
+      truthGrid.forEachNear(predictedSamples[p].position, maxTolerance, [&](std::size_t t) {
+        if ((truthSamples[t].position - predictedSamples[p].position).norm() <= toleranceOf(truthSamples[t])) {
+          matched = true;
+        }
+      });
+      ++byStatus.total;
+      if (matched) {
+        ++result.matchedPredictedSamples;
+        ++byStatus.part;
+      }
+    }
   }
 
   // Recall and radius error: each truth sample looks for predicted samples within its tolerance.
@@ -404,6 +416,12 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
   }
   result.predictedJoints = static_cast<int>(predictedJoints.size());
   result.spuriousJoints = static_cast<int>(result.spurious.size());
+  for (const Joint* joint : predictedJoints) {
+    ++(joint->status == JointStatus::Proposed ? result.spuriousProposed : result.spuriousAccepted).total;
+  }
+  for (const SpuriousJoint& joint : result.spurious) {
+    ++(joint.status == JointStatus::Proposed ? result.spuriousProposed : result.spuriousAccepted).part;
+  }
   result.bendRadiusErrorMedian = median(bendErrors);
   return result;
 }
@@ -427,6 +445,11 @@ std::string formatEvaluation(const EvaluationResult& result) {
                 result.truthElbows, result.foundTees, result.truthTees, result.spuriousJoints, result.predictedJoints,
                 result.bendRadiusErrorMedian);
   std::string text = line;
+  std::snprintf(line, sizeof line, " accepted_matched=%zu/%zu proposed_matched=%zu/%zu spurious_accepted=%zu/%zu spurious_proposed=%zu/%zu",
+                result.acceptedSamples.part, result.acceptedSamples.total, result.proposedSamples.part,
+                result.proposedSamples.total, result.spuriousAccepted.part, result.spuriousAccepted.total,
+                result.spuriousProposed.part, result.spuriousProposed.total);
+  text += line;
   if (result.observableMeasured) {
     std::snprintf(line, sizeof line,
                   " observable=%.3f recall_observable=%.3f observable_elbows=%d/%d observable_tees=%d/%d"

@@ -87,6 +87,12 @@ struct SpuriousJoint {
   double nearestTruthDistance = 0.0; ///< ...and how far it is (m).
 };
 
+/// A part of a whole, counted over the predicted elements of one review status.
+struct ReviewShare {
+  std::size_t part = 0;
+  std::size_t total = 0;
+};
+
 struct EvaluationResult {
   double precision = 0.0;            ///< Share of predicted samples within tolerance of a truth sample.
   double recall = 0.0;               ///< Share of truth samples within tolerance of a predicted sample.
@@ -121,6 +127,15 @@ struct EvaluationResult {
   int spuriousJoints = 0;            ///< Predicted joints that match no truth joint.
   double bendRadiusErrorMedian = 0.0;  ///< Median |R_pred − R_truth| / R_truth over matched elbows.
 
+  /// By review status, what a user who keeps the accepted elements and reviews the proposed ones
+  /// gets: the predicted samples of accepted (and of proposed) pipes and joints that match the truth
+  /// (precision by status)...
+  ReviewShare acceptedSamples;
+  ReviewShare proposedSamples;
+  /// ...and the accepted (proposed) joints that are spurious.
+  ReviewShare spuriousAccepted;
+  ReviewShare spuriousProposed;
+
   std::vector<JointOutcome> jointOutcomes;  ///< Every truth elbow, then every tee, each in truth order.
   std::vector<SpuriousJoint> spurious;      ///< The spurious joints, in prediction order.
 };
@@ -132,7 +147,8 @@ struct EvaluationResult {
 EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& predicted,
                                  const EvaluationParams& params = {}, const PointCloud* labelledScan = nullptr);
 
-/// "precision=0.912 recall=0.874 f1=0.893 radius_err_mm=3.1 elbows=17/20 tees=5/6 ...", then
+/// "precision=0.912 recall=0.874 f1=0.893 radius_err_mm=3.1 elbows=17/20 tees=5/6 ...
+/// accepted_matched=2410/2436 proposed_matched=120/300 spurious_accepted=1/20 spurious_proposed=1/4", then
 /// "observable=0.906 recall_observable=0.939 observable_elbows=73/89 observable_tees=20/22
 /// corner_seen_elbows=70/80 corner_seen_tees=19/21 missed_elbows_unseen=2
 /// missed_elbows_pipe_not_found=1 missed_elbows_not_joined=0 missed_tees_unseen=1 …" when those
