@@ -424,7 +424,9 @@ int runReconstruct(const ReconstructOptions& options) {
                {{"generator", std::string("piperun reconstruct ") + PIPERUN_VERSION},
                 {"source", options.input},
                 {"seed", std::to_string(params.seed)}});
-  for (const auto& target : exports) exportNetwork(network, target.format, target.path);
+  ExportOptions exportOptions;
+  exportOptions.pcfBore = pcfBoreFromString(options.pcfBore).value_or(PcfBore::Nominal);
+  for (const auto& target : exports) exportNetwork(network, target.format, target.path, exportOptions);
   int dumped = 0;
   if (!options.dumpDirectory.empty()) dumped = dumpStages(pipeline, options.dumpDirectory);
   bar.finish();
@@ -525,6 +527,7 @@ int runExport(const ExportCommandOptions& options) {
   const PipeNetwork network = readNetwork(options.input);
   ExportOptions exportOptions;
   exportOptions.chordTolerance = options.chordTolerance;
+  exportOptions.pcfBore = pcfBoreFromString(options.pcfBore).value_or(PcfBore::Nominal);
   exportNetwork(network, *format, options.output, exportOptions);
 
   int pipes = 0, elbows = 0, tees = 0, boundaries = 0, leftOut = 0;

@@ -64,6 +64,7 @@ struct ReconstructOptions {
   std::string truth;                     ///< Optional: evaluate against this network.
   std::string until = "joints";          ///< Last stage to run: "merge" or "joints".
   std::vector<std::string> exports;      ///< "FORMAT:FILE", written after the network.
+  std::string pcfBore = "nominal";       ///< PCF exports' bores: "nominal" or "outside".
   bool quiet = false;
 };
 int runReconstruct(const ReconstructOptions& options);
@@ -73,6 +74,7 @@ struct ExportCommandOptions {
   std::string output;
   std::string format;             ///< Empty: from the output's extension.
   double chordTolerance = 0.001;  ///< Mesh tessellation, metres.
+  std::string pcfBore = "nominal";  ///< PCF bores: "nominal" or "outside".
 };
 int runExport(const ExportCommandOptions& options);
 

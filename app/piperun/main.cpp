@@ -13,6 +13,8 @@ namespace {
 using namespace piperun::cli;
 
 constexpr const char* kVersionText = "piperun " PIPERUN_VERSION;
+constexpr const char* kPcfBoreHelp =
+    "PCF bores: nominal (the DN whose pipe size is nearest the fit) or outside (the fitted outside diameter, mm)";
 
 void addVersion(CLI::App& app) { app.set_version_flag("--version", kVersionText); }
 
@@ -115,6 +117,9 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"merge", "joints"}));
   reconstructCommand->add_option("--export", reconstruct.exports,
                                  "Also export the network, e.g. --export obj:net.obj (obj ply csv dxf pcf; repeatable)");
+  reconstructCommand->add_option("--pcf-bore", reconstruct.pcfBore, kPcfBoreHelp)
+      ->transform(CLI::IsMember({"nominal", "outside"}, CLI::ignore_case))
+      ->capture_default_str();
 
   ExportCommandOptions exportOptions;
   auto* exportCommand =
@@ -124,6 +129,9 @@ int main(int argc, char** argv) {
   exportCommand->add_option("-o,--output", exportOptions.output, "File to write")->required();
   exportCommand->add_option("--format", exportOptions.format, "obj, ply, csv, dxf or pcf (default: from the file name)")
       ->transform(CLI::IsMember({"obj", "ply", "csv", "dxf", "pcf"}, CLI::ignore_case));
+  exportCommand->add_option("--pcf-bore", exportOptions.pcfBore, kPcfBoreHelp)
+      ->transform(CLI::IsMember({"nominal", "outside"}, CLI::ignore_case))
+      ->capture_default_str();
   exportCommand->add_option("--chord-tolerance", exportOptions.chordTolerance,
                             "Meshes: largest gap between a tube's polygon and its circle, metres")
       ->check(CLI::PositiveNumber)

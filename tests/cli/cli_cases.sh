@@ -222,6 +222,12 @@ case "$CASE" in
     grep -q "^PIPELINE-REFERENCE RUN-" "$WORK/net.pcf" || fail "net.pcf has no pipeline"
     run 0 export "$WORK/truth.json" --format PCF -o "$WORK/iso.txt"
     grep -q "^UNITS-BORE MM" "$WORK/iso.txt" || fail "--format pcf did not write PCF"
+    # PCF bores: nominal sizes (DN, whole millimetres) by default, the fitted diameters on request.
+    grep -qE "^    END-POINT .* [0-9]+\.0"$'\r'"$" "$WORK/net.pcf" || fail "net.pcf has no nominal bore"
+    grep -qE "^    END-POINT .* [0-9]+\.[1-9]"$'\r'"$" "$WORK/net.pcf" && fail "net.pcf has a bore that is no DN"
+    run 0 export "$WORK/truth.json" --pcf-bore outside -o "$WORK/od.pcf"
+    grep -qE "^    END-POINT .* [0-9]+\.[1-9]"$'\r'"$" "$WORK/od.pcf" || fail "od.pcf has no fitted outside diameter"
+    run 1 export "$WORK/truth.json" --pcf-bore od -o "$WORK/x.pcf"
     run 1 export "$WORK/truth.json" -o "$WORK/net.stl"
     expect_one_line_error "cannot tell the export format from .*net.stl"
     run 1 export "$WORK/truth.json" --format stl -o "$WORK/x.obj"
@@ -234,11 +240,14 @@ case "$CASE" in
     run 1 reconstruct "$WORK/scene.ply" -o "$WORK/n.json" --export stl:"$WORK/n.stl"
     expect_one_line_error "FORMAT:FILE"
     [ -e "$WORK/n.json" ] && fail "reconstruct ran despite a bad --export"
-    run 0 reconstruct "$WORK/scene.ply" -o "$WORK/n.json" --threads 2 --export obj:"$WORK/r.obj" --export pcf:"$WORK/r.pcf"
+    run 0 reconstruct "$WORK/scene.ply" -o "$WORK/n.json" --threads 2 --export obj:"$WORK/r.obj" --export pcf:"$WORK/r.pcf" \
+      --pcf-bore outside
     expect_out "^export: .*r.obj \(obj\)$"
     expect_out "^export: .*r.pcf \(pcf\)$"
     run 0 export "$WORK/n.json" -o "$WORK/n.obj"
     cmp -s "$WORK/r.obj" "$WORK/n.obj" || fail "reconstruct --export differs from export of the saved network"
+    run 0 export "$WORK/n.json" --pcf-bore outside -o "$WORK/n.pcf"
+    cmp -s "$WORK/r.pcf" "$WORK/n.pcf" || fail "reconstruct --pcf-bore differs from export --pcf-bore"
     ;;
   evaluate-runs)
     # scripts/evaluate.sh --runs: each scene under several pipeline seeds, each run's totals and their mean.

@@ -575,9 +575,29 @@ bool containsPoint(const std::vector<Vector3d>& points, const Vector3d& p, doubl
   return std::any_of(points.begin(), points.end(), [&](const Vector3d& q) { return (q - p).norm() < tolerance; });
 }
 
+// Pairs of connection points of different components at one place whose bores differ.
+int boreMismatches(const std::vector<PcfComponent>& components) {
+  int mismatches = 0;
+  for (std::size_t c = 0; c < components.size(); ++c) {
+    for (std::size_t d = c + 1; d < components.size(); ++d) {
+      for (const auto& p : components[c].endPoints) {
+        for (const auto& q : components[d].endPoints) {
+          mismatches += (p.position - q.position).norm() < 0.06 && p.bore != q.bore;
+        }
+        for (const auto& q : components[d].branchPoints) {
+          mismatches += (p.position - q.position).norm() < 0.06 && p.bore != q.bore;
+        }
+      }
+    }
+  }
+  return mismatches;
+}
+
 TEST(Export, PcfRunsWithElbowAndTee) {
   TempDir dir;
-  exportNetwork(sampleNetwork(), ExportFormat::Pcf, dir / "net.pcf");
+  ExportOptions options;
+  options.pcfBore = PcfBore::OutsideDiameter;
+  exportNetwork(sampleNetwork(), ExportFormat::Pcf, dir / "net.pcf", options);
   const PcfFile pcf = parsePcf(test::readFile(dir / "net.pcf"));
   EXPECT_EQ(pcf.units.at("UNITS-BORE"), "MM");
   EXPECT_EQ(pcf.units.at("UNITS-CO-ORDS"), "MM");
@@ -628,6 +648,96 @@ TEST(Export, PcfRunsWithElbowAndTee) {
   EXPECT_TRUE(containsPoint(open, {0, 0, 1000}, 0.06));
   EXPECT_TRUE(containsPoint(open, {2150, 1500, 1000}, 0.06));
   EXPECT_TRUE(containsPoint(open, {1000, 0, 200}, 0.06));
+}
+
+TEST(Export, PcfNominalBoresAgreeAtEveryConnectionWithReducersWhereTheSizeChanges) {
+  // A 6" pipe (fitted 3 mm wide, as scans fit them) turns through an elbow into an 8" one, which
+  // continues across a gap into a 6" pipe carrying a 2" branch.
+  PipeNetwork network;
+  const auto addPipe = [&](int id, double radius, Vector3d start, Vector3d end) {
+    Pipe pipe;
+    pipe.id = id;
+    pipe.radius = radius;
+    pipe.start = start;
+    pipe.end = end;
+    pipe.runId = 0;
+    network.pipes.push_back(pipe);
+  };
+  addPipe(1, 0.0855, {0, 0, 0}, {2, 0, 0});
+  addPipe(2, 0.1095, {2.3, 0.3, 0}, {2.3, 2, 0});
+  addPipe(3, 0.0842, {2.3, 2.1, 0}, {2.3, 4, 0});
+  addPipe(4, 0.031, {2.3 + 0.0842, 3, 0}, {3, 3, 0});
+  Joint elbow;
+  elbow.id = 1;
+  elbow.pipeIds = {1, 2};
+  elbow.radius = 0.0975;
+  elbow.bendRadius = 0.3;
+  elbow.axis = sampleArc({2, 0.3, 0}, {2, 0, 0}, {2.3, 0.3, 0}, 0.01);
+  Joint gap;
+  gap.id = 2;
+  gap.type = JointType::Boundary;
+  gap.pipeIds = {2, 3};
+  gap.radius = 0.097;
+  gap.axis = {{2.3, 2, 0}, {2.3, 2.1, 0}};
+  Joint tee;
+  tee.id = 3;
+  tee.type = JointType::Tee;
+  tee.pipeIds = {3, 4};
+  tee.radius = 0.031;
+  tee.axis = {{2.3, 3, 0}, {2.3 + 0.0842, 3, 0}};
+  network.joints = {elbow, gap, tee};
+  network.runs.push_back({0, {1, 2, 3, 4}, {1, 2, 3}});
+  network.validate();
+
+  TempDir dir;
+  exportNetwork(network, ExportFormat::Pcf, dir / "net.pcf");  // nominal bores by default
+  const PcfFile pcf = parsePcf(test::readFile(dir / "net.pcf"));
+  ASSERT_EQ(pcf.pipelines.size(), 1u);
+  const auto& run = pcf.pipelines[0].second;
+  std::map<std::string, std::vector<const PcfComponent*>> byType;
+  for (const auto& component : run) byType[component.type].push_back(&component);
+  ASSERT_EQ(byType["PIPE"].size(), 5u);  // pipe 3 cut around the tee
+  std::set<double> pipeBores;
+  for (const PcfComponent* pipe : byType["PIPE"]) {
+    EXPECT_EQ(pipe->endPoints.at(0).bore, pipe->endPoints.at(1).bore);
+    pipeBores.insert(pipe->endPoints[0].bore);
+  }
+  EXPECT_EQ(pipeBores, (std::set<double>{50, 150, 200}));
+
+  // The elbow reduces from its 6" pipe to its 8" one; the gap between the 8" and the 6" pipe is a reducer.
+  ASSERT_EQ(byType["ELBOW"].size(), 1u);
+  const PcfComponent& bend = *byType["ELBOW"][0];
+  EXPECT_LT((bend.endPoints.at(0).position - Vector3d(2000, 0, 0)).norm(), 0.06);
+  EXPECT_EQ(bend.endPoints[0].bore, 150);
+  EXPECT_EQ(bend.endPoints.at(1).bore, 200);
+  ASSERT_EQ(byType["REDUCER-CONCENTRIC"].size(), 1u);
+  const PcfComponent& reducer = *byType["REDUCER-CONCENTRIC"][0];
+  EXPECT_EQ(reducer.skey, "RCBW");
+  EXPECT_LT((reducer.endPoints.at(0).position - Vector3d(2300, 2000, 0)).norm(), 0.06);
+  EXPECT_EQ(reducer.endPoints[0].bore, 200);
+  EXPECT_LT((reducer.endPoints.at(1).position - Vector3d(2300, 2100, 0)).norm(), 0.06);
+  EXPECT_EQ(reducer.endPoints[1].bore, 150);
+  ASSERT_EQ(byType["TEE"].size(), 1u);
+  EXPECT_EQ(byType["TEE"][0]->endPoints.at(0).bore, 150);
+  EXPECT_EQ(byType["TEE"][0]->branchPoints.at(0).bore, 50);
+  EXPECT_EQ(boreMismatches(run), 0);
+  EXPECT_EQ(openEnds(run).size(), 3u);
+
+  // The fitted outside diameters instead: each element's own, no reducer.
+  ExportOptions options;
+  options.pcfBore = PcfBore::OutsideDiameter;
+  exportNetwork(network, ExportFormat::Pcf, dir / "outside.pcf", options);
+  const auto& outside = parsePcf(test::readFile(dir / "outside.pcf")).pipelines.at(0).second;
+  EXPECT_TRUE(std::none_of(outside.begin(), outside.end(), [](const PcfComponent& c) { return c.type == "REDUCER-CONCENTRIC"; }));
+  EXPECT_EQ(outside.front().endPoints.at(0).bore, 171.0);
+  EXPECT_GT(boreMismatches(outside), 0);
+}
+
+TEST(Export, PcfBoreNames) {
+  EXPECT_EQ(pcfBoreFromString("Nominal"), PcfBore::Nominal);
+  EXPECT_EQ(pcfBoreFromString("outside"), PcfBore::OutsideDiameter);
+  EXPECT_EQ(pcfBoreFromString("od"), std::nullopt);
+  EXPECT_EQ(toString(PcfBore::OutsideDiameter), "outside");
 }
 
 TEST(Export, PcfSplitsBendsBeyondNinetyDegrees) {
@@ -721,6 +831,8 @@ TEST(Export, TruthNetworkEveryFormat) {
   }
   EXPECT_EQ(pcfElbows, elbows);  // the generator bends by 90° at most: one ELBOW each
   EXPECT_EQ(pcfTees, tees);
+  // The generator's radii are nominal sizes: every connection agrees in bore.
+  for (const auto& [reference, components] : pcf.pipelines) EXPECT_EQ(boreMismatches(components), 0) << reference;
 }
 
 TEST(Export, EmptyNetworkGivesValidEmptyFiles) {

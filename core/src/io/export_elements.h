@@ -45,6 +45,6 @@ std::string objDocument(const std::vector<ExportElement>& elements, const Export
 std::string plyDocument(const std::vector<ExportElement>& elements, const ExportOptions& options);
 std::string csvDocument(const std::vector<ExportElement>& elements);
 std::string dxfDocument(const std::vector<ExportElement>& elements);
-std::string pcfDocument(const std::vector<ExportElement>& elements);
+std::string pcfDocument(const std::vector<ExportElement>& elements, PcfBore bore);
 
 }  // namespace piperun::io

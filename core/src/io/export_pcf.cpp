@@ -4,16 +4,19 @@
 // a run ("RUN-<id>"), or for elements in no run each group connected through joints
 // ("GROUP-<n>", numbered in network order). Components:
 //   PIPE   two END-POINTs (x y z bore). A pipe that hosts tees is cut around them; boundary joints
-//          are PIPEs too (they are straight pipe pieces).
+//          are PIPEs too (they are straight pipe pieces), or REDUCER-CONCENTRICs (SKEY RCBW) where
+//          the bore changes across them.
 //   ELBOW  two END-POINTs, CENTRE-POINT (where the tangent lines at the two ends meet), SKEY ELBW.
 //          An arc of more than 90° is written as equal elbows of at most 90°.
 //   TEE    two END-POINTs on the main pipe, CENTRE-POINT on the main axis, BRANCH1-POINT (x y z
 //          bore) at the branch pipe's end, SKEY TEBW. Its arms are all as long as the branch arm.
-// Tools connect components by matching END-POINT co-ordinates. BORE is the fitted outside
-// diameter in mm, not a nominal size.
+// Tools connect components by matching END-POINT co-ordinates. A bore is, by PcfBore, the nominal
+// size (DN) nearest the fitted diameter, each joint's END-POINTs taking the bores of the pipes they
+// meet (so connected END-POINTs agree), or the fitted outside diameter of each element.
 
 #include "angles.h"
 #include "io/export_elements.h"
+#include "piperun/edit/nominal_sizes.h"
 
 #include <Eigen/Geometry>
 
@@ -37,20 +40,69 @@ std::string millimetres(double metres) {
   return std::string(text) == "-0.0" ? "0.0" : text;
 }
 
+std::string boreText(double mm) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.1f", mm);
+  return text;
+}
+
 std::string coordinates(const Eigen::Vector3d& p) {
   return millimetres(p.x()) + " " + millimetres(p.y()) + " " + millimetres(p.z());
 }
 
+/// The bores written (mm): nominal sizes, or fitted outside diameters.
+class Bores {
+ public:
+  Bores(PcfBore kind, const std::map<int, const ExportElement*>& pipes)
+      : pipes_(pipes), sizes_(kind == PcfBore::Nominal ? std::optional(NominalSizes::shipped()) : std::nullopt) {}
+
+  /// A pipe of `radius` (m).
+  double of(double radius) const {
+    return sizes_ ? static_cast<double>(sizes_->nearest(radius).dn) : 2.0 * radius * 1000.0;
+  }
+  /// At `point` on `joint`: nominal, the bore of the joint's exported pipe whose end is nearest
+  /// (the joint's own where it has none), so the joint's END-POINT agrees with the pipe's; the
+  /// joint's own outside diameter otherwise.
+  double atEnd(const ExportElement& joint, const Eigen::Vector3d& point) const {
+    if (!sizes_) return of(joint.radius);
+    const ExportElement* nearest = nullptr;
+    double nearestDistance = 0.0;
+    for (int id : joint.joint->pipeIds) {
+      const auto found = pipes_.find(id);
+      if (found == pipes_.end()) continue;
+      const double distance = std::min((found->second->axis.front() - point).norm(), (found->second->axis.back() - point).norm());
+      if (!nearest || distance < nearestDistance) {
+        nearest = found->second;
+        nearestDistance = distance;
+      }
+    }
+    return of(nearest ? nearest->radius : joint.radius);
+  }
+  /// A tee's branch: its branch pipe's bore (the second pipe it joins), when nominal.
+  double branch(const ExportElement& tee) const {
+    const auto& ids = tee.joint->pipeIds;
+    const auto found = sizes_ && ids.size() > 1 ? pipes_.find(ids[1]) : pipes_.end();
+    return of(found == pipes_.end() ? tee.radius : found->second->radius);
+  }
+
+ private:
+  const std::map<int, const ExportElement*>& pipes_;
+  std::optional<NominalSizes> sizes_;
+};
+
 class PcfText {
  public:
   void line(const std::string& text) { text_ += text + "\r\n"; }
-  void endPoint(const Eigen::Vector3d& p, double radius) {
-    line("    END-POINT " + coordinates(p) + " " + millimetres(2.0 * radius));
+  void endPoint(const Eigen::Vector3d& p, double bore) {
+    line("    END-POINT " + coordinates(p) + " " + boreText(bore));
   }
-  void pipe(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double radius) {
-    line("PIPE");
-    endPoint(a, radius);
-    endPoint(b, radius);
+  void pipe(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double bore) { straight(a, bore, b, bore); }
+  /// A straight piece from `a` to `b`: a PIPE, or a concentric reducer where the bores differ.
+  void straight(const Eigen::Vector3d& a, double boreA, const Eigen::Vector3d& b, double boreB) {
+    line(boreA == boreB ? "PIPE" : "REDUCER-CONCENTRIC");
+    endPoint(a, boreA);
+    endPoint(b, boreB);
+    if (boreA != boreB) line("    SKEY RCBW");
   }
   std::string& text() { return text_; }
 
@@ -129,8 +181,10 @@ std::optional<TeeLayout> teeLayout(const ExportElement& tee, const std::map<int,
   return layout;
 }
 
-// Writes an elbow's arc as ELBOW components of at most 90° each, or a PIPE when it is straight.
-void writeElbow(const ExportElement& elbow, PcfText& pcf) {
+// Writes an elbow's arc as ELBOW components of at most 90° each, or a straight piece when it is straight;
+// the bores at the arc's first and last points are `boreFirst` and `boreLast` (a reducing elbow
+// split in pieces reduces in its first).
+void writeElbow(const ExportElement& elbow, double boreFirst, double boreLast, PcfText& pcf) {
   const Eigen::Vector3d& a = elbow.axis.front();
   const Eigen::Vector3d& m = elbow.axis[elbow.axis.size() / 2];
   const Eigen::Vector3d& b = elbow.axis.back();
@@ -139,7 +193,7 @@ void writeElbow(const ExportElement& elbow, PcfText& pcf) {
   const Eigen::Vector3d ac = b - a;
   const Eigen::Vector3d normal = ab.cross(ac);
   if (normal.norm() <= 1e-9 * ab.norm() * ac.norm()) {
-    pcf.pipe(a, b, elbow.radius);
+    pcf.straight(a, boreFirst, b, boreLast);
     return;
   }
   const Eigen::Vector3d centre =
@@ -157,8 +211,8 @@ void writeElbow(const ExportElement& elbow, PcfText& pcf) {
     // The tangents at both ends meet on the bisector, R / cos(step / 2) from the bend centre.
     const Eigen::Vector3d bisector = ((first - centre) + (last - centre)).normalized();
     pcf.line("ELBOW");
-    pcf.endPoint(first, elbow.radius);
-    pcf.endPoint(last, elbow.radius);
+    pcf.endPoint(first, j == 0 ? boreFirst : boreLast);
+    pcf.endPoint(last, boreLast);
     pcf.line("    CENTRE-POINT " + coordinates(centre + bendRadius / std::cos(0.5 * step) * bisector));
     pcf.line("    SKEY ELBW");
   }
@@ -166,11 +220,12 @@ void writeElbow(const ExportElement& elbow, PcfText& pcf) {
 
 }  // namespace
 
-std::string pcfDocument(const std::vector<ExportElement>& elements) {
+std::string pcfDocument(const std::vector<ExportElement>& elements, PcfBore bore) {
   std::map<int, const ExportElement*> pipes;
   for (const auto& element : elements) {
     if (element.kind == ElementKind::Pipe) pipes.emplace(element.id, &element);
   }
+  const Bores bores(bore, pipes);
   // Where tees sit on their main pipes: the pipes are cut around them.
   std::map<const ExportElement*, TeeLayout> tees;
   std::map<const ExportElement*, std::vector<std::pair<double, double>>> teeSpans;
@@ -203,33 +258,33 @@ std::string pcfDocument(const std::vector<ExportElement>& elements) {
           double cursor = 0.0;
           for (const auto& [from, to] : spans) {
             if (from > cursor + kShortestPiece) {
-              pcf.pipe(start + cursor * direction, start + std::min(from, length) * direction, element->radius);
+              pcf.pipe(start + cursor * direction, start + std::min(from, length) * direction, bores.of(element->radius));
             }
             cursor = std::max(cursor, to);
           }
-          if (length > cursor + kShortestPiece) pcf.pipe(start + cursor * direction, end, element->radius);
+          if (length > cursor + kShortestPiece) pcf.pipe(start + cursor * direction, end, bores.of(element->radius));
           break;
         }
         case ElementKind::Boundary:
-          pcf.pipe(start, end, element->radius);
+          pcf.straight(start, bores.atEnd(*element, start), end, bores.atEnd(*element, end));
           break;
         case ElementKind::Elbow:
-          writeElbow(*element, pcf);
+          writeElbow(*element, bores.atEnd(*element, start), bores.atEnd(*element, end), pcf);
           break;
         case ElementKind::Tee: {
           const auto found = tees.find(element);
           if (found == tees.end()) {
             // Its main pipe is not exported (deleted) or has no length: the tee is written as a plain
             // pipe piece from the main axis to the branch.
-            pcf.pipe(start, end, element->radius);
+            pcf.pipe(start, end, bores.branch(*element));
             break;
           }
           const TeeLayout& tee = found->second;
           pcf.line("TEE");
-          pcf.endPoint(tee.centre - tee.arm * tee.direction, tee.main->radius);
-          pcf.endPoint(tee.centre + tee.arm * tee.direction, tee.main->radius);
+          pcf.endPoint(tee.centre - tee.arm * tee.direction, bores.of(tee.main->radius));
+          pcf.endPoint(tee.centre + tee.arm * tee.direction, bores.of(tee.main->radius));
           pcf.line("    CENTRE-POINT " + coordinates(tee.centre));
-          pcf.line("    BRANCH1-POINT " + coordinates(end) + " " + millimetres(2.0 * element->radius));
+          pcf.line("    BRANCH1-POINT " + coordinates(end) + " " + boreText(bores.branch(*element)));
           pcf.line("    SKEY TEBW");
           break;
         }

@@ -17,6 +17,11 @@ namespace {
 constexpr ExportFormat kFormats[] = {ExportFormat::Obj, ExportFormat::Ply, ExportFormat::Csv, ExportFormat::Dxf,
                                      ExportFormat::Pcf};
 
+std::string lowercase(std::string text) {
+  std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return text;
+}
+
 void checkOptions(const ExportOptions& options) {
   if (!(options.chordTolerance > 0.0)) throw std::invalid_argument("export: the chord tolerance must be positive");
   if (options.minSegments < 3) throw std::invalid_argument("export: a tube needs at least 3 sides");
@@ -38,9 +43,18 @@ std::string toString(ExportFormat format) {
   return "obj";
 }
 
+std::string toString(PcfBore bore) { return bore == PcfBore::Nominal ? "nominal" : "outside"; }
+
+std::optional<PcfBore> pcfBoreFromString(const std::string& name) {
+  const std::string lower = lowercase(name);
+  for (PcfBore bore : {PcfBore::Nominal, PcfBore::OutsideDiameter}) {
+    if (toString(bore) == lower) return bore;
+  }
+  return std::nullopt;
+}
+
 std::optional<ExportFormat> exportFormatFromString(const std::string& name) {
-  std::string lower = name;
-  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  const std::string lower = lowercase(name);
   for (ExportFormat format : kFormats) {
     if (toString(format) == lower) return format;
   }
@@ -71,7 +85,7 @@ void exportNetwork(const PipeNetwork& network, ExportFormat format, const std::f
     case ExportFormat::Ply: document = io::plyDocument(elements, options); break;
     case ExportFormat::Csv: document = io::csvDocument(elements); break;
     case ExportFormat::Dxf: document = io::dxfDocument(elements); break;
-    case ExportFormat::Pcf: document = io::pcfDocument(elements); break;
+    case ExportFormat::Pcf: document = io::pcfDocument(elements, options.pcfBore); break;
   }
   io::writeFileAtomically(path, document);
 }

@@ -21,13 +21,26 @@ enum class ExportFormat {
   Pcf,  ///< Piping Component File (ISOGEN): one pipeline per run, millimetres.
 };
 
+/// What a PCF END-POINT's bore says.
+enum class PcfBore {
+  Nominal,          ///< The nominal size (DN, mm) whose outside diameter is nearest the fitted one
+                    ///< (ASME B36.10, resources/nominal_pipe_sizes.csv): what isometric tools look up.
+  OutsideDiameter,  ///< The fitted outside diameter (mm), as measured.
+};
+
 struct ExportOptions {
   /// Meshes: the largest distance (m) allowed between a tube's polygonal cross-section and its
   /// circle. It sets the number of sides around each tube, so thick pipes get more of them.
   double chordTolerance = 0.001;
   int minSegments = 8;    ///< Meshes: fewest sides around a tube.
   int maxSegments = 128;  ///< Meshes: most sides around a tube.
+  PcfBore pcfBore = PcfBore::Nominal;  ///< PCF: the bores written.
 };
+
+/// "nominal", "outside".
+std::string toString(PcfBore bore);
+/// Parses "nominal" or "outside" (case-insensitive); nullopt otherwise.
+std::optional<PcfBore> pcfBoreFromString(const std::string& name);
 
 /// "obj", "ply", "csv", "dxf", "pcf".
 std::string toString(ExportFormat format);
@@ -42,8 +55,9 @@ std::optional<ExportFormat> exportFormatFromPath(const std::filesystem::path& pa
 int meshSegments(double radius, const ExportOptions& options);
 
 /// Writes `network` to `path` in `format`, atomically (a temporary file beside `path` is renamed
-/// over it). Throws OutputError when the file cannot be written and std::invalid_argument for
-/// options out of range (chordTolerance ≤ 0, minSegments < 3, maxSegments < minSegments).
+/// over it). Throws OutputError when the file cannot be written, InputError when PCF's nominal
+/// sizes are asked for and their table is not found, and std::invalid_argument for options out of
+/// range (chordTolerance ≤ 0, minSegments < 3, maxSegments < minSegments).
 void exportNetwork(const PipeNetwork& network, ExportFormat format, const std::filesystem::path& path,
                    const ExportOptions& options = {});
 
