@@ -75,6 +75,9 @@ mean() { field "$1" | awk '{ sum += $1 } END { printf "%.3f", sum / NR }'; }
 median_radius=$(field radius_err_mm | sort -n | awk '{ v[NR] = $1 } END { printf "%.1f", NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }')
 echo "mean: precision=$(mean precision) recall=$(mean recall) f1=$(mean f1) radius_err_mm=$median_radius seconds=$(mean seconds) seeds=$(( $(wc -l <"$results") / runs ))$([ "$runs" -gt 1 ] && echo " runs=$runs")"
 echo "observable: share=$(mean observable) recall_observable=$(mean recall_observable)"
+# How often the nominal size a PCF export writes is the truth's (over the matched truth samples).
+ratio() { sed -E "s/.*[[:space:]]$1=([0-9]+)\/([0-9]+).*/\1 \2/" "$results" | awk '{ a += $1; b += $2 } END { if (b == 0) print "n/a"; else printf "%.3f", a / b }'; }
+echo "nominal size right: $(ratio nominal_size_right)"
 # Joint totals over the seeds ("found/truth"), and the median of the seeds' bend-radius errors
 # (seeds without a matched elbow left out).
 total() { sed -E "s/.*[[:space:]]$1=([0-9]+)\/([0-9]+).*/\1 \2/" "$results" | awk '{ a += $1; b += $2 } END { printf "%d/%d", a, b }'; }
@@ -89,7 +92,6 @@ if [ ${#eval_flags[@]} -eq 0 ]; then
   echo "missed joints by cause: elbows $(misses elbows), tees $(misses tees)"
   # What keeping the accepted elements and reviewing the proposed ones gives: the share of each
   # status's axis samples on the truth (precision by status) and its spurious joints.
-  ratio() { sed -E "s/.*[[:space:]]$1=([0-9]+)\/([0-9]+).*/\1 \2/" "$results" | awk '{ a += $1; b += $2 } END { if (b == 0) print "n/a"; else printf "%.3f", a / b }'; }
   echo "by review status: accepted precision=$(ratio accepted_matched) spurious_joints=$(total spurious_accepted), proposed precision=$(ratio proposed_matched) spurious_joints=$(total spurious_proposed)"
   if [ "$runs" -gt 1 ]; then
     # Each run's totals over the scenes, then their mean per run (the spread is the pipeline's

@@ -1,6 +1,7 @@
 #include "commands.h"
 
 #include "console.h"
+#include "piperun/edit/nominal_sizes.h"
 #include "piperun/edit/review_queue.h"
 #include "piperun/error.h"
 #include "piperun/eval/evaluation.h"
@@ -267,6 +268,8 @@ int runEval(const EvalOptions& options) {
   params.fixedTolerance = options.tolerance;
   params.sampleStep = options.step;
   params.pipesOnly = options.pipesOnly;
+  const NominalSizes sizes = NominalSizes::shipped();
+  params.nominalSizes = &sizes;
   const PointCloud scan = options.scan.empty() ? PointCloud{} : readPointCloud(options.scan);
   const EvaluationResult figures = evaluateNetwork(truth, result, params, options.scan.empty() ? nullptr : &scan);
   if (options.json) {
@@ -282,7 +285,9 @@ int runEval(const EvalOptions& options) {
                       {"tees_found", figures.foundTees},
                       {"predicted_joints", figures.predictedJoints},
                       {"spurious_joints", figures.spuriousJoints},
-                      {"bend_radius_err", figures.bendRadiusErrorMedian}};
+                      {"bend_radius_err", figures.bendRadiusErrorMedian},
+                      {"matched_truth_samples", figures.matchedTruthSamples},
+                      {"nominal_size_right", figures.nominalSizeRight}};
     const auto byStatus = [](const ReviewShare& samples, const ReviewShare& spurious) {
       return json{{"samples", samples.total}, {"matched_samples", samples.part}, {"joints", spurious.total},
                   {"spurious_joints", spurious.part}};
@@ -506,8 +511,11 @@ int runReconstruct(const ReconstructOptions& options) {
   if (dumped > 0) std::printf("stages: %d files in %s\n", dumped, options.dumpDirectory.c_str());
   if (!options.truth.empty()) {
     // A labelled scan (piperun generate --labels) also gives the recall over what it shows.
+    const NominalSizes sizes = NominalSizes::shipped();
+    EvaluationParams params;
+    params.nominalSizes = &sizes;
     const EvaluationResult figures =
-        evaluateNetwork(readNetwork(options.truth), network, {}, cloud->hasLabels() ? cloud.get() : nullptr);
+        evaluateNetwork(readNetwork(options.truth), network, params, cloud->hasLabels() ? cloud.get() : nullptr);
     std::printf("evaluation against %s: %s\n", options.truth.c_str(), formatEvaluation(figures).c_str());
   }
   std::printf("points=%zu kept=%zu directions=%zu pipes=%zu joints=%zu runs=%zu seconds=%.2f\n", cloud->size(),

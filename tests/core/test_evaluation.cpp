@@ -1,5 +1,7 @@
 #include "piperun/eval/evaluation.h"
 
+#include "piperun/edit/nominal_sizes.h"
+
 #include <gtest/gtest.h>
 
 #include <tuple>
@@ -377,6 +379,30 @@ TEST(Evaluation, FiguresByReviewStatusSplitTheSamplesAndTheSpuriousJoints) {
   EXPECT_EQ(teeFigures.matchedPredictedSamples, 0u);
   EXPECT_EQ(result.acceptedSamples.total - result.acceptedSamples.part, teeFigures.predictedSamples);
   EXPECT_NE(formatEvaluation(result).find(" spurious_accepted=1/1 spurious_proposed=0/1"), std::string::npos);
+}
+
+TEST(Evaluation, NominalSizeRightCountsMatchedSamplesOfTheTruthsSize) {
+  const PipeNetwork truth = lShapedRun();  // 50 mm pipes 1 and 2 (DN 80), a 25 mm branch
+  const NominalSizes sizes = NominalSizes::shipped();
+  EvaluationParams params;
+  params.nominalSizes = &sizes;
+  const EvaluationResult same = evaluateNetwork(truth, truth, params);
+  EXPECT_TRUE(same.nominalMeasured);
+  EXPECT_EQ(same.nominalSizeRight, same.matchedTruthSamples);
+
+  // Pipe 2 (1.9 m) fitted 8 mm wide is the next size up; 1 mm wide, still the truth's.
+  PipeNetwork wide = truth;
+  wide.pipes[1].radius = 0.058;
+  const EvaluationResult wrong = evaluateNetwork(truth, wide, params);
+  EXPECT_EQ(wrong.matchedTruthSamples, same.matchedTruthSamples);
+  EXPECT_NEAR(static_cast<double>(wrong.matchedTruthSamples - wrong.nominalSizeRight), 190.0, 5.0);
+  EXPECT_NE(formatEvaluation(wrong).find(" nominal_size_right="), std::string::npos);
+  wide.pipes[1].radius = 0.051;
+  EXPECT_EQ(evaluateNetwork(truth, wide, params).nominalSizeRight, same.matchedTruthSamples);
+
+  const EvaluationResult unmeasured = evaluateNetwork(truth, truth);
+  EXPECT_FALSE(unmeasured.nominalMeasured);
+  EXPECT_EQ(formatEvaluation(unmeasured).find("nominal_size_right"), std::string::npos);
 }
 
 TEST(Evaluation, FormatLine) {

@@ -1,5 +1,7 @@
 #include "piperun/eval/evaluation.h"
 
+#include "piperun/edit/nominal_sizes.h"
+
 #include "points_near.h"
 
 #include <algorithm>
@@ -253,9 +255,15 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
     const double tolerance = toleranceOf(sample);
     double nearest = std::numeric_limits<double>::infinity();
     double nearestRadius = 0.0;
+    // Samples of two elements can coincide (a tee's axis starts on its main's): of those, the one
+    // of the truth's nominal size.
+    const auto truthSize = [&](double radius) {
+      return params.nominalSizes && params.nominalSizes->nearest(radius).dn == params.nominalSizes->nearest(sample.radius).dn;
+    };
     predictedGrid.forEachNear(sample.position, tolerance, [&](std::size_t p) {
       const double distance = (predictedSamples[p].position - sample.position).norm();
-      if (distance < nearest) {
+      if (distance < nearest ||
+          (distance == nearest && !truthSize(nearestRadius) && truthSize(predictedSamples[p].radius))) {
         nearest = distance;
         nearestRadius = predictedSamples[p].radius;
       }
@@ -264,6 +272,7 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
       truthMatched[t] = 1;
       ++result.matchedTruthSamples;
       radiusErrors.push_back(std::fabs(nearestRadius - sample.radius));
+      if (truthSize(nearestRadius)) ++result.nominalSizeRight;
     }
     if (!observable.empty() && observable[t]) {
       ++result.observableTruthSamples;
@@ -292,6 +301,7 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
   const double sum = result.precision + result.recall;
   result.f1 = sum > 0.0 ? 2.0 * result.precision * result.recall / sum : 0.0;
   result.radiusErrorMedian = median(radiusErrors);
+  result.nominalMeasured = params.nominalSizes != nullptr;
 
   std::vector<const Joint*> predictedJoints;
   for (const auto& joint : predicted.joints) {
@@ -450,6 +460,10 @@ std::string formatEvaluation(const EvaluationResult& result) {
                 result.proposedSamples.total, result.spuriousAccepted.part, result.spuriousAccepted.total,
                 result.spuriousProposed.part, result.spuriousProposed.total);
   text += line;
+  if (result.nominalMeasured) {
+    std::snprintf(line, sizeof line, " nominal_size_right=%zu/%zu", result.nominalSizeRight, result.matchedTruthSamples);
+    text += line;
+  }
   if (result.observableMeasured) {
     std::snprintf(line, sizeof line,
                   " observable=%.3f recall_observable=%.3f observable_elbows=%d/%d observable_tees=%d/%d"

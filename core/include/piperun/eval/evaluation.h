@@ -10,6 +10,8 @@
 
 namespace piperun {
 
+class NominalSizes;
+
 struct EvaluationParams {
   double sampleStep = 0.01;          ///< Axis polylines are sampled every this many metres.
   double minTolerance = 0.02;        ///< A sample matches within max(minTolerance, radiusFactor × truth radius)...
@@ -35,6 +37,9 @@ struct EvaluationParams {
   /// matches at least this share of its samples within the corner's reach that are observable (of
   /// all its samples there when none is; see MissCause).
   double cornerFoundShare = 0.5;
+  /// When given: also how often the prediction's nominal size (the table's nearest to its radius,
+  /// as PCF exports write it) is the truth's, over the matched truth samples.
+  const NominalSizes* nominalSizes = nullptr;
 };
 
 /// Why a truth elbow or tee was missed, told with a labelled scan: the stage to look at.
@@ -98,6 +103,8 @@ struct EvaluationResult {
   double recall = 0.0;               ///< Share of truth samples within tolerance of a predicted sample.
   double f1 = 0.0;
   double radiusErrorMedian = 0.0;    ///< Median |r_pred − r_truth| over matched truth samples (m); 0 when none.
+  bool nominalMeasured = false;      ///< EvaluationParams::nominalSizes was given: of the matched truth samples,
+  std::size_t nominalSizeRight = 0;  ///< those whose nearest predicted sample has the truth's nominal size.
   std::size_t truthSamples = 0;
   std::size_t predictedSamples = 0;
   std::size_t matchedTruthSamples = 0;
@@ -148,7 +155,8 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
                                  const EvaluationParams& params = {}, const PointCloud* labelledScan = nullptr);
 
 /// "precision=0.912 recall=0.874 f1=0.893 radius_err_mm=3.1 elbows=17/20 tees=5/6 ...
-/// accepted_matched=2410/2436 proposed_matched=120/300 spurious_accepted=1/20 spurious_proposed=1/4", then
+/// accepted_matched=2410/2436 proposed_matched=120/300 spurious_accepted=1/20 spurious_proposed=1/4", with
+/// nominal sizes " nominal_size_right=2390/2412", then
 /// "observable=0.906 recall_observable=0.939 observable_elbows=73/89 observable_tees=20/22
 /// corner_seen_elbows=70/80 corner_seen_tees=19/21 missed_elbows_unseen=2
 /// missed_elbows_pipe_not_found=1 missed_elbows_not_joined=0 missed_tees_unseen=1 …" when those
