@@ -23,6 +23,7 @@
 #include <cctype>
 #include <chrono>
 #include <cstdio>
+#include <map>
 
 namespace piperun::cli {
 
@@ -49,6 +50,42 @@ double secondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
+/// What a network holds of one nominal size (the nearest to each element's radius; a tee's is
+/// its branch's), leaving out deleted pipes and rejected joints: a bill of materials.
+struct SizeTally {
+  NominalSize size;
+  int pipes = 0;
+  double pipeLength = 0.0;
+  int elbows = 0;
+  int tees = 0;
+  int boundaries = 0;
+};
+
+/// The sizes present, smallest first.
+std::vector<SizeTally> tallyBySize(const PipeNetwork& network, const NominalSizes& table) {
+  std::map<int, SizeTally> byDn;
+  const auto tallyOf = [&](double radius) -> SizeTally& {
+    const NominalSize& size = table.nearest(radius);
+    SizeTally& tally = byDn[size.dn];
+    tally.size = size;
+    return tally;
+  };
+  for (const auto& pipe : network.pipes) {
+    if (pipe.status == PipeStatus::Deleted) continue;
+    SizeTally& tally = tallyOf(pipe.radius);
+    ++tally.pipes;
+    tally.pipeLength += pipe.length();
+  }
+  for (const auto& joint : network.joints) {
+    if (joint.status == JointStatus::Rejected) continue;
+    SizeTally& tally = tallyOf(joint.radius);
+    ++(joint.type == JointType::Elbow ? tally.elbows : joint.type == JointType::Tee ? tally.tees : tally.boundaries);
+  }
+  std::vector<SizeTally> tallies;
+  for (const auto& [dn, tally] : byDn) tallies.push_back(tally);
+  return tallies;
+}
+
 int networkInfo(const InfoOptions& options) {
   NetworkMetadata metadata;
   const PipeNetwork network = readNetwork(options.input, &metadata);
@@ -60,11 +97,18 @@ int networkInfo(const InfoOptions& options) {
   }
   double pipeLength = 0.0;
   for (const auto& pipe : network.pipes) pipeLength += pipe.length();
+  const std::vector<SizeTally> sizes = tallyBySize(network, NominalSizes::shipped());
   if (options.json) {
     json out = {{"file", options.input},     {"format", kNetworkFormatName}, {"pipes", network.pipes.size()},
                 {"joints", network.joints.size()}, {"elbows", elbows},        {"tees", tees},
                 {"boundary_joints", boundaries},    {"runs", network.runs.size()}, {"pipe_length_m", pipeLength},
                 {"metadata", metadata}};
+    out["sizes"] = json::array();
+    for (const SizeTally& size : sizes) {
+      out["sizes"].push_back({{"nps", size.size.nps}, {"dn", size.size.dn}, {"pipes", size.pipes},
+                              {"pipe_length_m", size.pipeLength}, {"elbows", size.elbows}, {"tees", size.tees},
+                              {"boundary_joints", size.boundaries}});
+    }
     std::printf("%s\n", out.dump(2).c_str());
     return kExitOk;
   }
@@ -74,6 +118,10 @@ int networkInfo(const InfoOptions& options) {
   std::printf("pipes: %zu (total length %.2f m)\n", network.pipes.size(), pipeLength);
   std::printf("joints: %zu (elbows %d, tees %d, boundary %d)\n", network.joints.size(), elbows, tees, boundaries);
   std::printf("runs: %zu\n", network.runs.size());
+  for (const SizeTally& size : sizes) {
+    std::printf("size %s\" (DN %d): pipes %d (%.2f m), elbows %d, tees %d, boundary %d\n", size.size.nps.c_str(),
+                size.size.dn, size.pipes, size.pipeLength, size.elbows, size.tees, size.boundaries);
+  }
   return kExitOk;
 }
 

@@ -109,6 +109,13 @@ case "$CASE" in
     expect_out "^points: [0-9]+$"
     run 0 info "$WORK/truth.json"
     expect_out "^pipes: [0-9]+"
+    # A bill of materials by nominal size: every pipe and joint counted under one size.
+    expect_out '^size [0-9/-]+" \(DN [0-9]+\): pipes [0-9]+ \([0-9.]+ m\), elbows [0-9]+, tees [0-9]+, boundary [0-9]+$'
+    pipes=$(sed -nE 's/^pipes: ([0-9]+) .*/\1/p' <<<"$OUT")
+    [ "$(sed -nE 's/^size .*: pipes ([0-9]+) .*/\1/p' <<<"$OUT" | awk '{ n += $1 } END { print n }')" -eq "$pipes" ] ||
+      fail "the sizes do not add up to the $pipes pipes"
+    run 0 info --json "$WORK/truth.json"
+    expect_out '"sizes": \['
     run 0 eval "$WORK/truth.json" "$WORK/truth.json"
     expect_out "precision=1.000 recall=1.000 f1=1.000 radius_err_mm=0.0"
     expect_out " accepted_matched=([0-9]+)/\1 proposed_matched=0/0 spurious_accepted=0/[1-9][0-9]* spurious_proposed=0/0"

@@ -367,11 +367,11 @@ TEST(Export, CsvOneRowPerElement) {
   const auto lines = splitLines(text);
   ASSERT_EQ(lines.size(), 1 + kExportedNames.size());
   EXPECT_EQ(lines[0],
-            "id,type,run,radius_m,length_m,start_x,start_y,start_z,end_x,end_y,end_z,bend_radius_m,confidence,status");
+            "id,type,run,radius_m,length_m,start_x,start_y,start_z,end_x,end_y,end_z,bend_radius_m,confidence,status,nps,dn");
   std::map<std::string, std::vector<std::string>> rows;
   for (std::size_t i = 1; i < lines.size(); ++i) {
     auto fields = splitFields(lines[i]);
-    ASSERT_EQ(fields.size(), 14u) << lines[i];
+    ASSERT_EQ(fields.size(), 16u) << lines[i];
     rows[fields[1] + "-" + fields[0]] = fields;
   }
   std::set<std::string> names;
@@ -397,6 +397,11 @@ TEST(Export, CsvOneRowPerElement) {
   EXPECT_EQ(rows.at("boundary-4")[13], "proposed");
   EXPECT_EQ(rows.at("pipe-7")[13], "proposed");
   EXPECT_EQ(rows.at("tee-2")[2], "0");
+  // The nominal size nearest each radius: 100 mm outside is 3-1/2" (101.6).
+  EXPECT_EQ(main[14], "3-1/2");
+  EXPECT_EQ(main[15], "90");
+  EXPECT_EQ(rows.at("tee-2")[14], "2");  // the branch's 60 mm: 2" (60.3)
+  EXPECT_EQ(rows.at("tee-2")[15], "50");
 }
 
 // ---------------------------------------------------------------------------------------------

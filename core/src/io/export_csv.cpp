@@ -1,13 +1,14 @@
-// CSV (RFC 4180: CRLF line ends, a header row): one row per element. No field ever holds a comma,
-// quote or line break, so none is quoted.
+// CSV (RFC 4180: CRLF line ends, a header row): one row per element, ending with the nominal size
+// nearest its radius (NPS and DN). No field ever holds a comma, quote or line break, so none is
+// quoted.
 
 #include "io/export_elements.h"
 
 namespace piperun::io {
 
-std::string csvDocument(const std::vector<ExportElement>& elements) {
+std::string csvDocument(const std::vector<ExportElement>& elements, const NominalSizes& sizes) {
   std::string text =
-      "id,type,run,radius_m,length_m,start_x,start_y,start_z,end_x,end_y,end_z,bend_radius_m,confidence,status\r\n";
+      "id,type,run,radius_m,length_m,start_x,start_y,start_z,end_x,end_y,end_z,bend_radius_m,confidence,status,nps,dn\r\n";
   for (const auto& element : elements) {
     const Eigen::Vector3d& start = element.axis.front();
     const Eigen::Vector3d& end = element.axis.back();
@@ -19,7 +20,9 @@ std::string csvDocument(const std::vector<ExportElement>& elements) {
     }
     text += ",";
     if (element.kind == ElementKind::Elbow) text += shortestNumber(element.bendRadius);
-    text += "," + shortestNumber(element.confidence) + "," + element.status + "\r\n";
+    const NominalSize& size = sizes.nearest(element.radius);
+    text += "," + shortestNumber(element.confidence) + "," + element.status + "," + size.nps + "," +
+            std::to_string(size.dn) + "\r\n";
   }
   return text;
 }

@@ -2,6 +2,7 @@
 // What every network export writes: the elements that are kept, in one flat list, and the
 // per-format document writers (network_export.cpp picks one and writes the file atomically).
 
+#include "piperun/edit/nominal_sizes.h"
 #include "piperun/io/network_export.h"
 
 #include <Eigen/Core>
@@ -43,8 +44,9 @@ std::string shortestNumber(double value);
 // Document writers, one per format (export_<format>.cpp).
 std::string objDocument(const std::vector<ExportElement>& elements, const ExportOptions& options);
 std::string plyDocument(const std::vector<ExportElement>& elements, const ExportOptions& options);
-std::string csvDocument(const std::vector<ExportElement>& elements);
+std::string csvDocument(const std::vector<ExportElement>& elements, const NominalSizes& sizes);
 std::string dxfDocument(const std::vector<ExportElement>& elements);
-std::string pcfDocument(const std::vector<ExportElement>& elements, PcfBore bore);
+/// `nominal`: the table of nominal bores; nullptr: the fitted outside diameters.
+std::string pcfDocument(const std::vector<ExportElement>& elements, const NominalSizes* nominal);
 
 }  // namespace piperun::io

@@ -16,7 +16,6 @@
 
 #include "angles.h"
 #include "io/export_elements.h"
-#include "piperun/edit/nominal_sizes.h"
 
 #include <Eigen/Geometry>
 
@@ -53,8 +52,8 @@ std::string coordinates(const Eigen::Vector3d& p) {
 /// The bores written (mm): nominal sizes, or fitted outside diameters.
 class Bores {
  public:
-  Bores(PcfBore kind, const std::map<int, const ExportElement*>& pipes)
-      : pipes_(pipes), sizes_(kind == PcfBore::Nominal ? std::optional(NominalSizes::shipped()) : std::nullopt) {}
+  /// `sizes`: the nominal sizes' table; nullptr: outside diameters.
+  Bores(const NominalSizes* sizes, const std::map<int, const ExportElement*>& pipes) : pipes_(pipes), sizes_(sizes) {}
 
   /// A pipe of `radius` (m).
   double of(double radius) const {
@@ -87,7 +86,7 @@ class Bores {
 
  private:
   const std::map<int, const ExportElement*>& pipes_;
-  std::optional<NominalSizes> sizes_;
+  const NominalSizes* sizes_;
 };
 
 class PcfText {
@@ -220,12 +219,12 @@ void writeElbow(const ExportElement& elbow, double boreFirst, double boreLast, P
 
 }  // namespace
 
-std::string pcfDocument(const std::vector<ExportElement>& elements, PcfBore bore) {
+std::string pcfDocument(const std::vector<ExportElement>& elements, const NominalSizes* nominal) {
   std::map<int, const ExportElement*> pipes;
   for (const auto& element : elements) {
     if (element.kind == ElementKind::Pipe) pipes.emplace(element.id, &element);
   }
-  const Bores bores(bore, pipes);
+  const Bores bores(nominal, pipes);
   // Where tees sit on their main pipes: the pipes are cut around them.
   std::map<const ExportElement*, TeeLayout> tees;
   std::map<const ExportElement*, std::vector<std::pair<double, double>>> teeSpans;

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
 namespace piperun {
@@ -79,13 +80,17 @@ void exportNetwork(const PipeNetwork& network, ExportFormat format, const std::f
                    const ExportOptions& options) {
   checkOptions(options);
   const auto elements = io::exportedElements(network);
+  std::optional<NominalSizes> sizes;
+  if (format == ExportFormat::Csv || (format == ExportFormat::Pcf && options.pcfBore == PcfBore::Nominal)) {
+    sizes = NominalSizes::shipped();
+  }
   std::string document;
   switch (format) {
     case ExportFormat::Obj: document = io::objDocument(elements, options); break;
     case ExportFormat::Ply: document = io::plyDocument(elements, options); break;
-    case ExportFormat::Csv: document = io::csvDocument(elements); break;
+    case ExportFormat::Csv: document = io::csvDocument(elements, *sizes); break;
     case ExportFormat::Dxf: document = io::dxfDocument(elements); break;
-    case ExportFormat::Pcf: document = io::pcfDocument(elements, options.pcfBore); break;
+    case ExportFormat::Pcf: document = io::pcfDocument(elements, sizes ? &*sizes : nullptr); break;
   }
   io::writeFileAtomically(path, document);
 }
