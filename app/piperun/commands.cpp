@@ -2,6 +2,7 @@
 
 #include "console.h"
 #include "piperun/edit/nominal_sizes.h"
+#include "piperun/edit/project.h"
 #include "piperun/edit/review_queue.h"
 #include "piperun/error.h"
 #include "piperun/eval/evaluation.h"
@@ -31,11 +32,26 @@ namespace {
 
 using nlohmann::json;
 
-bool isNetworkFile(const std::string& path) {
+std::string lowerExtension(const std::string& path) {
   std::string extension = std::filesystem::path(path).extension().string();
   std::transform(extension.begin(), extension.end(), extension.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return extension == ".json";
+  return extension;
+}
+
+bool isProjectFile(const std::string& path) { return lowerExtension(path) == ".piperun"; }
+bool isNetworkFile(const std::string& path) { return lowerExtension(path) == ".json" || isProjectFile(path); }
+
+/// A network file's network, or the reviewed network of a project (.piperun), whose metadata
+/// then names the project's scan.
+PipeNetwork readNetworkOrProject(const std::string& path, NetworkMetadata* metadata = nullptr) {
+  if (!isProjectFile(path)) return readNetwork(path, metadata);
+  Project project = readProject(path);
+  if (metadata) {
+    (*metadata)["project"] = "reviewed network, " + std::to_string(project.edits.position()) + " edits";
+    if (!project.scanPath.empty()) (*metadata)["scan"] = project.scanPath.string();
+  }
+  return project.edits.network();
 }
 
 json vectorJson(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
@@ -88,7 +104,9 @@ std::vector<SizeTally> tallyBySize(const PipeNetwork& network, const NominalSize
 
 int networkInfo(const InfoOptions& options) {
   NetworkMetadata metadata;
-  const PipeNetwork network = readNetwork(options.input, &metadata);
+  const PipeNetwork network = readNetworkOrProject(options.input, &metadata);
+  const bool project = isProjectFile(options.input);
+  const char* format = project ? kProjectFormatName : kNetworkFormatName;
   int elbows = 0, tees = 0, boundaries = 0;
   for (const auto& joint : network.joints) {
     elbows += joint.type == JointType::Elbow;
@@ -99,7 +117,7 @@ int networkInfo(const InfoOptions& options) {
   for (const auto& pipe : network.pipes) pipeLength += pipe.length();
   const std::vector<SizeTally> sizes = tallyBySize(network, NominalSizes::shipped());
   if (options.json) {
-    json out = {{"file", options.input},     {"format", kNetworkFormatName}, {"pipes", network.pipes.size()},
+    json out = {{"file", options.input},     {"format", format}, {"pipes", network.pipes.size()},
                 {"joints", network.joints.size()}, {"elbows", elbows},        {"tees", tees},
                 {"boundary_joints", boundaries},    {"runs", network.runs.size()}, {"pipe_length_m", pipeLength},
                 {"metadata", metadata}};
@@ -113,7 +131,7 @@ int networkInfo(const InfoOptions& options) {
     return kExitOk;
   }
   std::printf("file: %s\n", options.input.c_str());
-  std::printf("format: %s version %d\n", kNetworkFormatName, kNetworkFormatVersion);
+  std::printf("format: %s version %d\n", format, project ? kProjectFormatVersion : kNetworkFormatVersion);
   for (const auto& [key, value] : metadata) std::printf("metadata: %s = %s\n", key.c_str(), value.c_str());
   std::printf("pipes: %zu (total length %.2f m)\n", network.pipes.size(), pipeLength);
   std::printf("joints: %zu (elbows %d, tees %d, boundary %d)\n", network.joints.size(), elbows, tees, boundaries);
@@ -310,8 +328,8 @@ void printJointOutcomes(const EvaluationResult& figures) {
 }  // namespace
 
 int runEval(const EvalOptions& options) {
-  const PipeNetwork truth = readNetwork(options.truth);
-  const PipeNetwork result = readNetwork(options.result);
+  const PipeNetwork truth = readNetworkOrProject(options.truth);
+  const PipeNetwork result = readNetworkOrProject(options.result);
   EvaluationParams params;
   params.fixedTolerance = options.tolerance;
   params.sampleStep = options.step;
@@ -580,7 +598,7 @@ int runExport(const ExportCommandOptions& options) {
     throw std::invalid_argument("cannot tell the export format from \"" + options.output +
                                 "\": name a .obj .ply .csv .dxf or .pcf file, or give --format");
   }
-  const PipeNetwork network = readNetwork(options.input);
+  const PipeNetwork network = readNetworkOrProject(options.input);
   ExportOptions exportOptions;
   exportOptions.chordTolerance = options.chordTolerance;
   exportOptions.pcfBore = pcfBoreFromString(options.pcfBore).value_or(PcfBore::Nominal);

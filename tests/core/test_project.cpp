@@ -161,6 +161,28 @@ TEST(ProjectFile, AutosavesEveryFewEditsAndReportsANewerAutosave) {
   EXPECT_FALSE(std::filesystem::exists(sidecar)) << "a save makes the autosave obsolete";
 }
 
+TEST(ProjectFile, TheReviewedNetworkExportsFromTheCommandAndReadsBackWithoutItsScan) {
+  test::TempDir dir;
+  Project project = reviewedProject(dir / "scan.ply");  // joint 13 rejected, pipe 4 deleted
+  saveProject(dir / "review.piperun", project);
+  CommandInterpreter interpreter(project, nullptr);
+  const CommandOutcome outcome = interpreter.execute("export " + (dir / "review.csv").string());
+  EXPECT_EQ(outcome.message, "exported " + (dir / "review.csv").string() + " (csv)");
+  EXPECT_FALSE(outcome.networkChanged);
+  const std::string csv = test::readFile(dir / "review.csv");
+  EXPECT_EQ(csv.find("\n4,pipe,"), std::string::npos) << "the deleted pipe is exported";
+  EXPECT_EQ(csv.find("\n13,boundary,"), std::string::npos) << "the rejected joint is exported";
+  EXPECT_NE(csv.find("\n5,pipe,"), std::string::npos);
+  EXPECT_THROW(interpreter.execute("export " + (dir / "review.stl").string()), CommandError);
+  EXPECT_THROW(interpreter.execute("export"), CommandError);
+
+  // Read back as saved, even with its scan gone.
+  std::filesystem::remove(dir / "scan.ply");
+  const Project read = readProject(dir / "review.piperun");
+  EXPECT_EQ(networkToJson(read.edits.network()), networkToJson(project.edits.network()));
+  EXPECT_EQ(read.file, dir / "review.piperun");
+}
+
 // A child process saves two different large projects over one file in a loop and is killed at
 // several moments: the file must always read back as one of the two, complete. The child writes
 // the documents saveProject() writes, serialised once, so that it spends its time writing.

@@ -273,6 +273,12 @@ void Studio::Impl::registerCommands() {
                  return message;
                });
 
+  commands.add("export", "FILE", "export the reviewed network (.obj .ply .csv .dxf or .pcf: docs/FORMATS.md)",
+               [this](const std::vector<std::string>& args) {
+                 expectArguments(args, 1, 1, "export FILE");
+                 return edit("export " + args[0]);
+               });
+
   commands.add("recover", "", "open the project's newer autosave in its place (save then writes it over the project)",
                [this](const std::vector<std::string>& args) {
                  expectArguments(args, 0, 0, "recover");

@@ -1,6 +1,7 @@
 #include "piperun/edit/command_interpreter.h"
 
 #include "piperun/error.h"
+#include "piperun/io/network_export.h"
 #include "piperun/params.h"
 
 #include <fstream>
@@ -59,7 +60,8 @@ std::string describe(const EditStep& step) {
 }
 
 const char* kUsage =
-    "expected one of: run [STAGE] | rerun STAGE key=value... | undo | redo | save PATH | joint ID accept|reject|propose | joint add A B | "
+    "expected one of: run [STAGE] | rerun STAGE key=value... | undo | redo | save PATH | export FILE | "
+    "joint ID accept|reject|propose | joint add A B | "
     "pipe ID delete|restore|snap|radius R|merge ID|split X Y Z|move-end start|end X Y Z | pipe fit-box X0 Y0 Z0 X1 Y1 Z1 | "
     "pipe fit-point X Y Z [REACH]";
 
@@ -181,6 +183,13 @@ CommandOutcome CommandInterpreter::dispatch(const std::vector<std::string>& word
     saveProject(words[1], project_);
     editsSinceAutosave_ = 0;
     return {"saved " + words[1], false, {}};
+  }
+  if (verb == "export") {
+    if (words.size() != 2) throw EditError("expected \"export FILE\" (.obj .ply .csv .dxf or .pcf)");
+    const auto format = exportFormatFromPath(words[1]);
+    if (!format) throw EditError("cannot tell the export format from \"" + words[1] + "\": name a .obj .ply .csv .dxf or .pcf file");
+    exportNetwork(project_.edits.network(), *format, words[1]);
+    return {"exported " + words[1] + " (" + toString(*format) + ")", false, {}};
   }
   if (const auto edit = parseEdit(words)) {
     if (edit->kind == EditKind::SnapRadius && !sizes_) throw EditError(sizesError_);

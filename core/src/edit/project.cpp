@@ -241,16 +241,30 @@ void autosaveProject(const Project& project) {
   if (!path.empty()) io::writeFileAtomically(path, projectToJson(project));
 }
 
-OpenedProject openProject(const std::filesystem::path& path) {
+namespace {
+
+std::string projectText(const std::filesystem::path& path) {
   std::error_code error;
   if (!std::filesystem::is_regular_file(path, error)) throw InputError(path, "", "no such file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "", "cannot open");
   std::ostringstream buffer;
   buffer << in.rdbuf();
+  return buffer.str();
+}
 
+}  // namespace
+
+Project readProject(const std::filesystem::path& path) {
+  Project project = projectFromJson(projectText(path), path);
+  project.file = path;
+  return project;
+}
+
+OpenedProject openProject(const std::filesystem::path& path) {
+  std::error_code error;
   OpenedProject opened;
-  opened.project = projectFromJson(buffer.str(), path, &opened.warnings);
+  opened.project = projectFromJson(projectText(path), path, &opened.warnings);
   Project& project = opened.project;
   project.file = path;
 

@@ -60,6 +60,9 @@ struct OpenedProject {
 /// opens all the same. Throws InputError (file, JSON pointer, what was expected) for a malformed
 /// or unsupported document.
 OpenedProject openProject(const std::filesystem::path& path);
+/// Reads a project as it was saved, looking neither at its scan nor at an autosave (for exports
+/// and figures of its reviewed network). Throws InputError as openProject does.
+Project readProject(const std::filesystem::path& path);
 Project projectFromJson(const std::string& text, const std::filesystem::path& source, std::vector<std::string>* warnings = nullptr);
 
 }  // namespace piperun
