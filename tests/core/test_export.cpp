@@ -42,19 +42,36 @@ constexpr double kBranchRadius = 0.03;
 // A run of a main pipe along x with a tee (branch down) and a 90° elbow into y; beside it a pipe in
 // no run, two pipes joined by a boundary joint, a deleted pipe and a rejected joint. Pipe and joint
 // ids overlap on purpose: they are separate id spaces.
+Pipe makePipe(int id, double radius, Vector3d start, Vector3d end, int run, PipeStatus status = PipeStatus::Accepted) {
+  Pipe pipe;
+  pipe.id = id;
+  pipe.radius = radius;
+  pipe.start = start;
+  pipe.end = end;
+  pipe.runId = run;
+  pipe.status = status;
+  pipe.confidence = 0.9;
+  return pipe;
+}
+
+Joint makeJoint(int id, JointType type, std::vector<int> pipes, double radius, std::vector<Vector3d> axis,
+                JointStatus status = JointStatus::Accepted) {
+  Joint joint;
+  joint.id = id;
+  joint.type = type;
+  joint.pipeIds = std::move(pipes);
+  joint.radius = radius;
+  joint.axis = std::move(axis);
+  joint.status = status;
+  joint.confidence = 0.7;
+  return joint;
+}
+
 PipeNetwork sampleNetwork() {
   PipeNetwork network;
   const auto addPipe = [&](int id, double radius, Vector3d start, Vector3d end, int run,
                            PipeStatus status = PipeStatus::Accepted) {
-    Pipe pipe;
-    pipe.id = id;
-    pipe.radius = radius;
-    pipe.start = start;
-    pipe.end = end;
-    pipe.runId = run;
-    pipe.status = status;
-    pipe.confidence = 0.9;
-    network.pipes.push_back(pipe);
+    network.pipes.push_back(makePipe(id, radius, start, end, run, status));
   };
   addPipe(1, kMainRadius, {0, 0, 1}, {2, 0, 1}, 0);
   addPipe(2, kMainRadius, {2 + kBendRadius, kBendRadius, 1}, {2 + kBendRadius, 1.5, 1}, 0);
@@ -66,16 +83,8 @@ PipeNetwork sampleNetwork() {
 
   const auto addJoint = [&](int id, JointType type, std::vector<int> pipes, double radius,
                             std::vector<Vector3d> axis, JointStatus status) {
-    Joint joint;
-    joint.id = id;
-    joint.type = type;
-    joint.pipeIds = std::move(pipes);
-    joint.radius = radius;
-    joint.axis = std::move(axis);
-    joint.status = status;
-    joint.confidence = 0.7;
-    if (type == JointType::Elbow) joint.bendRadius = kBendRadius;
-    network.joints.push_back(joint);
+    network.joints.push_back(makeJoint(id, type, std::move(pipes), radius, std::move(axis), status));
+    if (type == JointType::Elbow) network.joints.back().bendRadius = kBendRadius;
   };
   addJoint(1, JointType::Elbow, {1, 2}, kMainRadius,
            sampleArc({2, kBendRadius, 1}, {2, 0, 1}, {2 + kBendRadius, kBendRadius, 1}, 0.01), JointStatus::Accepted);
@@ -659,38 +668,13 @@ TEST(Export, PcfNominalBoresAgreeAtEveryConnectionWithReducersWhereTheSizeChange
   // A 6" pipe (fitted 3 mm wide, as scans fit them) turns through an elbow into an 8" one, which
   // continues across a gap into a 6" pipe carrying a 2" branch.
   PipeNetwork network;
-  const auto addPipe = [&](int id, double radius, Vector3d start, Vector3d end) {
-    Pipe pipe;
-    pipe.id = id;
-    pipe.radius = radius;
-    pipe.start = start;
-    pipe.end = end;
-    pipe.runId = 0;
-    network.pipes.push_back(pipe);
-  };
-  addPipe(1, 0.0855, {0, 0, 0}, {2, 0, 0});
-  addPipe(2, 0.1095, {2.3, 0.3, 0}, {2.3, 2, 0});
-  addPipe(3, 0.0842, {2.3, 2.1, 0}, {2.3, 4, 0});
-  addPipe(4, 0.031, {2.3 + 0.0842, 3, 0}, {3, 3, 0});
-  Joint elbow;
-  elbow.id = 1;
-  elbow.pipeIds = {1, 2};
-  elbow.radius = 0.0975;
-  elbow.bendRadius = 0.3;
-  elbow.axis = sampleArc({2, 0.3, 0}, {2, 0, 0}, {2.3, 0.3, 0}, 0.01);
-  Joint gap;
-  gap.id = 2;
-  gap.type = JointType::Boundary;
-  gap.pipeIds = {2, 3};
-  gap.radius = 0.097;
-  gap.axis = {{2.3, 2, 0}, {2.3, 2.1, 0}};
-  Joint tee;
-  tee.id = 3;
-  tee.type = JointType::Tee;
-  tee.pipeIds = {3, 4};
-  tee.radius = 0.031;
-  tee.axis = {{2.3, 3, 0}, {2.3 + 0.0842, 3, 0}};
-  network.joints = {elbow, gap, tee};
+  network.pipes = {makePipe(1, 0.0855, {0, 0, 0}, {2, 0, 0}, 0), makePipe(2, 0.1095, {2.3, 0.3, 0}, {2.3, 2, 0}, 0),
+                   makePipe(3, 0.0842, {2.3, 2.1, 0}, {2.3, 4, 0}, 0),
+                   makePipe(4, 0.031, {2.3 + 0.0842, 3, 0}, {3, 3, 0}, 0)};
+  network.joints = {makeJoint(1, JointType::Elbow, {1, 2}, 0.0975, sampleArc({2, 0.3, 0}, {2, 0, 0}, {2.3, 0.3, 0}, 0.01)),
+                    makeJoint(2, JointType::Boundary, {2, 3}, 0.097, {{2.3, 2, 0}, {2.3, 2.1, 0}}),
+                    makeJoint(3, JointType::Tee, {3, 4}, 0.031, {{2.3, 3, 0}, {2.3 + 0.0842, 3, 0}})};
+  network.joints[0].bendRadius = 0.3;
   network.runs.push_back({0, {1, 2, 3, 4}, {1, 2, 3}});
   network.validate();
 
