@@ -581,7 +581,7 @@ int runReconstruct(const ReconstructOptions& options) {
     EvaluationParams params;
     params.nominalSizes = &sizes;
     const EvaluationResult figures =
-        evaluateNetwork(readNetwork(options.truth), network, params, cloud->hasLabels() ? cloud.get() : nullptr);
+        evaluateNetwork(readNetworkOrProject(options.truth), network, params, cloud->hasLabels() ? cloud.get() : nullptr);
     std::printf("evaluation against %s: %s\n", options.truth.c_str(), formatEvaluation(figures).c_str());
   }
   std::printf("points=%zu kept=%zu directions=%zu pipes=%zu joints=%zu runs=%zu seconds=%.2f\n", cloud->size(),

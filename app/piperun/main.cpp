@@ -33,7 +33,9 @@ int main(int argc, char** argv) {
   auto* infoCommand = app.add_subcommand(
       "info", "Print a point cloud's point count, fields, bounding box and point spacing, or a network's summary");
   addVersion(*infoCommand);
-  infoCommand->add_option("file", info.input, "Point cloud (.ply .pcd .xyz .txt .csv .pts .las .e57), network .json or project .piperun")
+  infoCommand
+      ->add_option("file", info.input,
+                   "Point cloud (.ply .pcd .xyz .txt .csv .pts .las .e57), network .json or project .piperun")
       ->required();
   infoCommand->add_flag("--json", info.json, "Print the figures as JSON");
 
@@ -66,8 +68,10 @@ int main(int argc, char** argv) {
   EvalOptions eval;
   auto* evalCommand = app.add_subcommand("eval", "Compare a network with ground truth (precision, recall, F1)");
   addVersion(*evalCommand);
-  evalCommand->add_option("truth", eval.truth, "Ground-truth network (.json, or a .piperun project's reviewed network)")->required();
-  evalCommand->add_option("result", eval.result, "Network to evaluate (.json, or a .piperun project's reviewed network)")->required();
+  evalCommand->add_option("truth", eval.truth, "Ground-truth network (.json, or a .piperun project's reviewed network)")
+      ->required();
+  evalCommand->add_option("result", eval.result, "Network to evaluate (.json, or a .piperun project's reviewed network)")
+      ->required();
   evalCommand->add_flag("--json", eval.json, "Print the figures as JSON");
   evalCommand->add_flag("--pipes-only", eval.pipesOnly,
                         "Compare only the straight pipes of both networks (axis figures before joints)");
@@ -125,7 +129,9 @@ int main(int argc, char** argv) {
   auto* exportCommand =
       app.add_subcommand("export", "Export a network as a mesh (OBJ, PLY), table (CSV), CAD lines (DXF) or PCF");
   addVersion(*exportCommand);
-  exportCommand->add_option("network", exportOptions.input, "Network to export (.json, or a .piperun project's reviewed network)")->required();
+  exportCommand
+      ->add_option("network", exportOptions.input, "Network to export (.json, or a .piperun project's reviewed network)")
+      ->required();
   exportCommand->add_option("-o,--output", exportOptions.output, "File to write")->required();
   exportCommand->add_option("--format", exportOptions.format, "obj, ply, csv, dxf or pcf (default: from the file name)")
       ->transform(CLI::IsMember({"obj", "ply", "csv", "dxf", "pcf"}, CLI::ignore_case));

@@ -717,7 +717,8 @@ TEST(Export, PcfNominalBoresAgreeAtEveryConnectionWithReducersWhereTheSizeChange
   options.pcfBore = PcfBore::OutsideDiameter;
   exportNetwork(network, ExportFormat::Pcf, dir / "outside.pcf", options);
   const auto& outside = parsePcf(test::readFile(dir / "outside.pcf")).pipelines.at(0).second;
-  EXPECT_TRUE(std::none_of(outside.begin(), outside.end(), [](const PcfComponent& c) { return c.type == "REDUCER-CONCENTRIC"; }));
+  EXPECT_TRUE(std::none_of(outside.begin(), outside.end(),
+                           [](const PcfComponent& c) { return c.type == "REDUCER-CONCENTRIC"; }));
   EXPECT_EQ(outside.front().endPoints.at(0).bore, 171.0);
   EXPECT_GT(boreMismatches(outside), 0);
 }

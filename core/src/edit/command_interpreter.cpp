@@ -187,7 +187,9 @@ CommandOutcome CommandInterpreter::dispatch(const std::vector<std::string>& word
   if (verb == "export") {
     if (words.size() != 2) throw EditError("expected \"export FILE\" (.obj .ply .csv .dxf or .pcf)");
     const auto format = exportFormatFromPath(words[1]);
-    if (!format) throw EditError("cannot tell the export format from \"" + words[1] + "\": name a .obj .ply .csv .dxf or .pcf file");
+    if (!format) {
+      throw EditError("cannot tell the export format from \"" + words[1] + "\": name a .obj .ply .csv .dxf or .pcf file");
+    }
     exportNetwork(project_.edits.network(), *format, words[1]);
     return {"exported " + words[1] + " (" + toString(*format) + ")", false, {}};
   }

@@ -258,7 +258,8 @@ EvaluationResult evaluateNetwork(const PipeNetwork& truth, const PipeNetwork& pr
     // Samples of two elements can coincide (a tee's axis starts on its main's): of those, the one
     // of the truth's nominal size.
     const auto truthSize = [&](double radius) {
-      return params.nominalSizes && params.nominalSizes->nearest(radius).dn == params.nominalSizes->nearest(sample.radius).dn;
+      const NominalSizes* sizes = params.nominalSizes;
+      return sizes && sizes->nearest(radius).dn == sizes->nearest(sample.radius).dn;
     };
     predictedGrid.forEachNear(sample.position, tolerance, [&](std::size_t p) {
       const double distance = (predictedSamples[p].position - sample.position).norm();
@@ -455,7 +456,8 @@ std::string formatEvaluation(const EvaluationResult& result) {
                 result.truthElbows, result.foundTees, result.truthTees, result.spuriousJoints, result.predictedJoints,
                 result.bendRadiusErrorMedian);
   std::string text = line;
-  std::snprintf(line, sizeof line, " accepted_matched=%zu/%zu proposed_matched=%zu/%zu spurious_accepted=%zu/%zu spurious_proposed=%zu/%zu",
+  std::snprintf(line, sizeof line,
+                " accepted_matched=%zu/%zu proposed_matched=%zu/%zu spurious_accepted=%zu/%zu spurious_proposed=%zu/%zu",
                 result.acceptedSamples.part, result.acceptedSamples.total, result.proposedSamples.part,
                 result.proposedSamples.total, result.spuriousAccepted.part, result.spuriousAccepted.total,
                 result.spuriousProposed.part, result.spuriousProposed.total);

@@ -69,7 +69,8 @@ class Bores {
     for (int id : joint.joint->pipeIds) {
       const auto found = pipes_.find(id);
       if (found == pipes_.end()) continue;
-      const double distance = std::min((found->second->axis.front() - point).norm(), (found->second->axis.back() - point).norm());
+      const auto& axis = found->second->axis;
+      const double distance = std::min((axis.front() - point).norm(), (axis.back() - point).norm());
       if (!nearest || distance < nearestDistance) {
         nearest = found->second;
         nearestDistance = distance;
