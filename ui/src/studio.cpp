@@ -507,19 +507,30 @@ std::string Studio::Impl::selectionInfo() const {
   const PipeNetwork& network = document.network();
   std::ostringstream info;
   info.precision(3);
+  // A radius in millimetres, with the nominal size nearest it (what `radius snap` would set).
+  const auto radius = [&](double metres) {
+    std::ostringstream text;
+    text.precision(3);
+    text << metres * 1000.0 << " mm";
+    if (const NominalSizes* sizes = interpreter ? interpreter->sizes() : nullptr) {
+      const NominalSize& size = sizes->nearest(metres);
+      text << " (" << size.nps << "\" DN " << size.dn << ")";
+    }
+    return text.str();
+  };
   if (selection.kind == Selection::Kind::Pipe) {
     const Pipe& pipe = *network.findPipe(selection.id);
-    info << "pipe " << pipe.id << "  radius " << pipe.radius * 1000.0 << " mm  length " << pipe.length()
+    info << "pipe " << pipe.id << "  radius " << radius(pipe.radius) << "  length " << pipe.length()
          << " m\nconfidence " << pipe.confidence << "  fit RMS " << pipe.fitRms * 1000.0 << " mm  inliers "
          << pipe.inlierCount << "  run " << (pipe.runId >= 0 ? std::to_string(pipe.runId) : "-") << "  "
          << toString(pipe.status);
     if (const Pipe* second = network.findPipe(selection.secondPipe))
-      info << "\nand pipe " << second->id << "  radius " << second->radius * 1000.0 << " mm  length " << second->length()
+      info << "\nand pipe " << second->id << "  radius " << radius(second->radius) << "  length " << second->length()
            << " m  (Shift+M merges it into pipe " << pipe.id << ", Shift+J joins them)";
   } else if (selection.kind == Selection::Kind::Joint) {
     const Joint& joint = *network.findJoint(selection.id);
     info << "joint " << joint.id << "  " << toString(joint.type) << "  " << toString(joint.status) << "  radius "
-         << joint.radius * 1000.0 << " mm  length " << joint.length() << " m";
+         << radius(joint.radius) << "  length " << joint.length() << " m";
     if (joint.type == JointType::Elbow) info << "  bend radius " << joint.bendRadius << " m";
     info << "\nconfidence " << joint.confidence << "  pipes";
     for (int id : joint.pipeIds) info << " " << id;

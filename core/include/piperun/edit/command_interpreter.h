@@ -68,6 +68,8 @@ class CommandInterpreter {
   /// The context edits run with: the preprocessed cloud when the pipeline has one, the current
   /// joints and placement parameters, the nominal sizes.
   EditContext editContext() const;
+  /// The nominal sizes' table; nullptr when it could not be read.
+  const NominalSizes* sizes() const { return sizes_ ? &*sizes_ : nullptr; }
 
  private:
   CommandOutcome dispatch(const std::vector<std::string>& words, Progress& progress);
