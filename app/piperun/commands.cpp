@@ -75,6 +75,7 @@ struct SizeTally {
   int elbows = 0;
   int tees = 0;
   int boundaries = 0;
+  int proposed = 0;  ///< Of those pipes and joints, the ones still to review.
 };
 
 /// The sizes present, smallest first.
@@ -91,11 +92,13 @@ std::vector<SizeTally> tallyBySize(const PipeNetwork& network, const NominalSize
     SizeTally& tally = tallyOf(pipe.radius);
     ++tally.pipes;
     tally.pipeLength += pipe.length();
+    tally.proposed += pipe.status == PipeStatus::Proposed;
   }
   for (const auto& joint : network.joints) {
     if (joint.status == JointStatus::Rejected) continue;
     SizeTally& tally = tallyOf(joint.radius);
     ++(joint.type == JointType::Elbow ? tally.elbows : joint.type == JointType::Tee ? tally.tees : tally.boundaries);
+    tally.proposed += joint.status == JointStatus::Proposed;
   }
   std::vector<SizeTally> tallies;
   for (const auto& [dn, tally] : byDn) tallies.push_back(tally);
@@ -125,7 +128,7 @@ int networkInfo(const InfoOptions& options) {
     for (const SizeTally& size : sizes) {
       out["sizes"].push_back({{"nps", size.size.nps}, {"dn", size.size.dn}, {"pipes", size.pipes},
                               {"pipe_length_m", size.pipeLength}, {"elbows", size.elbows}, {"tees", size.tees},
-                              {"boundary_joints", size.boundaries}});
+                              {"boundary_joints", size.boundaries}, {"proposed", size.proposed}});
     }
     std::printf("%s\n", out.dump(2).c_str());
     return kExitOk;
@@ -137,8 +140,9 @@ int networkInfo(const InfoOptions& options) {
   std::printf("joints: %zu (elbows %d, tees %d, boundary %d)\n", network.joints.size(), elbows, tees, boundaries);
   std::printf("runs: %zu\n", network.runs.size());
   for (const SizeTally& size : sizes) {
-    std::printf("size %s\" (DN %d): pipes %d (%.2f m), elbows %d, tees %d, boundary %d\n", size.size.nps.c_str(),
-                size.size.dn, size.pipes, size.pipeLength, size.elbows, size.tees, size.boundaries);
+    std::printf("size %s\" (DN %d): pipes %d (%.2f m), elbows %d, tees %d, boundary %d, proposed %d\n",
+                size.size.nps.c_str(), size.size.dn, size.pipes, size.pipeLength, size.elbows, size.tees,
+                size.boundaries, size.proposed);
   }
   return kExitOk;
 }

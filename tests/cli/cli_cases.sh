@@ -110,7 +110,7 @@ case "$CASE" in
     run 0 info "$WORK/truth.json"
     expect_out "^pipes: [0-9]+"
     # A bill of materials by nominal size: every pipe and joint counted under one size.
-    expect_out '^size [0-9/-]+" \(DN [0-9]+\): pipes [0-9]+ \([0-9.]+ m\), elbows [0-9]+, tees [0-9]+, boundary [0-9]+$'
+    expect_out '^size [0-9/-]+" \(DN [0-9]+\): pipes [0-9]+ \([0-9.]+ m\), elbows [0-9]+, tees [0-9]+, boundary [0-9]+, proposed 0$'
     pipes=$(sed -nE 's/^pipes: ([0-9]+) .*/\1/p' <<<"$OUT")
     [ "$(sed -nE 's/^size .*: pipes ([0-9]+) .*/\1/p' <<<"$OUT" | awk '{ n += $1 } END { print n }')" -eq "$pipes" ] ||
       fail "the sizes do not add up to the $pipes pipes"
