@@ -78,6 +78,56 @@ struct SizeTally {
   int proposed = 0;  ///< Of those pipes and joints, the ones still to review.
 };
 
+/// One run as `info --runs` lists it: its length, the nominal size that most of its length has
+/// (its reducers and branches aside), its pipes, elbows and tees, and how many of those are proposed.
+struct RunSummary {
+  int id = 0;
+  double length = 0.0;
+  NominalSize size;
+  int pipes = 0;
+  int elbows = 0;
+  int tees = 0;
+  int proposed = 0;
+};
+
+std::vector<RunSummary> summarizeRuns(const PipeNetwork& network, const NominalSizes& table) {
+  std::vector<RunSummary> summaries;
+  for (const Run& run : network.runs) {
+    RunSummary& summary = summaries.emplace_back();
+    summary.id = run.id;
+    summary.length = runLength(network, run);
+    std::map<int, std::pair<double, NominalSize>> lengthBySize;  // by DN
+    const auto addLength = [&](double radius, double length) {
+      const NominalSize& size = table.nearest(radius);
+      auto& entry = lengthBySize.try_emplace(size.dn, 0.0, size).first->second;
+      entry.first += length;
+    };
+    for (int id : run.pipeIds) {
+      const Pipe* pipe = network.findPipe(id);
+      if (!pipe) continue;
+      ++summary.pipes;
+      summary.proposed += pipe->status == PipeStatus::Proposed;
+      addLength(pipe->radius, pipe->length());
+    }
+    for (int id : run.jointIds) {
+      const Joint* joint = network.findJoint(id);
+      if (!joint) continue;
+      summary.elbows += joint->type == JointType::Elbow;
+      summary.tees += joint->type == JointType::Tee;
+      summary.proposed += joint->status == JointStatus::Proposed;
+      addLength(joint->radius, joint->length());
+    }
+    double longest = -1.0;
+    for (const auto& [dn, entry] : lengthBySize) {
+      if (entry.first > longest) {
+        longest = entry.first;
+        summary.size = entry.second;
+      }
+    }
+  }
+  return summaries;
+}
+
 /// The sizes present, smallest first.
 std::vector<SizeTally> tallyBySize(const PipeNetwork& network, const NominalSizes& table) {
   std::map<int, SizeTally> byDn;
@@ -118,7 +168,9 @@ int networkInfo(const InfoOptions& options) {
   }
   double pipeLength = 0.0;
   for (const auto& pipe : network.pipes) pipeLength += pipe.length();
-  const std::vector<SizeTally> sizes = tallyBySize(network, NominalSizes::shipped());
+  const NominalSizes table = NominalSizes::shipped();
+  const std::vector<SizeTally> sizes = tallyBySize(network, table);
+  const std::vector<RunSummary> runs = options.runs ? summarizeRuns(network, table) : std::vector<RunSummary>{};
   if (options.json) {
     json out = {{"file", options.input},     {"format", format}, {"pipes", network.pipes.size()},
                 {"joints", network.joints.size()}, {"elbows", elbows},        {"tees", tees},
@@ -129,6 +181,14 @@ int networkInfo(const InfoOptions& options) {
       out["sizes"].push_back({{"nps", size.size.nps}, {"dn", size.size.dn}, {"pipes", size.pipes},
                               {"pipe_length_m", size.pipeLength}, {"elbows", size.elbows}, {"tees", size.tees},
                               {"boundary_joints", size.boundaries}, {"proposed", size.proposed}});
+    }
+    if (options.runs) {
+      out["run_list"] = json::array();
+      for (const RunSummary& run : runs) {
+        out["run_list"].push_back({{"id", run.id}, {"length_m", run.length}, {"nps", run.size.nps}, {"dn", run.size.dn},
+                                   {"pipes", run.pipes}, {"elbows", run.elbows}, {"tees", run.tees},
+                                   {"proposed", run.proposed}});
+      }
     }
     std::printf("%s\n", out.dump(2).c_str());
     return kExitOk;
@@ -143,6 +203,10 @@ int networkInfo(const InfoOptions& options) {
     std::printf("size %s\" (DN %d): pipes %d (%.2f m), elbows %d, tees %d, boundary %d, proposed %d\n",
                 size.size.nps.c_str(), size.size.dn, size.pipes, size.pipeLength, size.elbows, size.tees,
                 size.boundaries, size.proposed);
+  }
+  for (const RunSummary& run : runs) {
+    std::printf("run %d: %.2f m, %s\" (DN %d), pipes %d, elbows %d, tees %d, proposed %d\n", run.id, run.length,
+                run.size.nps.c_str(), run.size.dn, run.pipes, run.elbows, run.tees, run.proposed);
   }
   return kExitOk;
 }

@@ -12,6 +12,7 @@ enum ExitCode { kExitOk = 0, kExitUsage = 1, kExitBadInput = 2, kExitInternal = 
 struct InfoOptions {
   std::string input;
   bool json = false;
+  bool runs = false;  ///< For a network: one line per run.
   bool quiet = false;
 };
 int runInfo(const InfoOptions& options);

@@ -38,6 +38,8 @@ int main(int argc, char** argv) {
                    "Point cloud (.ply .pcd .xyz .txt .csv .pts .las .e57), network .json or project .piperun")
       ->required();
   infoCommand->add_flag("--json", info.json, "Print the figures as JSON");
+  infoCommand->add_flag("--runs", info.runs,
+                        "For a network: each run's length, nominal size, pipes, elbows, tees and proposed elements");
 
   GenerateOptions generate;
   auto* generateCommand =

@@ -114,6 +114,11 @@ case "$CASE" in
     pipes=$(sed -nE 's/^pipes: ([0-9]+) .*/\1/p' <<<"$OUT")
     [ "$(sed -nE 's/^size .*: pipes ([0-9]+) .*/\1/p' <<<"$OUT" | awk '{ n += $1 } END { print n }')" -eq "$pipes" ] ||
       fail "the sizes do not add up to the $pipes pipes"
+    # With --runs, one line per run.
+    runs=$(sed -nE 's/^runs: ([0-9]+)$/\1/p' <<<"$OUT")
+    run 0 info --runs "$WORK/truth.json"
+    expect_out '^run [0-9]+: [0-9.]+ m, [0-9/-]+" \(DN [0-9]+\), pipes [1-9][0-9]*, elbows [0-9]+, tees [0-9]+, proposed 0$'
+    [ "$(grep -c '^run [0-9]*:' <<<"$OUT")" -eq "$runs" ] || fail "info --runs does not list the $runs runs"
     run 0 info --json "$WORK/truth.json"
     expect_out '"sizes": \['
     run 0 eval "$WORK/truth.json" "$WORK/truth.json"
