@@ -1,6 +1,7 @@
 #include "commands.h"
 
 #include "console.h"
+#include "piperun/edit/bill_of_materials.h"
 #include "piperun/edit/nominal_sizes.h"
 #include "piperun/edit/project.h"
 #include "piperun/edit/review_queue.h"
@@ -24,7 +25,6 @@
 #include <cctype>
 #include <chrono>
 #include <cstdio>
-#include <map>
 
 namespace piperun::cli {
 
@@ -64,95 +64,6 @@ std::string joinNames(const std::vector<const char*>& names) {
 
 double secondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-/// What a network holds of one nominal size (the nearest to each element's radius; a tee's is
-/// its branch's), leaving out deleted pipes and rejected joints: a bill of materials.
-struct SizeTally {
-  NominalSize size;
-  int pipes = 0;
-  double pipeLength = 0.0;
-  int elbows = 0;
-  int tees = 0;
-  int boundaries = 0;
-  int proposed = 0;  ///< Of those pipes and joints, the ones still to review.
-};
-
-/// One run as `info --runs` lists it: its length, the nominal size that most of its length has
-/// (its reducers and branches aside), its pipes, elbows and tees, and how many of those are proposed.
-struct RunSummary {
-  int id = 0;
-  double length = 0.0;
-  NominalSize size;
-  int pipes = 0;
-  int elbows = 0;
-  int tees = 0;
-  int proposed = 0;
-};
-
-std::vector<RunSummary> summarizeRuns(const PipeNetwork& network, const NominalSizes& table) {
-  std::vector<RunSummary> summaries;
-  for (const Run& run : network.runs) {
-    RunSummary& summary = summaries.emplace_back();
-    summary.id = run.id;
-    summary.length = runLength(network, run);
-    std::map<int, std::pair<double, NominalSize>> lengthBySize;  // by DN
-    const auto addLength = [&](double radius, double length) {
-      const NominalSize& size = table.nearest(radius);
-      auto& entry = lengthBySize.try_emplace(size.dn, 0.0, size).first->second;
-      entry.first += length;
-    };
-    for (int id : run.pipeIds) {
-      const Pipe* pipe = network.findPipe(id);
-      if (!pipe) continue;
-      ++summary.pipes;
-      summary.proposed += pipe->status == PipeStatus::Proposed;
-      addLength(pipe->radius, pipe->length());
-    }
-    for (int id : run.jointIds) {
-      const Joint* joint = network.findJoint(id);
-      if (!joint) continue;
-      summary.elbows += joint->type == JointType::Elbow;
-      summary.tees += joint->type == JointType::Tee;
-      summary.proposed += joint->status == JointStatus::Proposed;
-      addLength(joint->radius, joint->length());
-    }
-    double longest = -1.0;
-    for (const auto& [dn, entry] : lengthBySize) {
-      if (entry.first > longest) {
-        longest = entry.first;
-        summary.size = entry.second;
-      }
-    }
-  }
-  return summaries;
-}
-
-/// The sizes present, smallest first.
-std::vector<SizeTally> tallyBySize(const PipeNetwork& network, const NominalSizes& table) {
-  std::map<int, SizeTally> byDn;
-  const auto tallyOf = [&](double radius) -> SizeTally& {
-    const NominalSize& size = table.nearest(radius);
-    SizeTally& tally = byDn[size.dn];
-    tally.size = size;
-    return tally;
-  };
-  for (const auto& pipe : network.pipes) {
-    if (pipe.status == PipeStatus::Deleted) continue;
-    SizeTally& tally = tallyOf(pipe.radius);
-    ++tally.pipes;
-    tally.pipeLength += pipe.length();
-    tally.proposed += pipe.status == PipeStatus::Proposed;
-  }
-  for (const auto& joint : network.joints) {
-    if (joint.status == JointStatus::Rejected) continue;
-    SizeTally& tally = tallyOf(joint.radius);
-    ++(joint.type == JointType::Elbow ? tally.elbows : joint.type == JointType::Tee ? tally.tees : tally.boundaries);
-    tally.proposed += joint.status == JointStatus::Proposed;
-  }
-  std::vector<SizeTally> tallies;
-  for (const auto& [dn, tally] : byDn) tallies.push_back(tally);
-  return tallies;
 }
 
 int networkInfo(const InfoOptions& options) {

@@ -1,6 +1,7 @@
 // Project files: exact round trips, changed scans, autosave, atomic saves under SIGKILL, nominal sizes.
 
 #include "io/atomic_file.h"
+#include "piperun/edit/bill_of_materials.h"
 #include "piperun/edit/command_interpreter.h"
 #include "piperun/edit/project.h"
 #include "piperun/error.h"
@@ -240,6 +241,59 @@ TEST(NominalSizes, ShippedTableIsFoundAndSnapsToTheNearestSize) {
   } catch (const InputError& error) {
     EXPECT_EQ(error.location(), "line 3");
   }
+}
+
+TEST(NominalSizes, BillOfMaterialsCountsEachSizeAndEachRun) {
+  // A 6" pipe turns into an 8" one (proposed); a deleted 6" pipe and a rejected 2" tee count nowhere.
+  PipeNetwork network;
+  const auto addPipe = [&](int id, double radius, Eigen::Vector3d start, Eigen::Vector3d end, PipeStatus status) {
+    Pipe pipe;
+    pipe.id = id;
+    pipe.radius = radius;
+    pipe.start = start;
+    pipe.end = end;
+    pipe.status = status;
+    network.pipes.push_back(pipe);
+  };
+  addPipe(1, 0.0843, {0, 0, 0}, {2, 0, 0}, PipeStatus::Accepted);
+  addPipe(2, 0.1095, {2.3, 0.3, 0}, {2.3, 1.3, 0}, PipeStatus::Proposed);
+  addPipe(3, 0.0843, {0, 5, 0}, {1, 5, 0}, PipeStatus::Deleted);
+  Joint elbow;
+  elbow.id = 4;
+  elbow.pipeIds = {1, 2};
+  elbow.radius = 0.0843;
+  elbow.axis = sampleArc({2, 0.3, 0}, {2, 0, 0}, {2.3, 0.3, 0}, 0.01);
+  Joint tee;
+  tee.id = 5;
+  tee.type = JointType::Tee;
+  tee.status = JointStatus::Rejected;
+  tee.pipeIds = {1, 3};
+  tee.radius = 0.03;
+  tee.axis = {{1, 0, 0}, {1, 0.1, 0}};
+  network.joints = {elbow, tee};
+  network.runs = {piperun::Run{1, {1, 2}, {4}}};
+  const NominalSizes sizes = NominalSizes::shipped();
+
+  const std::vector<SizeTally> tallies = tallyBySize(network, sizes);
+  ASSERT_EQ(tallies.size(), 2u);
+  EXPECT_EQ(tallies[0].size.dn, 150);
+  EXPECT_EQ(tallies[0].pipes, 1);
+  EXPECT_DOUBLE_EQ(tallies[0].pipeLength, 2.0);
+  EXPECT_EQ(tallies[0].elbows, 1);
+  EXPECT_EQ(tallies[0].tees, 0);
+  EXPECT_EQ(tallies[0].proposed, 0);
+  EXPECT_EQ(tallies[1].size.nps, "8");
+  EXPECT_EQ(tallies[1].pipes, 1);
+  EXPECT_EQ(tallies[1].proposed, 1);
+
+  const std::vector<RunSummary> runs = summarizeRuns(network, sizes);
+  ASSERT_EQ(runs.size(), 1u);
+  EXPECT_EQ(runs[0].id, 1);
+  EXPECT_DOUBLE_EQ(runs[0].length, runLength(network, network.runs[0]));
+  EXPECT_EQ(runs[0].size.dn, 150);  // 2 m and the elbow of 6" against 1 m of 8"
+  EXPECT_EQ(runs[0].pipes, 2);
+  EXPECT_EQ(runs[0].elbows, 1);
+  EXPECT_EQ(runs[0].proposed, 1);
 }
 
 TEST(NominalSizes, ResourceFolderCanBeSetByEnvironment) {
