@@ -10,6 +10,7 @@ PACKAGES="
   nlohmann-json3-dev libcli11-dev libpugixml-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   xvfb xdotool imagemagick x11-utils
+  python3-ezdxf
 "
 
 missing=""

@@ -231,6 +231,12 @@ case "$CASE" in
     [ "$(wc -l <"$WORK/net.csv")" -eq $((elements + 1)) ] || fail "net.csv lacks one row per element"
     head -c 4 "$WORK/net.ply" | grep -q "^ply" || fail "net.ply is not PLY"
     grep -q "^AC1009" "$WORK/net.dxf" || fail "net.dxf is not DXF R12"
+    # Read by a DXF library of CAD scripting (Debian's python3-ezdxf): a clean audit, every element's
+    # centre line and extended data as in the network.
+    ezdxf_reads() {
+      /usr/bin/python3 "$(dirname "$0")/dxf_reads_in_ezdxf.py" "$1" "$2" >"$WORK/ezdxf" 2>&1 || fail "ezdxf: $(cat "$WORK/ezdxf")"
+    }
+    ezdxf_reads "$WORK/truth.json" "$WORK/net.dxf"
     grep -q "^PIPELINE-REFERENCE RUN-" "$WORK/net.pcf" || fail "net.pcf has no pipeline"
     run 0 export "$WORK/truth.json" --format PCF -o "$WORK/iso.txt"
     grep -q "^UNITS-BORE MM" "$WORK/iso.txt" || fail "--format pcf did not write PCF"
@@ -257,6 +263,8 @@ case "$CASE" in
     expect_out "^export: .*r.obj \(obj\)$"
     expect_out "^export: .*r.pcf \(pcf\)$"
     run 0 export "$WORK/n.json" -o "$WORK/n.obj"
+    run 0 export "$WORK/n.json" -o "$WORK/n.dxf"
+    ezdxf_reads "$WORK/n.json" "$WORK/n.dxf"
     cmp -s "$WORK/r.obj" "$WORK/n.obj" || fail "reconstruct --export differs from export of the saved network"
     run 0 export "$WORK/n.json" --pcf-bore outside -o "$WORK/n.pcf"
     cmp -s "$WORK/r.pcf" "$WORK/n.pcf" || fail "reconstruct --pcf-bore differs from export --pcf-bore"
