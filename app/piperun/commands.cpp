@@ -5,6 +5,7 @@
 #include "piperun/edit/nominal_sizes.h"
 #include "piperun/edit/project.h"
 #include "piperun/edit/review_queue.h"
+#include "piperun/edit/runs.h"
 #include "piperun/error.h"
 #include "piperun/eval/evaluation.h"
 #include "piperun/io/network_export.h"
@@ -476,7 +477,10 @@ int runReconstruct(const ReconstructOptions& options) {
                 {"seed", std::to_string(params.seed)}});
   ExportOptions exportOptions;
   exportOptions.pcfBore = pcfBoreFromString(options.pcfBore).value_or(PcfBore::Nominal);
-  for (const auto& target : exports) exportNetwork(network, target.format, target.path, exportOptions);
+  if (!exports.empty()) {
+    const PipeNetwork exported = options.acceptedOnly ? acceptedPart(network) : network;
+    for (const auto& target : exports) exportNetwork(exported, target.format, target.path, exportOptions);
+  }
   int dumped = 0;
   if (!options.dumpDirectory.empty()) dumped = dumpStages(pipeline, options.dumpDirectory);
   bar.finish();
@@ -552,7 +556,10 @@ int runReconstruct(const ReconstructOptions& options) {
                 proposedJoints == 1 ? "joint" : "joints", proposedPipes, proposedPipes == 1 ? "pipe" : "pipes",
                 options.output.c_str());
   }
-  for (const auto& target : exports) std::printf("export: %s (%s)\n", target.path.c_str(), toString(target.format).c_str());
+  for (const auto& target : exports) {
+    std::printf("export: %s (%s%s)\n", target.path.c_str(), toString(target.format).c_str(),
+                options.acceptedOnly ? ", accepted only" : "");
+  }
   if (dumped > 0) std::printf("stages: %d files in %s\n", dumped, options.dumpDirectory.c_str());
   if (!options.truth.empty()) {
     // A labelled scan (piperun generate --labels) also gives the recall over what it shows.
@@ -577,7 +584,8 @@ int runExport(const ExportCommandOptions& options) {
     throw std::invalid_argument("cannot tell the export format from \"" + options.output +
                                 "\": name a .obj .ply .csv .dxf or .pcf file, or give --format");
   }
-  const PipeNetwork network = readNetworkOrProject(options.input);
+  const PipeNetwork read = readNetworkOrProject(options.input);
+  const PipeNetwork network = options.acceptedOnly ? acceptedPart(read) : read;
   ExportOptions exportOptions;
   exportOptions.chordTolerance = options.chordTolerance;
   exportOptions.pcfBore = pcfBoreFromString(options.pcfBore).value_or(PcfBore::Nominal);
@@ -594,7 +602,8 @@ int runExport(const ExportCommandOptions& options) {
     tees += joint.type == JointType::Tee;
     boundaries += joint.type == JointType::Boundary;
   }
-  std::printf("exported: %s -> %s (%s)\n", options.input.c_str(), options.output.c_str(), toString(*format).c_str());
+  std::printf("exported: %s -> %s (%s%s)\n", options.input.c_str(), options.output.c_str(), toString(*format).c_str(),
+              options.acceptedOnly ? ", accepted only" : "");
   std::printf("pipes=%d elbows=%d tees=%d boundary=%d left_out=%d\n", pipes, elbows, tees, boundaries, leftOut);
   return kExitOk;
 }

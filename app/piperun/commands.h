@@ -66,6 +66,7 @@ struct ReconstructOptions {
   std::string until = "joints";          ///< Last stage to run: "merge" or "joints".
   std::vector<std::string> exports;      ///< "FORMAT:FILE", written after the network.
   std::string pcfBore = "nominal";       ///< PCF exports' bores: "nominal" or "outside".
+  bool acceptedOnly = false;             ///< Exports leave out what is proposed (acceptedPart).
   bool quiet = false;
 };
 int runReconstruct(const ReconstructOptions& options);
@@ -76,6 +77,7 @@ struct ExportCommandOptions {
   std::string format;             ///< Empty: from the output's extension.
   double chordTolerance = 0.001;  ///< Mesh tessellation, metres.
   std::string pcfBore = "nominal";  ///< PCF bores: "nominal" or "outside".
+  bool acceptedOnly = false;        ///< Leave out what is proposed and the joints on it (acceptedPart).
 };
 int runExport(const ExportCommandOptions& options);
 

@@ -15,6 +15,9 @@ using namespace piperun::cli;
 constexpr const char* kVersionText = "piperun " PIPERUN_VERSION;
 constexpr const char* kPcfBoreHelp =
     "PCF bores: nominal (the DN whose pipe size is nearest the fit) or outside (the fitted outside diameter, mm)";
+constexpr const char* kAcceptedOnlyHelp =
+    "Export only what is accepted: proposed pipes and joints, and joints on a pipe left out, are left out too "
+    "(the runs follow)";
 
 void addVersion(CLI::App& app) { app.set_version_flag("--version", kVersionText); }
 
@@ -126,6 +129,7 @@ int main(int argc, char** argv) {
   reconstructCommand->add_option("--pcf-bore", reconstruct.pcfBore, kPcfBoreHelp)
       ->transform(CLI::IsMember({"nominal", "outside"}, CLI::ignore_case))
       ->capture_default_str();
+  reconstructCommand->add_flag("--accepted-only", reconstruct.acceptedOnly, kAcceptedOnlyHelp);
 
   ExportCommandOptions exportOptions;
   auto* exportCommand =
@@ -140,6 +144,7 @@ int main(int argc, char** argv) {
   exportCommand->add_option("--pcf-bore", exportOptions.pcfBore, kPcfBoreHelp)
       ->transform(CLI::IsMember({"nominal", "outside"}, CLI::ignore_case))
       ->capture_default_str();
+  exportCommand->add_flag("--accepted-only", exportOptions.acceptedOnly, kAcceptedOnlyHelp);
   exportCommand->add_option("--chord-tolerance", exportOptions.chordTolerance,
                             "Meshes: largest gap between a tube's polygon and its circle, metres")
       ->check(CLI::PositiveNumber)

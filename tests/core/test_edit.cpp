@@ -82,6 +82,32 @@ TEST(Runs, ConnectedOverAcceptedJointsOnly) {
   EXPECT_EQ(network.findPipe(3)->runId, 2);
 }
 
+TEST(Runs, TheAcceptedPartLeavesOutWhatIsProposedAndTheJointsOnIt) {
+  PipeNetwork network = sampleNetwork();
+  network.pipes.push_back(makePipe(8, {0, 1, 0}, {2, 1, 0}, 0.05));
+  network.pipes.back().status = PipeStatus::Deleted;
+  network.joints.push_back(makeJoint(9, JointType::Tee, {2, 8}, {{3, 0, 0}, {3, 1, 0}}, JointStatus::Accepted));
+  assignRuns(network);
+  const std::string before = snapshot(network);
+
+  const PipeNetwork accepted = acceptedPart(network);
+  EXPECT_EQ(snapshot(network), before);  // the network itself is left as it was
+  ASSERT_EQ(accepted.pipes.size(), network.pipes.size());
+  ASSERT_EQ(accepted.joints.size(), network.joints.size());
+  EXPECT_EQ(accepted.findPipe(1)->status, PipeStatus::Accepted);
+  EXPECT_EQ(accepted.findPipe(4)->status, PipeStatus::Deleted);  // proposed
+  EXPECT_EQ(accepted.findPipe(8)->status, PipeStatus::Deleted);
+  EXPECT_EQ(accepted.findJoint(5)->status, JointStatus::Accepted);
+  EXPECT_EQ(accepted.findJoint(6)->status, JointStatus::Rejected);  // proposed
+  EXPECT_EQ(accepted.findJoint(7)->status, JointStatus::Rejected);  // accepted, onto the proposed pipe 4
+  EXPECT_EQ(accepted.findJoint(9)->status, JointStatus::Rejected);  // accepted, onto the deleted pipe 8
+  ASSERT_EQ(accepted.runs.size(), 2u);
+  EXPECT_EQ(accepted.runs[0].pipeIds, (std::vector<int>{1, 2}));
+  EXPECT_EQ(accepted.runs[0].jointIds, (std::vector<int>{5}));
+  EXPECT_EQ(accepted.runs[1].pipeIds, (std::vector<int>{3}));
+  EXPECT_EQ(accepted.findPipe(4)->runId, -1);
+}
+
 /// The review queue as "joint 9", "pipe 4", ...
 std::vector<std::string> queued(const PipeNetwork& network) {
   std::vector<std::string> names;

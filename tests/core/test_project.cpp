@@ -174,8 +174,19 @@ TEST(ProjectFile, TheReviewedNetworkExportsFromTheCommandAndReadsBackWithoutItsS
   EXPECT_EQ(csv.find("\n4,pipe,"), std::string::npos) << "the deleted pipe is exported";
   EXPECT_EQ(csv.find("\n13,boundary,"), std::string::npos) << "the rejected joint is exported";
   EXPECT_NE(csv.find("\n5,pipe,"), std::string::npos);
+  EXPECT_NE(csv.find("\n8,pipe,"), std::string::npos) << "the proposed pipe 8 is left out of the full export";
   EXPECT_THROW(interpreter.execute("export " + (dir / "review.stl").string()), CommandError);
   EXPECT_THROW(interpreter.execute("export"), CommandError);
+  EXPECT_THROW(interpreter.execute("export " + (dir / "review.csv").string() + " proposed"), CommandError);
+
+  // What is accepted only: no proposed element is left.
+  const CommandOutcome accepted = interpreter.execute("export " + (dir / "accepted.csv").string() + " accepted");
+  EXPECT_EQ(accepted.message, "exported " + (dir / "accepted.csv").string() + " (csv, accepted only)");
+  const std::string acceptedCsv = test::readFile(dir / "accepted.csv");
+  EXPECT_EQ(acceptedCsv.find(",proposed,"), std::string::npos);
+  EXPECT_EQ(acceptedCsv.find("\n8,pipe,"), std::string::npos);
+  EXPECT_NE(acceptedCsv.find("\n5,pipe,"), std::string::npos);
+  EXPECT_NE(csv.find(",proposed,"), std::string::npos);
 
   // Read back as saved, even with its scan gone.
   std::filesystem::remove(dir / "scan.ply");

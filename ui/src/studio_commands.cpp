@@ -273,10 +273,12 @@ void Studio::Impl::registerCommands() {
                  return message;
                });
 
-  commands.add("export", "FILE", "export the reviewed network (.obj .ply .csv .dxf or .pcf: docs/FORMATS.md)",
+  commands.add("export", "FILE [accepted]",
+               "export the reviewed network (.obj .ply .csv .dxf or .pcf: docs/FORMATS.md); accepted: what is proposed left out",
                [this](const std::vector<std::string>& args) {
-                 expectArguments(args, 1, 1, "export FILE");
-                 return edit("export " + args[0]);
+                 expectArguments(args, 1, 2, "export FILE [accepted]");
+                 if (args.size() == 2 && args[1] != "accepted") throw CommandError("expected \"export FILE [accepted]\"");
+                 return edit("export " + args[0] + (args.size() == 2 ? " accepted" : ""));
                });
 
   commands.add("recover", "", "open the project's newer autosave in its place (save then writes it over the project)",

@@ -1,5 +1,6 @@
 #include "piperun/edit/command_interpreter.h"
 
+#include "piperun/edit/runs.h"
 #include "piperun/error.h"
 #include "piperun/io/network_export.h"
 #include "piperun/params.h"
@@ -60,7 +61,7 @@ std::string describe(const EditStep& step) {
 }
 
 const char* kUsage =
-    "expected one of: run [STAGE] | rerun STAGE key=value... | undo | redo | save PATH | export FILE | "
+    "expected one of: run [STAGE] | rerun STAGE key=value... | undo | redo | save PATH | export FILE [accepted] | "
     "joint ID accept|reject|propose | joint add A B | "
     "pipe ID delete|restore|snap|radius R|merge ID|split X Y Z|move-end start|end X Y Z | pipe fit-box X0 Y0 Z0 X1 Y1 Z1 | "
     "pipe fit-point X Y Z [REACH]";
@@ -185,13 +186,17 @@ CommandOutcome CommandInterpreter::dispatch(const std::vector<std::string>& word
     return {"saved " + words[1], false, {}};
   }
   if (verb == "export") {
-    if (words.size() != 2) throw EditError("expected \"export FILE\" (.obj .ply .csv .dxf or .pcf)");
+    const bool acceptedOnly = words.size() == 3 && words[2] == "accepted";
+    if (words.size() != 2 && !acceptedOnly) {
+      throw EditError("expected \"export FILE [accepted]\" (.obj .ply .csv .dxf or .pcf)");
+    }
     const auto format = exportFormatFromPath(words[1]);
     if (!format) {
       throw EditError("cannot tell the export format from \"" + words[1] + "\": name a .obj .ply .csv .dxf or .pcf file");
     }
-    exportNetwork(project_.edits.network(), *format, words[1]);
-    return {"exported " + words[1] + " (" + toString(*format) + ")", false, {}};
+    const PipeNetwork& network = project_.edits.network();
+    exportNetwork(acceptedOnly ? acceptedPart(network) : network, *format, words[1]);
+    return {"exported " + words[1] + " (" + toString(*format) + (acceptedOnly ? ", accepted only)" : ")"), false, {}};
   }
   if (const auto edit = parseEdit(words)) {
     if (edit->kind == EditKind::SnapRadius && !sizes_) throw EditError(sizesError_);

@@ -2,7 +2,9 @@
 
 #include "union_find.h"
 
+#include <algorithm>
 #include <unordered_map>
+#include <unordered_set>
 
 namespace piperun {
 
@@ -49,6 +51,22 @@ void assignRuns(PipeNetwork& network) {
     const std::size_t root = components.find(indexOf.at(joint.pipeIds.front()));
     network.runs[static_cast<std::size_t>(runOfRoot[root])].jointIds.push_back(joint.id);
   }
+}
+
+PipeNetwork acceptedPart(const PipeNetwork& network) {
+  PipeNetwork accepted = network;
+  std::unordered_set<int> deleted;
+  for (Pipe& pipe : accepted.pipes) {
+    if (pipe.status == PipeStatus::Proposed) pipe.status = PipeStatus::Deleted;
+    if (pipe.status == PipeStatus::Deleted) deleted.insert(pipe.id);
+  }
+  for (Joint& joint : accepted.joints) {
+    const bool onDeletedPipe =
+        std::any_of(joint.pipeIds.begin(), joint.pipeIds.end(), [&](int id) { return deleted.count(id) > 0; });
+    if (joint.status == JointStatus::Proposed || onDeletedPipe) joint.status = JointStatus::Rejected;
+  }
+  assignRuns(accepted);
+  return accepted;
 }
 
 }  // namespace piperun

@@ -12,4 +12,10 @@ namespace piperun {
 /// a deleted pipe leaves the runs at once.
 void assignRuns(PipeNetwork& network);
 
+/// The network as far as it is accepted, for exports that must hold no element still to review:
+/// proposed pipes deleted, proposed joints rejected, and so are accepted joints on a pipe deleted
+/// (here or before: a joint does not stand without its pipes); the runs assigned again. Ids and
+/// order are kept, so the elements left are named as in `network`.
+PipeNetwork acceptedPart(const PipeNetwork& network);
+
 }  // namespace piperun
