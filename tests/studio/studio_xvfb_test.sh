@@ -4,7 +4,8 @@
 # placement stage, and screenshots of the X screen show the magenta selection highlight appear where the
 # click was (the Gaussian-sphere view staying as it was) and the merge button turn from stale to fresh.
 # Then review keys: N selects a proposed joint, R rejects it, Ctrl+S saves the project (the title
-# names it), Ctrl+Z and Ctrl+S again: the saved statuses follow.
+# names it), Ctrl+Z and Ctrl+S again: the saved statuses follow. Last, I (intensity colours) shows no
+# hand-edit widget.
 # Usage: studio_xvfb_test.sh PIPERUN_STUDIO SCENE WORK_DIR
 set -euo pipefail
 studio=$1 scene=$2 work=$3
@@ -127,3 +128,18 @@ title=$(xdotool getwindowname "$window")
 xdotool key --window "$window" ctrl+z ctrl+s
 saved_rejected 0
 echo "review keys: N R Ctrl+S saved 1 rejected joint, Ctrl+Z Ctrl+S saved none"
+
+# I colours the points by intensity and nothing else: VTK's widgets switch themselves on with "i"
+# unless told not to, and the fit box and the end handle would show (outlined in srgb(255,217,51)).
+widget_pixels() {  # IMAGE: pixels of the widgets' yellow in the window
+  convert "$1" -crop "${WIDTH}x${HEIGHT}+${X}+${Y}" +repage -fill black +opaque "srgb(255,217,51)" \
+    -fill white -opaque "srgb(255,217,51)" -format "%[fx:round(mean*w*h)]" info:
+}
+xdotool mousemove "$((X + click_x))" "$((Y + click_y))" key --window "$window" Home  # The whole scene in view.
+sleep 1
+import -window root "$work/before_i.png"
+xdotool key --window "$window" i
+sleep 1.5  # No line is logged for a colour change: time for the next frames.
+import -window root "$work/after_i.png"
+echo "widget pixels before I: $(widget_pixels "$work/before_i.png"), after: $(widget_pixels "$work/after_i.png")"
+[[ $(widget_pixels "$work/after_i.png") -le 10 ]] || { echo "the I key showed a hand-edit widget" >&2; exit 1; }

@@ -91,6 +91,7 @@ StageBar::StageBar(vtkRenderWindowInteractor* interactor, vtkRenderer* overlay, 
     auto representation = vtkSmartPointer<vtkTexturedButtonRepresentation2D>::New();
     representation->SetNumberOfStates(3);
     representation->SetPlaceFactor(1.0);  // The default 0.5 would shrink the button inside its bounds.
+    button.widget->KeyPressActivationOff();  // no "i" key toggling it: the bar is always shown
     button.widget->SetInteractor(interactor_);
     button.widget->SetCurrentRenderer(overlay_);
     button.widget->SetRepresentation(representation);
@@ -114,6 +115,7 @@ StageBar::StageBar(vtkRenderWindowInteractor* interactor, vtkRenderer* overlay, 
   sliderRepresentation->GetTitleProperty()->ShadowOff();
   sliderRepresentation->GetLabelProperty()->ShadowOff();
   slider_ = vtkSmartPointer<vtkSliderWidget>::New();
+  slider_->KeyPressActivationOff();
   slider_->SetInteractor(interactor_);
   slider_->SetCurrentRenderer(overlay_);
   slider_->SetRepresentation(sliderRepresentation);

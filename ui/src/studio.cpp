@@ -101,6 +101,9 @@ Studio::Impl::Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowIntera
   boxRepresentation->GetOutlineProperty()->SetColor(1.0, 0.85, 0.2);
   boxRepresentation->GetOutlineProperty()->SetLineWidth(static_cast<float>(2.0 * options.uiScale));
   boxRepresentation->GetHandleProperty()->SetColor(1.0, 0.85, 0.2);
+  // VTK widgets switch themselves on and off with the "i" key unless told not to; here they follow
+  // the commands only (I colours the points by intensity, and "i" is typed in commands).
+  fitBox->KeyPressActivationOff();
   fitBox->SetRepresentation(boxRepresentation);
   fitBox->SetInteractor(interactor);
   fitBox->SetDefaultRenderer(scene);
@@ -109,6 +112,7 @@ Studio::Impl::Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowIntera
   handleRepresentation->GetProperty()->SetColor(1.0, 0.85, 0.2);
   handleRepresentation->GetProperty()->SetLineWidth(static_cast<float>(2.0 * options.uiScale));
   handleRepresentation->SetHandleSize(24.0 * options.uiScale);
+  endHandle->KeyPressActivationOff();
   endHandle->SetRepresentation(handleRepresentation);
   endHandle->SetInteractor(interactor);
   endHandle->SetDefaultRenderer(scene);
