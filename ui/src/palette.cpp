@@ -63,4 +63,24 @@ Rgb mapColor(vtkLookupTable* map, double value) {
   return {rgba[0], rgba[1], rgba[2]};
 }
 
+std::vector<double> roundTicks(double low, double high, int most) {
+  if (!(std::isfinite(low) && std::isfinite(high)) || !(high > low) || most < 2) return {low, high};
+  // The smallest round step that leaves at most `most` multiples in the range.
+  const double span = high - low;
+  double step = std::pow(10.0, std::floor(std::log10(span / most)));
+  for (const double factor : {1.0, 2.0, 5.0, 10.0, 20.0}) {
+    const double candidate = step * factor;
+    if (std::floor(high / candidate) - std::ceil(low / candidate) + 1.0 <= most) {
+      step = candidate;
+      break;
+    }
+  }
+  std::vector<double> ticks;
+  for (double k = std::ceil(low / step); k * step <= high + 1e-9 * step; k += 1.0) {
+    const double tick = k * step;
+    ticks.push_back(std::fabs(tick) < 1e-9 * step ? 0.0 : tick);  // no "-0"
+  }
+  return ticks;
+}
+
 }  // namespace piperun::ui

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <vector>
 
 class vtkLookupTable;
 
@@ -34,5 +35,11 @@ vtkSmartPointer<vtkLookupTable> scalarMap(double low, double high, bool neutralA
 
 /// The colour of `value` in `map`.
 Rgb mapColor(vtkLookupTable* map, double value);
+
+/// The values a colour bar over [low, high] is labelled at: multiples of a round step (1, 2 or 5
+/// times a power of ten), at most `most` of them, the most that fit; the ends themselves when the
+/// range is empty or not finite. So a height bar over −0.008–4.0 m reads 0 1 2 3 4, not −0.00821
+/// 0.994 1.996 ….
+std::vector<double> roundTicks(double low, double high, int most = 5);
 
 }  // namespace piperun::ui

@@ -158,8 +158,7 @@ Studio::Impl::Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowIntera
                      planeTitle.Get(), reviewText.Get(), noticeText.Get(), helpCommandsText.Get(), helpKeysText.Get()})
     overlay->AddViewProp(text);
 
-  colorBar->SetNumberOfLabels(5);
-  colorBar->SetLabelFormat("%.3g");
+  colorBar->SetLabelFormat("%.3g");  // the labels are round values (roundTicks, set with the map)
   colorBar->UnconstrainedFontSizeOn();
   colorBar->GetLabelTextProperty()->ShadowOff();
   colorBar->GetLabelTextProperty()->ItalicOff();

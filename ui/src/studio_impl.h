@@ -153,6 +153,8 @@ vtkSmartPointer<vtkTextActor> makeText(double r, double g, double b);
 
 /// Points farther than this from every surface are not coloured by the QA map (m).
 inline constexpr double kQaReach = 0.02;
+/// Most labels on the colour bar (round values: roundTicks).
+inline constexpr int kColorBarLabels = 6;
 
 struct Studio::Impl {
   Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowInteractor* interactor, const StudioOptions& options);

@@ -6,6 +6,7 @@
 #include "palette.h"
 
 #include <vtkActor.h>
+#include <vtkDoubleArray.h>
 #include <vtkLookupTable.h>
 #include <vtkPolyData.h>
 #include <vtkPolyDataMapper.h>
@@ -409,6 +410,11 @@ void Studio::Impl::updateColorBar() {
   if (map) {
     colorBar->SetLookupTable(map);
     colorBar->SetTitle(title.c_str());
+    const double* range = map->GetRange();
+    vtkNew<vtkDoubleArray> labels;
+    for (const double tick : roundTicks(range[0], range[1], kColorBarLabels)) labels->InsertNextValue(tick);
+    colorBar->SetCustomLabels(labels);
+    colorBar->UseCustomLabelsOn();
   }
 }
 
