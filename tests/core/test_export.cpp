@@ -716,7 +716,8 @@ TEST(Export, PcfNominalBoresAgreeAtEveryConnectionWithReducersWhereTheSizeChange
   ExportOptions options;
   options.pcfBore = PcfBore::OutsideDiameter;
   exportNetwork(network, ExportFormat::Pcf, dir / "outside.pcf", options);
-  const auto& outside = parsePcf(test::readFile(dir / "outside.pcf")).pipelines.at(0).second;
+  const PcfFile outsidePcf = parsePcf(test::readFile(dir / "outside.pcf"));
+  const auto& outside = outsidePcf.pipelines.at(0).second;
   EXPECT_TRUE(std::none_of(outside.begin(), outside.end(),
                            [](const PcfComponent& c) { return c.type == "REDUCER-CONCENTRIC"; }));
   EXPECT_EQ(outside.front().endPoints.at(0).bore, 171.0);
@@ -730,7 +731,7 @@ TEST(Export, PcfBoreNames) {
   EXPECT_EQ(toString(PcfBore::OutsideDiameter), "outside");
 }
 
-TEST(Export, PcfSplitsBendsBeyondNinetyDegrees) {
+TEST(Export, PcfSplitsBendsWellBeyondNinetyDegrees) {
   // A 135° bend of radius 0.2 around the origin, from (0.2, 0, 0), becomes two 67.5° elbows.
   PipeNetwork network;
   const Vector3d start(0.2, 0, 0);
@@ -757,6 +758,33 @@ TEST(Export, PcfSplitsBendsBeyondNinetyDegrees) {
     const Vector3d corner = 1000.0 * 0.2 / std::cos(0.5 * step) *
                             (Eigen::AngleAxisd((j + 0.5) * step, Vector3d::UnitZ()) * Vector3d::UnitX());
     EXPECT_LT((components[j].centrePoints.at(0).position - corner).norm(), 0.06);
+  }
+}
+
+TEST(Export, PcfKeepsABendFittedAFewDegreesPastNinetyOneElbow) {
+  // A 90° fitting fitted at 93° (the pump room's riser elbow comes out at 90.7°): one ELBOW whose
+  // CENTRE-POINT is where its tangents meet; at 96° it is two of 48°.
+  for (const double degrees : {93.0, 96.0}) {
+    PipeNetwork network;
+    const Vector3d start(0.2, 0, 0);
+    const Vector3d end = Eigen::AngleAxisd(degrees * kPi / 180.0, Vector3d::UnitZ()) * start;
+    Joint bend;
+    bend.id = 1;
+    bend.radius = 0.05;
+    bend.bendRadius = 0.2;
+    bend.axis = sampleArc(Vector3d::Zero(), start, end, 0.01);
+    network.joints.push_back(bend);
+    TempDir dir;
+    exportNetwork(network, ExportFormat::Pcf, dir / "bend.pcf");
+    const PcfFile pcf = parsePcf(test::readFile(dir / "bend.pcf"));
+    const auto& components = pcf.pipelines.at(0).second;
+    ASSERT_EQ(components.size(), degrees < 95.0 ? 1u : 2u) << degrees << "°";
+    if (components.size() != 1) continue;
+    EXPECT_EQ(components[0].type, "ELBOW");
+    EXPECT_LT((components[0].endPoints.at(1).position - 1000.0 * end).norm(), 0.06);
+    const Vector3d corner = 1000.0 * 0.2 / std::cos(0.5 * degrees * kPi / 180.0) *
+                            (Eigen::AngleAxisd(0.5 * degrees * kPi / 180.0, Vector3d::UnitZ()) * Vector3d::UnitX());
+    EXPECT_LT((components[0].centrePoints.at(0).position - corner).norm(), 0.06);
   }
 }
 

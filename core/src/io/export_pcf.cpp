@@ -7,7 +7,8 @@
 //          are PIPEs too (they are straight pipe pieces), or REDUCER-CONCENTRICs (SKEY RCBW) where
 //          the bore changes across them.
 //   ELBOW  two END-POINTs, CENTRE-POINT (where the tangent lines at the two ends meet), SKEY ELBW.
-//          An arc of more than 90° is written as equal elbows of at most 90°.
+//          An arc of more than 95° is written as equal elbows of at most 90° (a 90° fitting fitted
+//          a few degrees wide stays one elbow).
 //   TEE    two END-POINTs on the main pipe, CENTRE-POINT on the main axis, BRANCH1-POINT (x y z
 //          bore) at the branch pipe's end, SKEY TEBW. Its arms are all as long as the branch arm.
 // Tools connect components by matching END-POINT co-ordinates. A bore is, by PcfBore, the nominal
@@ -32,6 +33,9 @@ namespace {
 
 // Pipe pieces shorter than this (m), as left between close tees, are not written.
 constexpr double kShortestPiece = 1e-4;
+// How far past 90° a fitted bend may reach and still be one ELBOW: the fitted axes' directions err
+// by a few degrees, so a 90.7° bend is a 90° fitting, not two 45° ones.
+constexpr double kElbowAngleSlack = 5.0 * kDegree;
 
 std::string millimetres(double metres) {
   char text[32];
@@ -181,9 +185,9 @@ std::optional<TeeLayout> teeLayout(const ExportElement& tee, const std::map<int,
   return layout;
 }
 
-// Writes an elbow's arc as ELBOW components of at most 90° each, or a straight piece when it is straight;
-// the bores at the arc's first and last points are `boreFirst` and `boreLast` (a reducing elbow
-// split in pieces reduces in its first).
+// Writes an elbow's arc as one ELBOW, as equal ELBOWs of at most 90° each when it bends more than
+// 90° and the slack, or as a straight piece when it is straight; the bores at the arc's first and
+// last points are `boreFirst` and `boreLast` (a reducing elbow split in pieces reduces in its first).
 void writeElbow(const ExportElement& elbow, double boreFirst, double boreLast, PcfText& pcf) {
   const Eigen::Vector3d& a = elbow.axis.front();
   const Eigen::Vector3d& m = elbow.axis[elbow.axis.size() / 2];
@@ -202,7 +206,7 @@ void writeElbow(const ExportElement& elbow, double boreFirst, double boreLast, P
   const Eigen::Vector3d axis = fromCentre.cross(m - centre).normalized();
   double angle = std::atan2(fromCentre.cross(b - centre).dot(axis), fromCentre.dot(b - centre));
   if (angle <= 0.0) angle += 2.0 * kPi;
-  const int pieces = std::max(1, static_cast<int>(std::ceil(angle / (0.5 * kPi) - 1e-6)));
+  const int pieces = std::max(1, static_cast<int>(std::ceil((angle - kElbowAngleSlack) / (0.5 * kPi) - 1e-6)));
   const double step = angle / pieces;
   const double bendRadius = fromCentre.norm();
   for (int j = 0; j < pieces; ++j) {
