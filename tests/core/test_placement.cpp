@@ -509,7 +509,8 @@ TEST(Placement, ACylinderWithFewerInliersThanAskedMustTakeAJoint) {
   EXPECT_EQ(match(placeCylinders({cloud, directions, 1}, params), leg), nullptr);
   // ...and firmly when asked for no more inliers than it holds.
   params.minInliers = static_cast<int>(found->inliers.size());
-  const Cylinder* firm = match(placeCylinders({cloud, directions, 1}, params), leg);
+  const PlacementResult firmResult = placeCylinders({cloud, directions, 1}, params);
+  const Cylinder* firm = match(firmResult, leg);
   ASSERT_NE(firm, nullptr);
   EXPECT_FALSE(firm->mustJoin);
 }
