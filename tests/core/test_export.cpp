@@ -35,6 +35,7 @@ using Eigen::Vector3d;
 using test::TempDir;
 
 constexpr double kPi = 3.14159265358979323846;
+constexpr double kDegree = kPi / 180.0;
 constexpr double kMainRadius = 0.05;
 constexpr double kBendRadius = 0.15;
 constexpr double kBranchRadius = 0.03;
@@ -731,61 +732,50 @@ TEST(Export, PcfBoreNames) {
   EXPECT_EQ(toString(PcfBore::OutsideDiameter), "outside");
 }
 
-TEST(Export, PcfSplitsBendsWellBeyondNinetyDegrees) {
-  // A 135° bend of radius 0.2 around the origin, from (0.2, 0, 0), becomes two 67.5° elbows.
+// A bend of radius 0.2 m around the origin, from (0.2, 0, 0) through `angle` about z, through PCF.
+std::vector<PcfComponent> bendThroughPcf(double angle) {
   PipeNetwork network;
   const Vector3d start(0.2, 0, 0);
-  const Vector3d end = Eigen::AngleAxisd(0.75 * kPi, Vector3d::UnitZ()) * start;
   Joint bend;
   bend.id = 1;
   bend.radius = 0.05;
   bend.bendRadius = 0.2;
-  bend.axis = sampleArc(Vector3d::Zero(), start, end, 0.01);
+  bend.axis = sampleArc(Vector3d::Zero(), start, Eigen::AngleAxisd(angle, Vector3d::UnitZ()) * start, 0.01);
   network.joints.push_back(bend);
   TempDir dir;
   exportNetwork(network, ExportFormat::Pcf, dir / "bend.pcf");
   const PcfFile pcf = parsePcf(test::readFile(dir / "bend.pcf"));
-  ASSERT_EQ(pcf.pipelines.size(), 1u);
-  const auto& components = pcf.pipelines[0].second;
+  EXPECT_EQ(pcf.pipelines.size(), 1u);
+  return pcf.pipelines.empty() ? std::vector<PcfComponent>{} : pcf.pipelines[0].second;
+}
+
+// Component j of that bend written in equal ELBOWs of `step`: its ends on the arc, its
+// CENTRE-POINT where the tangents at them meet.
+void expectElbowPiece(const PcfComponent& elbow, int j, double step) {
+  const Vector3d start(200.0, 0, 0);  // mm
+  EXPECT_EQ(elbow.type, "ELBOW");
+  EXPECT_LT((elbow.endPoints.at(0).position - Eigen::AngleAxisd(j * step, Vector3d::UnitZ()) * start).norm(), 0.06);
+  EXPECT_LT((elbow.endPoints.at(1).position - Eigen::AngleAxisd((j + 1) * step, Vector3d::UnitZ()) * start).norm(), 0.06);
+  const Vector3d corner = 200.0 / std::cos(0.5 * step) * (Eigen::AngleAxisd((j + 0.5) * step, Vector3d::UnitZ()) * Vector3d::UnitX());
+  EXPECT_LT((elbow.centrePoints.at(0).position - corner).norm(), 0.06);
+}
+
+TEST(Export, PcfSplitsBendsWellBeyondNinetyDegrees) {
+  // 135° becomes two elbows of 67.5°.
+  const std::vector<PcfComponent> components = bendThroughPcf(0.75 * kPi);
   ASSERT_EQ(components.size(), 2u);
-  const double step = 0.375 * kPi;
-  for (int j = 0; j < 2; ++j) {
-    EXPECT_EQ(components[j].type, "ELBOW");
-    const Vector3d first = 1000.0 * (Eigen::AngleAxisd(j * step, Vector3d::UnitZ()) * start);
-    const Vector3d last = 1000.0 * (Eigen::AngleAxisd((j + 1) * step, Vector3d::UnitZ()) * start);
-    EXPECT_LT((components[j].endPoints.at(0).position - first).norm(), 0.06);
-    EXPECT_LT((components[j].endPoints.at(1).position - last).norm(), 0.06);
-    const Vector3d corner = 1000.0 * 0.2 / std::cos(0.5 * step) *
-                            (Eigen::AngleAxisd((j + 0.5) * step, Vector3d::UnitZ()) * Vector3d::UnitX());
-    EXPECT_LT((components[j].centrePoints.at(0).position - corner).norm(), 0.06);
-  }
+  for (int j = 0; j < 2; ++j) expectElbowPiece(components[static_cast<std::size_t>(j)], j, 0.375 * kPi);
 }
 
 TEST(Export, PcfKeepsABendFittedAFewDegreesPastNinetyOneElbow) {
-  // A 90° fitting fitted at 93° (the pump room's riser elbow comes out at 90.7°): one ELBOW whose
-  // CENTRE-POINT is where its tangents meet; at 96° it is two of 48°.
-  for (const double degrees : {93.0, 96.0}) {
-    PipeNetwork network;
-    const Vector3d start(0.2, 0, 0);
-    const Vector3d end = Eigen::AngleAxisd(degrees * kPi / 180.0, Vector3d::UnitZ()) * start;
-    Joint bend;
-    bend.id = 1;
-    bend.radius = 0.05;
-    bend.bendRadius = 0.2;
-    bend.axis = sampleArc(Vector3d::Zero(), start, end, 0.01);
-    network.joints.push_back(bend);
-    TempDir dir;
-    exportNetwork(network, ExportFormat::Pcf, dir / "bend.pcf");
-    const PcfFile pcf = parsePcf(test::readFile(dir / "bend.pcf"));
-    const auto& components = pcf.pipelines.at(0).second;
-    ASSERT_EQ(components.size(), degrees < 95.0 ? 1u : 2u) << degrees << "°";
-    if (components.size() != 1) continue;
-    EXPECT_EQ(components[0].type, "ELBOW");
-    EXPECT_LT((components[0].endPoints.at(1).position - 1000.0 * end).norm(), 0.06);
-    const Vector3d corner = 1000.0 * 0.2 / std::cos(0.5 * degrees * kPi / 180.0) *
-                            (Eigen::AngleAxisd(0.5 * degrees * kPi / 180.0, Vector3d::UnitZ()) * Vector3d::UnitX());
-    EXPECT_LT((components[0].centrePoints.at(0).position - corner).norm(), 0.06);
-  }
+  // A 90° fitting fitted at 93° (the pump room's riser elbow comes out at 90.7°) is one ELBOW; at
+  // 96° it is two of 48°.
+  const std::vector<PcfComponent> fitted = bendThroughPcf(93.0 * kDegree);
+  ASSERT_EQ(fitted.size(), 1u);
+  expectElbowPiece(fitted[0], 0, 93.0 * kDegree);
+  const std::vector<PcfComponent> wider = bendThroughPcf(96.0 * kDegree);
+  ASSERT_EQ(wider.size(), 2u);
+  for (int j = 0; j < 2; ++j) expectElbowPiece(wider[static_cast<std::size_t>(j)], j, 48.0 * kDegree);
 }
 
 // ---------------------------------------------------------------------------------------------
