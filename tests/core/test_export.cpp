@@ -32,6 +32,7 @@ namespace piperun {
 namespace {
 
 using Eigen::Vector3d;
+using test::makePipe;
 using test::TempDir;
 
 constexpr double kPi = 3.14159265358979323846;
@@ -39,21 +40,6 @@ constexpr double kDegree = kPi / 180.0;
 constexpr double kMainRadius = 0.05;
 constexpr double kBendRadius = 0.15;
 constexpr double kBranchRadius = 0.03;
-
-// A run of a main pipe along x with a tee (branch down) and a 90° elbow into y; beside it a pipe in
-// no run, two pipes joined by a boundary joint, a deleted pipe and a rejected joint. Pipe and joint
-// ids overlap on purpose: they are separate id spaces.
-Pipe makePipe(int id, double radius, Vector3d start, Vector3d end, int run, PipeStatus status = PipeStatus::Accepted) {
-  Pipe pipe;
-  pipe.id = id;
-  pipe.radius = radius;
-  pipe.start = start;
-  pipe.end = end;
-  pipe.runId = run;
-  pipe.status = status;
-  pipe.confidence = 0.9;
-  return pipe;
-}
 
 Joint makeJoint(int id, JointType type, std::vector<int> pipes, double radius, std::vector<Vector3d> axis,
                 JointStatus status = JointStatus::Accepted) {
@@ -68,6 +54,9 @@ Joint makeJoint(int id, JointType type, std::vector<int> pipes, double radius, s
   return joint;
 }
 
+// A run of a main pipe along x with a tee (branch down) and a 90° elbow into y; beside it a pipe in
+// no run, two pipes joined by a boundary joint, a deleted pipe and a rejected joint. Pipe and joint
+// ids overlap on purpose: they are separate id spaces.
 PipeNetwork sampleNetwork() {
   PipeNetwork network;
   const auto addPipe = [&](int id, double radius, Vector3d start, Vector3d end, int run,

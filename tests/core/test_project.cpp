@@ -257,18 +257,9 @@ TEST(NominalSizes, ShippedTableIsFoundAndSnapsToTheNearestSize) {
 TEST(NominalSizes, BillOfMaterialsCountsEachSizeAndEachRun) {
   // A 6" pipe turns into an 8" one (proposed); a deleted 6" pipe and a rejected 2" tee count nowhere.
   PipeNetwork network;
-  const auto addPipe = [&](int id, double radius, Eigen::Vector3d start, Eigen::Vector3d end, PipeStatus status) {
-    Pipe pipe;
-    pipe.id = id;
-    pipe.radius = radius;
-    pipe.start = start;
-    pipe.end = end;
-    pipe.status = status;
-    network.pipes.push_back(pipe);
-  };
-  addPipe(1, 0.0843, {0, 0, 0}, {2, 0, 0}, PipeStatus::Accepted);
-  addPipe(2, 0.1095, {2.3, 0.3, 0}, {2.3, 1.3, 0}, PipeStatus::Proposed);
-  addPipe(3, 0.0843, {0, 5, 0}, {1, 5, 0}, PipeStatus::Deleted);
+  network.pipes = {test::makePipe(1, 0.0843, {0, 0, 0}, {2, 0, 0}),
+                   test::makePipe(2, 0.1095, {2.3, 0.3, 0}, {2.3, 1.3, 0}, -1, PipeStatus::Proposed),
+                   test::makePipe(3, 0.0843, {0, 5, 0}, {1, 5, 0}, -1, PipeStatus::Deleted)};
   Joint elbow;
   elbow.id = 4;
   elbow.pipeIds = {1, 2};

@@ -1,6 +1,8 @@
 #pragma once
 // Helpers shared by the core tests.
 
+#include "piperun/pipe_network.h"
+
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -41,6 +43,20 @@ inline void writeFile(const std::filesystem::path& path, const std::string& byte
 inline std::string readFile(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+/// A pipe of `radius` from `start` to `end`, confidence 0.9, in run `run` (-1: none).
+inline Pipe makePipe(int id, double radius, const Eigen::Vector3d& start, const Eigen::Vector3d& end, int run = -1,
+                     PipeStatus status = PipeStatus::Accepted) {
+  Pipe pipe;
+  pipe.id = id;
+  pipe.radius = radius;
+  pipe.start = start;
+  pipe.end = end;
+  pipe.runId = run;
+  pipe.status = status;
+  pipe.confidence = 0.9;
+  return pipe;
 }
 
 /// Folder holding the real scans (../shared/data/real beside the repository).

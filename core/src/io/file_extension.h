@@ -1,5 +1,6 @@
 #pragma once
-// The extension of a path in lower case (".ply"), for choosing a format by file name.
+// Names in lower case: a path's extension (".ply"), for choosing a format by file name, and any
+// name a user may type in either case.
 
 #include <algorithm>
 #include <cctype>
@@ -8,11 +9,11 @@
 
 namespace piperun::io {
 
-inline std::string lowerExtension(const std::filesystem::path& path) {
-  std::string extension = path.extension().string();
-  std::transform(extension.begin(), extension.end(), extension.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return extension;
+inline std::string lowercase(std::string text) {
+  std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return text;
 }
+
+inline std::string lowerExtension(const std::filesystem::path& path) { return lowercase(path.extension().string()); }
 
 }  // namespace piperun::io

@@ -6,7 +6,6 @@
 #include "io/file_extension.h"
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <optional>
 #include <stdexcept>
@@ -17,11 +16,6 @@ namespace {
 
 constexpr ExportFormat kFormats[] = {ExportFormat::Obj, ExportFormat::Ply, ExportFormat::Csv, ExportFormat::Dxf,
                                      ExportFormat::Pcf};
-
-std::string lowercase(std::string text) {
-  std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return text;
-}
 
 void checkOptions(const ExportOptions& options) {
   if (!(options.chordTolerance > 0.0)) throw std::invalid_argument("export: the chord tolerance must be positive");
@@ -47,7 +41,7 @@ std::string toString(ExportFormat format) {
 std::string toString(PcfBore bore) { return bore == PcfBore::Nominal ? "nominal" : "outside"; }
 
 std::optional<PcfBore> pcfBoreFromString(const std::string& name) {
-  const std::string lower = lowercase(name);
+  const std::string lower = io::lowercase(name);
   for (PcfBore bore : {PcfBore::Nominal, PcfBore::OutsideDiameter}) {
     if (toString(bore) == lower) return bore;
   }
@@ -55,7 +49,7 @@ std::optional<PcfBore> pcfBoreFromString(const std::string& name) {
 }
 
 std::optional<ExportFormat> exportFormatFromString(const std::string& name) {
-  const std::string lower = lowercase(name);
+  const std::string lower = io::lowercase(name);
   for (ExportFormat format : kFormats) {
     if (toString(format) == lower) return format;
   }
