@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 namespace piperun::ui {
 namespace {
@@ -40,6 +41,57 @@ TEST(NearestKeptPoint, FindsTheClosestKeptPointWithinReach) {
 
   const std::vector<int> nearest = nearestKeptPoint(input, kept, 0.02);
   EXPECT_EQ(nearest, (std::vector<int>{1, 0, -1}));
+}
+
+
+/// A 10 m x 10 m room: a floor of points every 2 cm at z = 0 and four walls of points every 10 cm.
+PointChunk roomPoints(double wallHeight) {
+  PointChunk chunk;
+  for (int i = 0; i <= 500; ++i)
+    for (int j = 0; j <= 500; ++j) chunk.positions.push_back({0.02 * i, 0.02 * j, 0.0});
+  for (int i = 0; i <= 100; ++i)
+    for (int k = 1; 0.1 * k <= wallHeight; ++k)
+      for (const Eigen::Vector3d& point : {Eigen::Vector3d(0.1 * i, 0.0, 0.1 * k), Eigen::Vector3d(0.1 * i, 10.0, 0.1 * k),
+                                           Eigen::Vector3d(0.0, 0.1 * i, 0.1 * k), Eigen::Vector3d(10.0, 0.1 * i, 0.1 * k)})
+        chunk.positions.push_back(point);
+  return chunk;
+}
+
+PipeNetwork pipeAtHeight(double z) {
+  PipeNetwork network;
+  Pipe pipe;
+  pipe.id = 1;
+  pipe.radius = 0.1;
+  pipe.start = {2.0, 5.0, z};
+  pipe.end = {8.0, 5.0, z};
+  network.pipes.push_back(pipe);
+  return network;
+}
+
+TEST(CeilingHeight, IsALittleOverTheNetworkUnderARoof) {
+  PointChunk chunk = roomPoints(4.0);
+  for (int i = 0; i <= 500; ++i)
+    for (int j = 0; j <= 500; ++j) chunk.positions.push_back({0.02 * i, 0.02 * j, 4.0});
+  PointCloud cloud;
+  cloud.append(chunk);
+  const auto height = ceilingHeight(cloud, pipeAtHeight(2.0));
+  ASSERT_TRUE(height.has_value());
+  EXPECT_NEAR(*height, 2.0 + 0.1 + kCeilingMargin, 1e-9);  // The pipe's top and the margin.
+  EXPECT_FALSE(ceilingHeight(cloud, pipeAtHeight(3.9)).has_value());  // Nothing but the roof's edge above 4.25 m.
+  EXPECT_FALSE(ceilingHeight(cloud, PipeNetwork{}).has_value());
+}
+
+TEST(CeilingHeight, WallsAndScatteredOutliersAreNoCeiling) {
+  PointChunk chunk = roomPoints(4.0);
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> across(0.0, 10.0), up(0.0, 4.0);
+  // 2 % outliers through the room: above the pipe, one or more in most cells of the footprint.
+  const std::size_t surfacePoints = chunk.positions.size();
+  for (std::size_t i = 0; i < surfacePoints / 50; ++i)
+    chunk.positions.push_back({across(random), across(random), up(random)});
+  PointCloud cloud;
+  cloud.append(chunk);
+  EXPECT_FALSE(ceilingHeight(cloud, pipeAtHeight(2.0)).has_value());
 }
 
 }  // namespace

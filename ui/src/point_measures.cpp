@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <unordered_map>
@@ -114,6 +115,35 @@ std::vector<int> nearestKeptPoint(const PointCloud& input, const PointCloud& pre
         }
       });
   return nearest;
+}
+
+std::optional<double> ceilingHeight(const PointCloud& cloud, const PipeNetwork& network) {
+  double top = -std::numeric_limits<double>::infinity();
+  for (const auto& pipe : network.pipes) top = std::max(top, std::max(pipe.start.z(), pipe.end.z()) + pipe.radius);
+  for (const auto& joint : network.joints)
+    for (const auto& point : joint.axis) top = std::max(top, point.z() + joint.radius);
+  if (!std::isfinite(top) || cloud.empty()) return std::nullopt;
+  const double height = top + kCeilingMargin;
+
+  const BoundingBox bounds = cloud.boundingBox();
+  const double cell = std::max(0.25, std::max(bounds.size().x(), bounds.size().y()) / 64.0);
+  const int columns = static_cast<int>(bounds.size().x() / cell) + 1, rows = static_cast<int>(bounds.size().y() / cell) + 1;
+  // Per cell: its points, and those above the height. Scattered outliers over the network are no ceiling.
+  std::vector<std::array<std::uint32_t, 2>> counts(static_cast<std::size_t>(columns) * static_cast<std::size_t>(rows));
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3d p = cloud.worldPosition(i);
+    const int column = std::min(columns - 1, static_cast<int>((p.x() - bounds.min.x()) / cell));
+    const int row = std::min(rows - 1, static_cast<int>((p.y() - bounds.min.y()) / cell));
+    auto& count = counts[static_cast<std::size_t>(row) * static_cast<std::size_t>(columns) + static_cast<std::size_t>(column)];
+    ++count[0];
+    if (p.z() > height) ++count[1];
+  }
+  const auto occupied = std::count_if(counts.begin(), counts.end(), [](const auto& count) { return count[0] > 0; });
+  const auto covered = std::count_if(counts.begin(), counts.end(), [](const auto& count) {
+    return count[0] > 0 && static_cast<double>(count[1]) >= kCeilingShare * count[0];
+  });
+  if (occupied == 0 || 2 * covered < occupied) return std::nullopt;
+  return height;
 }
 
 }  // namespace piperun::ui

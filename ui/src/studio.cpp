@@ -25,6 +25,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 namespace piperun::ui {
@@ -244,6 +245,9 @@ void Studio::Impl::open(Document opened) {
   handlePipe = -1;
   selection = {};
   selectedDirection = -1;
+  pointClip.reset();
+  lastPointClip.reset();
+  firstClipChosen = false;
   viewMode = document.hasPipeline() ? ViewMode::All : ViewMode::Scene;
   pipeColor = std::any_of(document.network().pipes.begin(), document.network().pipes.end(),
                           [](const Pipe& pipe) { return pipe.runId >= 0; })
@@ -280,6 +284,22 @@ void Studio::Impl::takeResults() {
   if (pipeColor == PipeColor::Run && std::none_of(document.network().pipes.begin(), document.network().pipes.end(),
                                                   [](const Pipe& pipe) { return pipe.runId >= 0; }))
     pipeColor = PipeColor::Radius;
+  chooseFirstClip();
+}
+
+void Studio::Impl::chooseFirstClip() {
+  if (firstClipChosen || !document.input() || document.network().pipes.empty()) return;
+  firstClipChosen = true;
+  if (const auto height = ceilingHeight(*document.input(), document.network()))
+    pointClip = {-std::numeric_limits<double>::infinity(), *height};
+}
+
+std::string Studio::Impl::pointClipText() const {
+  if (!pointClip) return "points not clipped";
+  const auto [low, high] = *pointClip;
+  if (!std::isfinite(low)) return format("points above %.2f m hidden", high);
+  if (!std::isfinite(high)) return format("points below %.2f m hidden", low);
+  return format("points shown from %.2f m", low) + format(" to %.2f m", high);
 }
 
 void Studio::Impl::rebuildAll() {
@@ -348,6 +368,11 @@ int Studio::Impl::directionShowingPipe(int pipeId) const {
   for (int k = 0; k < static_cast<int>(directions.size()); ++k)
     if (shows(k)) return k;
   return -1;
+}
+
+int Studio::Impl::sphereTile() const {
+  if (!tiles || tiles->size() < 2) return -1;
+  return selectedDirection >= 0 ? directions[static_cast<std::size_t>(selectedDirection)].tile : 0;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -566,6 +591,7 @@ void Studio::Impl::updateOverlays() {
            << network.pipes.size() << " pipes  " << network.joints.size() << " joints  " << network.runs.size()
            << " runs";
     if (pipeline) status << "  " << directions.size() << " directions";
+    if (tiles && tiles->size() > 1) status << " in " << tiles->size() << " tiles";
   }
   if (commandLine) {
     status << "\n:" << *commandLine << "_   (Return runs, Esc closes)";
@@ -575,10 +601,19 @@ void Studio::Impl::updateOverlays() {
   statusText->SetInput(status.str().c_str());
   infoText->SetInput(selectionInfo().c_str());
 
-  sceneTitle->SetInput(
-      ("3-D scene  [points: " + nameOf(kPointColors, pointColor) + ", pipes: " + nameOf(kPipeColors, pipeColor) + "]")
-          .c_str());
-  sphereTitle->SetInput("Gaussian sphere");
+  std::string sceneCaption =
+      "3-D scene  [points: " + nameOf(kPointColors, pointColor) + ", pipes: " + nameOf(kPipeColors, pipeColor) + "]";
+  if (pointClip) {
+    const auto [low, high] = *pointClip;
+    sceneCaption += "  clip: " + (std::isfinite(low) ? format("%.2f < ", low) : std::string()) + "z" +
+                    (std::isfinite(high) ? format(" < %.2f", high) : std::string()) + " m";
+  }
+  sceneTitle->SetInput(sceneCaption.c_str());
+  std::string sphereCaption = "Gaussian sphere";
+  if (const int tile = sphereTile(); tile >= 0)
+    sphereCaption += " - tile " + std::to_string((*tiles)[static_cast<std::size_t>(tile)].tileId) + " (of " +
+                     std::to_string(tiles->size()) + ")";
+  sphereTitle->SetInput(sphereCaption.c_str());
   std::string planeCaption = "Projection plane";
   if (selectedDirection >= 0) planeCaption += " - direction " + std::to_string(selectedDirection);
   planeTitle->SetInput(planeCaption.c_str());

@@ -16,6 +16,8 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <cmath>
+#include <limits>
 
 namespace piperun::ui {
 
@@ -161,6 +163,37 @@ void Studio::Impl::registerCommands() {
                    list += (list.empty() ? "" : "  ") + name + (visibility[name] ? "" : " (off)");
                  return list;
                });
+
+  commands.add(
+      "clip", "Z_MAX | Z_MIN Z_MAX | off | toggle",
+      "draw the scene's points only below height Z_MAX, or between two heights (world z, m: the height colour "
+      "bar's); off shows them all, toggle switches between the last clip and none",
+      [this](const std::vector<std::string>& args) {
+        expectArguments(args, 1, 2, "clip Z_MAX | Z_MIN Z_MAX | off | toggle");
+        if (!document.input()) throw CommandError("no points: this document is a network");
+        firstClipChosen = true;
+        if (args.size() == 1 && (args[0] == "off" || args[0] == "toggle")) {
+          if (pointClip) {
+            lastPointClip = pointClip;
+            pointClip.reset();
+          } else if (args[0] == "toggle") {
+            if (!lastPointClip) {
+              const auto height = ceilingHeight(*document.input(), document.network());
+              if (!height) throw CommandError("no ceiling over the network to clip: give a height (clip Z_MAX)");
+              lastPointClip = {-std::numeric_limits<double>::infinity(), *height};
+            }
+            pointClip = lastPointClip;
+          }
+        } else {
+          const double low = args.size() == 2 ? parseDouble(args[0], "Z_MIN") : -std::numeric_limits<double>::infinity();
+          const double high = parseDouble(args.back(), "Z_MAX");
+          if (!(low < high)) throw CommandError("Z_MIN must be below Z_MAX");
+          pointClip = {low, high};
+        }
+        applyPointClip();
+        updateOverlays();
+        return pointClipText();
+      });
 
   // `run` and `rerun` are the interpreter's, run in the background when the studio has a window.
   for (const char* word : {"run", "rerun"}) {
@@ -598,6 +631,7 @@ void Studio::Impl::registerCommands() {
                  {"m", "layer preprocess/normals toggle"},
                  {"t", "layer network/pipes toggle"},
                  {"j", "layer network/joints toggle"},
+                 {"z", "clip toggle"},
                  {"v", "rerun directions"},
                  {"l", "rerun placement"},
                  {"x", "rerun extents"},

@@ -172,6 +172,9 @@ struct Studio::Impl {
   /// The selected direction if one of its circles became pipe `pipeId`, else the first direction
   /// with such a circle, else -1.
   int directionShowingPipe(int pipeId) const;
+  /// The tile whose Gaussian sphere the sphere view shows (the selected direction's); -1 when the
+  /// scan is one tile and the sphere shows all of it.
+  int sphereTile() const;
 
   // Layers.
   void setLayer(const std::string& name, vtkRenderer* renderer, vtkSmartPointer<vtkProp> prop, bool defaultVisible);
@@ -181,6 +184,13 @@ struct Studio::Impl {
   void setPointLayer(const std::string& name, vtkRenderer* renderer, const std::vector<Eigen::Vector3f>& positions,
                      const std::vector<Rgb>& colors, double pointSize, bool defaultVisible);
   void buildPointLayers();
+  /// Draws the scene's point layers only between the heights of `pointClip` (clipping planes).
+  void applyPointClip();
+  /// Once a document has points and a network: hides the points above a ceiling that would hide
+  /// the network from the first view (ceilingHeight).
+  void chooseFirstClip();
+  /// "points above 9.79 m hidden" and the like, for the scene's title and the clip command.
+  std::string pointClipText() const;
   std::vector<Rgb> inputPointColors();
   void buildNetworkLayers();
   void buildSelectionLayer();
@@ -285,6 +295,11 @@ struct Studio::Impl {
   ViewMode viewMode = ViewMode::All;
   PointColor pointColor = PointColor::Height;
   PipeColor pipeColor = PipeColor::Run;
+  /// Heights (world z, m; either may be infinite) between which the scene's points are drawn;
+  /// none: all are.
+  std::optional<std::array<double, 2>> pointClip;
+  std::optional<std::array<double, 2>> lastPointClip;  ///< What `clip toggle` brings back.
+  bool firstClipChosen = false;                        ///< chooseFirstClip has decided, or the user clipped.
   Selection selection;
   int selectedDirection = -1;
   Stage selectedStage = Stage::Placement;

@@ -8,6 +8,8 @@
 #include <vtkActor.h>
 #include <vtkDoubleArray.h>
 #include <vtkLookupTable.h>
+#include <vtkNew.h>
+#include <vtkPlane.h>
 #include <vtkPolyData.h>
 #include <vtkPolyDataMapper.h>
 #include <vtkProperty.h>
@@ -138,6 +140,7 @@ void Studio::Impl::buildPointLayers() {
 
   if (!preprocessed) {
     for (const char* name : {"preprocess/points", "preprocess/normals", "preprocess/planes"}) removeLayer(name);
+    applyPointClip();
     return;
   }
   const PointCloud& kept = preprocessed->points;
@@ -169,6 +172,32 @@ void Studio::Impl::buildPointLayers() {
   for (std::size_t i = 0; i < planes.size(); ++i) planePositions[i] = planes.positions[i] + planeShift;
   setPointLayer("preprocess/planes", scene, planePositions, std::vector<Rgb>(planes.size(), Rgb{110, 110, 125}), 2.0,
                 false);
+  applyPointClip();
+}
+
+void Studio::Impl::applyPointClip() {
+  for (const char* name : {"input/points", "preprocess/points", "preprocess/normals", "preprocess/planes"}) {
+    const auto found = layers.find(name);
+    auto* actor = found != layers.end() ? vtkActor::SafeDownCast(found->second.prop) : nullptr;
+    if (!actor) continue;
+    vtkMapper* mapper = actor->GetMapper();
+    mapper->RemoveAllClippingPlanes();
+    if (!pointClip) continue;
+    // A clipping plane keeps the side its normal points to.
+    const auto [low, high] = *pointClip;
+    if (std::isfinite(low)) {
+      vtkNew<vtkPlane> floor;
+      floor->SetOrigin(0.0, 0.0, low - displayOrigin.z());
+      floor->SetNormal(0.0, 0.0, 1.0);
+      mapper->AddClippingPlane(floor);
+    }
+    if (std::isfinite(high)) {
+      vtkNew<vtkPlane> ceiling;
+      ceiling->SetOrigin(0.0, 0.0, high - displayOrigin.z());
+      ceiling->SetNormal(0.0, 0.0, -1.0);
+      mapper->AddClippingPlane(ceiling);
+    }
+  }
 }
 
 void Studio::Impl::buildNetworkLayers() {
@@ -265,14 +294,31 @@ void Studio::Impl::buildSphereLayers() {
     for (const char* name : {"sphere/normals", "sphere/density", "sphere/directions"}) removeLayer(name);
     return;
   }
-  // Normals at both their signs (the sign is arbitrary), coloured by segment.
+  // Normals at both their signs (the sign is arbitrary), coloured by segment: on a tiled scan, the
+  // Gaussian sphere of one tile (the selected direction's), as the method analyses it.
   const PointCloud& kept = preprocessed->points;
+  const int shownTile = sphereTile();
   if (segmentCache.empty()) segmentCache = keptPointSegments();
+  std::vector<std::uint32_t> tilePoints;
+  std::vector<int> tileSegments;
+  if (shownTile >= 0) {
+    const int tileId = (*tiles)[static_cast<std::size_t>(shownTile)].tileId;
+    for (const auto& tile : preprocessed->tiles)
+      if (tile.id == tileId) tilePoints = tile.points;
+    // Overlapping tiles label the same points: colour them by this tile's own directions.
+    tileSegments.assign(kept.size(), -1);
+    for (std::size_t k = 0; k < directions.size(); ++k)
+      if (directions[k].tile == shownTile)
+        for (std::uint32_t point : direction(directions[k]).stripe)
+          if (point < tileSegments.size()) tileSegments[point] = static_cast<int>(k);
+  }
+  const std::size_t shownCount = shownTile >= 0 ? tilePoints.size() : kept.size();
   std::vector<Eigen::Vector3f> normalPoints;
   std::vector<Rgb> normalColors;
-  const std::size_t stride = std::max<std::size_t>(1, kept.size() / 30000);
-  for (std::size_t i = 0; i < kept.size() && kept.hasNormals(); i += stride) {
-    const Rgb color = categoryColor(segmentCache[i]);
+  const std::size_t stride = std::max<std::size_t>(1, shownCount / 30000);
+  for (std::size_t n = 0; n < shownCount && kept.hasNormals(); n += stride) {
+    const std::size_t i = shownTile >= 0 ? tilePoints[n] : n;
+    const Rgb color = categoryColor(shownTile >= 0 ? tileSegments[i] : segmentCache[i]);
     normalPoints.push_back(kept.normals[i]);
     normalPoints.push_back(-kept.normals[i]);
     normalColors.insert(normalColors.end(), {color, color});
@@ -283,9 +329,10 @@ void Studio::Impl::buildSphereLayers() {
   // upper hemisphere (uniform in z and in longitude).
   constexpr int kZCells = 40, kLongitudeCells = 120;
   std::vector<Eigen::Vector3f> samples;
-  for (const auto& tile : *tiles)
-    for (const auto& round : tile.rounds)
-      samples.insert(samples.end(), round.directions.samples.begin(), round.directions.samples.end());
+  for (std::size_t t = 0; t < tiles->size(); ++t)
+    if (shownTile < 0 || static_cast<int>(t) == shownTile)
+      for (const auto& round : (*tiles)[t].rounds)
+        samples.insert(samples.end(), round.directions.samples.begin(), round.directions.samples.end());
   auto cellOf = [&](const Eigen::Vector3f& s) {
     const int zCell = std::clamp(static_cast<int>(s.z() * kZCells), 0, kZCells - 1);
     const double longitude = std::atan2(s.y(), s.x()) + M_PI;
@@ -310,6 +357,7 @@ void Studio::Impl::buildSphereLayers() {
   // Principal directions: arrows with their great circles (where the stripe's normals lie).
   MeshBuilder arrows;
   for (std::size_t k = 0; k < directions.size(); ++k) {
+    if (shownTile >= 0 && directions[k].tile != shownTile) continue;
     const bool selected = static_cast<int>(k) == selectedDirection;
     const Rgb color = selected ? kHighlight : categoryColor(static_cast<int>(k));
     const Eigen::Vector3d axis = direction(directions[k]).axis;

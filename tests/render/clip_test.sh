@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# The points' height clip: chosen by itself under a roof (and Z, `clip toggle`, shows the roof
+# again), none without one; the `clip` command's heights, messages and refusals.
+# Usage: clip_test.sh PIPERUN_RENDER SCENE ROOFED_SCENE NETWORK WORK_DIR
+set -uo pipefail
+render=$1 scene=$2 roofed=$3 network=$4 work=$5
+mkdir -p "$work"
+failures=0
+
+expect() {  # CODE PATTERN INPUT SCRIPT_LINES [OPTIONS...]: the last message (or the error) matches PATTERN
+  local code=$1 pattern=$2 input=$3 lines=$4
+  shift 4
+  printf '%b\n' "$lines" >"$work/script.txt"
+  local output
+  output=$(env -u DISPLAY "$render" "$input" --script "$work/script.txt" --size 160x100 -o "$work/out.png" "$@" 2>&1)
+  local actual=$?
+  if [[ $actual -ne $code || ! "$output" =~ $pattern ]]; then
+    echo "FAIL: $input with '$lines' -> exit $actual: $output (expected exit $code matching '$pattern')" >&2
+    failures=$((failures + 1))
+  fi
+}
+
+# Under the roof the first view hides the points above the network; toggling shows them, and back.
+expect 0 "^points not clipped" "$roofed" "clip toggle"
+expect 0 "^points above 3\.[0-9][0-9] m hidden" "$roofed" "clip toggle\nclip toggle"
+# Without a roof nothing is hidden, and toggling has no ceiling to go to.
+expect 2 "script\.txt:1: no ceiling over the network to clip: give a height" "$scene" "clip toggle"
+expect 0 "^points above 1\.50 m hidden" "$scene" "clip 1.5" --no-run
+expect 0 "^points shown from 0\.50 m to 1\.50 m" "$scene" "clip 0.5 1.5" --no-run
+expect 0 "^points not clipped" "$scene" "clip 1.5\nclip off" --no-run
+expect 0 "^points above 1\.50 m hidden" "$scene" "clip 1.5\nclip off\nclip toggle" --no-run
+expect 2 "script\.txt:1: Z_MIN must be below Z_MAX" "$scene" "clip 1.5 0.5" --no-run
+expect 2 "script\.txt:1: expected Z_MAX as a number, got 'high'" "$scene" "clip high" --no-run
+expect 2 "script\.txt:1: no points: this document is a network" "$network" "clip 1.5"
+exit $((failures > 0))
