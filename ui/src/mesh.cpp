@@ -4,6 +4,7 @@
 #include <vtkCellData.h>
 #include <vtkFloatArray.h>
 #include <vtkIdTypeArray.h>
+#include <vtkTypeInt32Array.h>
 #include <vtkIntArray.h>
 #include <vtkPointData.h>
 #include <vtkPoints.h>
@@ -39,13 +40,14 @@ vtkSmartPointer<vtkPolyData> makePointSet(const std::vector<Eigen::Vector3f>& po
   auto points = vtkSmartPointer<vtkPoints>::New();
   points->SetData(coordinates);
 
-  // One vertex cell per point, built as flat offset/connectivity arrays (fast for millions).
-  auto offsets = vtkSmartPointer<vtkIdTypeArray>::New();
-  auto connectivity = vtkSmartPointer<vtkIdTypeArray>::New();
+  // One vertex cell per point, built as flat offset/connectivity arrays (fast for millions), in
+  // 32-bit storage: 8 bytes a point instead of 16 on site-sized scans.
+  auto offsets = vtkSmartPointer<vtkTypeInt32Array>::New();
+  auto connectivity = vtkSmartPointer<vtkTypeInt32Array>::New();
   offsets->SetNumberOfValues(count + 1);
   connectivity->SetNumberOfValues(count);
-  for (vtkIdType i = 0; i <= count; ++i) offsets->SetValue(i, i);
-  for (vtkIdType i = 0; i < count; ++i) connectivity->SetValue(i, i);
+  for (vtkIdType i = 0; i <= count; ++i) offsets->SetValue(i, static_cast<vtkTypeInt32>(i));
+  for (vtkIdType i = 0; i < count; ++i) connectivity->SetValue(i, static_cast<vtkTypeInt32>(i));
   auto vertices = vtkSmartPointer<vtkCellArray>::New();
   vertices->SetData(offsets, connectivity);
 
