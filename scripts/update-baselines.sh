@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# Rewrites the render-test baselines (tests/baselines/*.png) from the current build.
+# Rewrites the render-test baselines (tests/baselines/*.png and *.txt) from the current build.
 # Usage: scripts/update-baselines.sh [NAME-REGEX]   e.g. scripts/update-baselines.sh sphere
-# Look at every changed PNG before committing it (git diff --stat tests/baselines).
+# Look at every changed PNG and text before committing them (git diff --stat tests/baselines).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${BUILD_DIR:-build}

@@ -15,6 +15,7 @@
 
 #include <cstdio>
 #include <exception>
+#include <fstream>
 #include <regex>
 
 int main(int argc, char** argv) {
@@ -24,7 +25,7 @@ int main(int argc, char** argv) {
       "2 bad input or output file or failing script line, 3 internal error.",
       "piperun-render"};
   app.set_version_flag("--version", "piperun-render " PIPERUN_VERSION);
-  std::string input, script, output, view = "all", size = "1280x800";
+  std::string input, script, output, textOutput, view = "all", size = "1280x800";
   bool noRun = false, listCommands = false;
   app.add_option("input", input, "Scan (.ply .pcd .xyz .pts .las .e57 ...), network (.json) or project (.piperun)");
   app.add_flag("--commands", listCommands, "List the studio's commands and key bindings, then exit");
@@ -36,6 +37,7 @@ int main(int argc, char** argv) {
   app.add_flag("--no-run", noRun,
                "Show the scan without running the pipeline (a project: without recomputing its fresh stages)");
   app.add_option("-o,--output", output, "PNG to write");
+  app.add_option("--text", textOutput, "Also write the texts drawn over the views (titles, status, info) to this file");
   CLI11_PARSE(app, argc, argv);
   if (!listCommands && (input.empty() || output.empty())) {
     std::fprintf(stderr, "piperun-render: error: INPUT and -o OUT.png are required (see --help)\n");
@@ -88,8 +90,15 @@ int main(int argc, char** argv) {
       studio.runScript(script);
       std::printf("%s\n", studio.message().c_str());
     }
+    studio.render();  // Lays the texts out as the screenshot draws them, before it reports itself.
+    const std::string overlayText = studio.overlayText();
     studio.command("screenshot " + output);
     std::printf("wrote %s (%dx%d)\n", output.c_str(), width, height);
+    if (!textOutput.empty()) {
+      std::ofstream text(textOutput);
+      text << overlayText;
+      if (!text) throw piperun::InputError(textOutput, "", "cannot write");
+    }
   } catch (const piperun::InputError& error) {
     std::fprintf(stderr, "piperun-render: error: %s\n", error.what());
     return 2;

@@ -31,6 +31,8 @@ expect 2 "merge_one\.txt:1: select two pipes to merge" "$render" "$scene" --no-r
 expect 2 "split_nothing\.txt:1: select a pipe to split" "$render" "$scene" --no-run --script "$work/split_nothing.txt" -o "$work/out.png"
 expect 2 "no_box\.txt:1: no box shown" "$render" "$scene" --no-run --script "$work/no_box.txt" -o "$work/out.png"
 expect 2 "no_handle\.txt:1: no end handle shown" "$render" "$scene" --no-run --script "$work/no_handle.txt" -o "$work/out.png"
+expect 2 "piperun-render: error: .*/no-such-dir/texts\.txt: cannot write" "$render" "$scene" --no-run -o "$work/out.png" \
+  --text "$work/no-such-dir/texts.txt"
 expect 1 "--size: expected WIDTHxHEIGHT" "$render" "$scene" --size 12 -o "$work/out.png"
 expect 1 "INPUT and -o OUT.png are required" "$render" "$scene"
 exit $((failures > 0))

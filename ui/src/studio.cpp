@@ -1132,4 +1132,21 @@ bool Studio::quitRequested() const { return impl_->quit; }
 
 const std::string& Studio::message() const { return impl_->message; }
 
+std::string Studio::overlayText() const {
+  const Impl& impl = *impl_;
+  const std::vector<std::pair<const char*, vtkTextActor*>> texts{
+      {"scene title", impl.sceneTitle},   {"sphere title", impl.sphereTitle}, {"plane title", impl.planeTitle},
+      {"status", impl.statusText},        {"info", impl.infoText},            {"progress", impl.progressText},
+      {"review", impl.reviewText},        {"notice", impl.noticeText},        {"help commands", impl.helpCommandsText},
+      {"help keys", impl.helpKeysText}};
+  std::string text;
+  for (const auto& [name, actor] : texts) {
+    const char* input = actor->GetInput();
+    if (actor->GetVisibility() && input && *input) text += std::string("[") + name + "]\n" + input + "\n";
+  }
+  if (impl.colorBar->GetVisibility() && impl.colorBar->GetTitle())
+    text += std::string("[colour bar]\n") + impl.colorBar->GetTitle() + "\n";
+  return text;
+}
+
 }  // namespace piperun::ui

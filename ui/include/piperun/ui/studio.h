@@ -78,6 +78,10 @@ class Studio {
   bool quitRequested() const;
   /// The status line: the last command's message, or how the last background run ended.
   const std::string& message() const;
+  /// Every text the last frame showed over the views (titles, status, selection info, review
+  /// counters, help, the colour bar's title), each under its name in brackets: what the render
+  /// tests compare exactly, where an image comparison would pass a changed word.
+  std::string overlayText() const;
 
  private:
   struct Impl;
