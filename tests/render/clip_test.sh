@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The points' height clip: chosen by itself under a roof (and Z, `clip toggle`, shows the roof
-# again), none without one; the `clip` command's heights, messages and refusals.
+# The points' clip: chosen by itself under a roof (and Z, `clip toggle`, shows the roof again), none
+# without one; the `clip` command's heights, box, messages and refusals.
 # Usage: clip_test.sh PIPERUN_RENDER SCENE ROOFED_SCENE NETWORK WORK_DIR
 set -uo pipefail
 render=$1 scene=$2 roofed=$3 network=$4 work=$5
@@ -29,6 +29,9 @@ expect 0 "^points above 1\.50 m hidden" "$scene" "clip 1.5" --no-run
 expect 0 "^points shown from 0\.50 m to 1\.50 m" "$scene" "clip 0.5 1.5" --no-run
 expect 0 "^points not clipped" "$scene" "clip 1.5\nclip off" --no-run
 expect 0 "^points above 1\.50 m hidden" "$scene" "clip 1.5\nclip off\nclip toggle" --no-run
+expect 0 "^points outside the box from -1\.000 -2\.000 0\.500 to 1\.000 2\.000 1\.500 hidden" "$scene" \
+  "box show -1 -2 0.5 1 2 1.5\nclip box" --no-run
+expect 2 "script\.txt:1: no box shown \(box show, or B\)" "$scene" "clip box" --no-run
 expect 2 "script\.txt:1: Z_MIN must be below Z_MAX" "$scene" "clip 1.5 0.5" --no-run
 expect 2 "script\.txt:1: expected Z_MAX as a number, got 'high'" "$scene" "clip high" --no-run
 expect 2 "script\.txt:1: no points: this document is a network" "$network" "clip 1.5"

@@ -291,15 +291,32 @@ void Studio::Impl::chooseFirstClip() {
   if (firstClipChosen || !document.input() || document.network().pipes.empty()) return;
   firstClipChosen = true;
   if (const auto height = ceilingHeight(*document.input(), document.network()))
-    pointClip = {-std::numeric_limits<double>::infinity(), *height};
+    pointClip = heightRange(-std::numeric_limits<double>::infinity(), *height);
 }
 
 std::string Studio::Impl::pointClipText() const {
   if (!pointClip) return "points not clipped";
-  const auto [low, high] = *pointClip;
+  const BoundingBox& clip = *pointClip;
+  if (std::isfinite(clip.min.x())) {
+    return "points outside the box from " + format("%.3f", clip.min.x()) + format(" %.3f", clip.min.y()) +
+           format(" %.3f", clip.min.z()) + format(" to %.3f", clip.max.x()) + format(" %.3f", clip.max.y()) +
+           format(" %.3f", clip.max.z()) + " hidden";
+  }
+  const double low = clip.min.z(), high = clip.max.z();
   if (!std::isfinite(low)) return format("points above %.2f m hidden", high);
   if (!std::isfinite(high)) return format("points below %.2f m hidden", low);
   return format("points shown from %.2f m", low) + format(" to %.2f m", high);
+}
+
+std::string Studio::Impl::pointClipCaption() const {
+  const BoundingBox& clip = *pointClip;
+  if (std::isfinite(clip.min.x())) {
+    const Eigen::Vector3d size = clip.size();
+    return format("box %.2f", size.x()) + format(" x %.2f", size.y()) + format(" x %.2f m", size.z());
+  }
+  const double low = clip.min.z(), high = clip.max.z();
+  return (std::isfinite(low) ? format("%.2f < ", low) : std::string()) + "z" +
+         (std::isfinite(high) ? format(" < %.2f", high) : std::string()) + " m";
 }
 
 void Studio::Impl::rebuildAll() {
@@ -603,11 +620,7 @@ void Studio::Impl::updateOverlays() {
 
   std::string sceneCaption =
       "3-D scene  [points: " + nameOf(kPointColors, pointColor) + ", pipes: " + nameOf(kPipeColors, pipeColor) + "]";
-  if (pointClip) {
-    const auto [low, high] = *pointClip;
-    sceneCaption += "  clip: " + (std::isfinite(low) ? format("%.2f < ", low) : std::string()) + "z" +
-                    (std::isfinite(high) ? format(" < %.2f", high) : std::string()) + " m";
-  }
+  if (pointClip) sceneCaption += "  clip: " + pointClipCaption();
   sceneTitle->SetInput(sceneCaption.c_str());
   std::string sphereCaption = "Gaussian sphere";
   if (const int tile = sphereTile(); tile >= 0)

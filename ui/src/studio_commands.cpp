@@ -165,13 +165,13 @@ void Studio::Impl::registerCommands() {
                });
 
   commands.add(
-      "clip", "Z_MAX | Z_MIN Z_MAX | off | toggle",
-      "draw the scene's points only below height Z_MAX, or between two heights (world z, m: the height colour "
-      "bar's); off shows them all, toggle switches between the last clip and none",
+      "clip", "Z_MAX | Z_MIN Z_MAX | box | off | toggle",
+      "draw the scene's points only below height Z_MAX, between two heights (world z, m: the height colour bar's) or "
+      "inside the fit box; off shows them all, toggle switches between the last clip and none",
       [this](const std::vector<std::string>& args) {
-        expectArguments(args, 1, 2, "clip Z_MAX | Z_MIN Z_MAX | off | toggle");
+        expectArguments(args, 1, 2, "clip Z_MAX | Z_MIN Z_MAX | box | off | toggle");
         if (!document.input()) throw CommandError("no points: this document is a network");
-        firstClipChosen = true;
+        constexpr double kOpen = std::numeric_limits<double>::infinity();
         if (args.size() == 1 && (args[0] == "off" || args[0] == "toggle")) {
           if (pointClip) {
             lastPointClip = pointClip;
@@ -180,16 +180,24 @@ void Studio::Impl::registerCommands() {
             if (!lastPointClip) {
               const auto height = ceilingHeight(*document.input(), document.network());
               if (!height) throw CommandError("no ceiling over the network to clip: give a height (clip Z_MAX)");
-              lastPointClip = {-std::numeric_limits<double>::infinity(), *height};
+              lastPointClip = heightRange(-kOpen, *height);
             }
             pointClip = lastPointClip;
           }
+        } else if (args.size() == 1 && args[0] == "box") {
+          if (!fitBox->GetEnabled()) throw CommandError("no box shown (box show, or B)");
+          const double* shown = fitBox->GetRepresentation()->GetBounds();
+          BoundingBox box;
+          box.extend(Eigen::Vector3d(shown[0], shown[2], shown[4]) + displayOrigin);
+          box.extend(Eigen::Vector3d(shown[1], shown[3], shown[5]) + displayOrigin);
+          pointClip = box;
         } else {
-          const double low = args.size() == 2 ? parseDouble(args[0], "Z_MIN") : -std::numeric_limits<double>::infinity();
+          const double low = args.size() == 2 ? parseDouble(args[0], "Z_MIN") : -kOpen;
           const double high = parseDouble(args.back(), "Z_MAX");
           if (!(low < high)) throw CommandError("Z_MIN must be below Z_MAX");
-          pointClip = {low, high};
+          pointClip = heightRange(low, high);
         }
+        firstClipChosen = true;
         applyPointClip();
         updateOverlays();
         return pointClipText();

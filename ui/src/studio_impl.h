@@ -27,6 +27,8 @@
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <cmath>
+#include <limits>
 #include <cstdio>
 #include <map>
 #include <mutex>
@@ -121,6 +123,15 @@ inline std::string formatPoint(const Eigen::Vector3d& point) {
   return format("%.17g", point.x()) + " " + format("%.17g", point.y()) + " " + format("%.17g", point.z());
 }
 
+/// The region between two heights (world z, m; either may be infinite), open sideways.
+inline BoundingBox heightRange(double low, double high) {
+  constexpr double kOpen = std::numeric_limits<double>::infinity();
+  BoundingBox range;
+  range.min = Eigen::Vector3d(-kOpen, -kOpen, low);
+  range.max = Eigen::Vector3d(kOpen, kOpen, high);
+  return range;
+}
+
 /// A principal direction of one tile's round, numbered across all tiles for the views.
 struct DirectionRef {
   int tile = 0;  ///< Index into the pipeline's tile results.
@@ -184,13 +195,15 @@ struct Studio::Impl {
   void setPointLayer(const std::string& name, vtkRenderer* renderer, const std::vector<Eigen::Vector3f>& positions,
                      const std::vector<Rgb>& colors, double pointSize, bool defaultVisible);
   void buildPointLayers();
-  /// Draws the scene's point layers only between the heights of `pointClip` (clipping planes).
+  /// Draws the scene's point layers only inside `pointClip` (clipping planes).
   void applyPointClip();
   /// Once a document has points and a network: hides the points above a ceiling that would hide
   /// the network from the first view (ceilingHeight).
   void chooseFirstClip();
-  /// "points above 9.79 m hidden" and the like, for the scene's title and the clip command.
+  /// "points above 9.79 m hidden" and the like, for the clip command's message.
   std::string pointClipText() const;
+  /// "z < 9.79 m", "box 2.00 x 3.10 x 1.50 m": the clip in the scene's title.
+  std::string pointClipCaption() const;
   std::vector<Rgb> inputPointColors();
   void buildNetworkLayers();
   void buildSelectionLayer();
@@ -295,10 +308,10 @@ struct Studio::Impl {
   ViewMode viewMode = ViewMode::All;
   PointColor pointColor = PointColor::Height;
   PipeColor pipeColor = PipeColor::Run;
-  /// Heights (world z, m; either may be infinite) between which the scene's points are drawn;
-  /// none: all are.
-  std::optional<std::array<double, 2>> pointClip;
-  std::optional<std::array<double, 2>> lastPointClip;  ///< What `clip toggle` brings back.
+  /// The region (world, m; sides at infinity are open) the scene's points are drawn in: a range of
+  /// heights, or the fit box; none: all points are drawn.
+  std::optional<BoundingBox> pointClip;
+  std::optional<BoundingBox> lastPointClip;  ///< What `clip toggle` brings back.
   bool firstClipChosen = false;                        ///< chooseFirstClip has decided, or the user clipped.
   Selection selection;
   int selectedDirection = -1;

@@ -184,18 +184,18 @@ void Studio::Impl::applyPointClip() {
     mapper->RemoveAllClippingPlanes();
     if (!pointClip) continue;
     // A clipping plane keeps the side its normal points to.
-    const auto [low, high] = *pointClip;
-    if (std::isfinite(low)) {
-      vtkNew<vtkPlane> floor;
-      floor->SetOrigin(0.0, 0.0, low - displayOrigin.z());
-      floor->SetNormal(0.0, 0.0, 1.0);
-      mapper->AddClippingPlane(floor);
-    }
-    if (std::isfinite(high)) {
-      vtkNew<vtkPlane> ceiling;
-      ceiling->SetOrigin(0.0, 0.0, high - displayOrigin.z());
-      ceiling->SetNormal(0.0, 0.0, -1.0);
-      mapper->AddClippingPlane(ceiling);
+    for (int axis = 0; axis < 3; ++axis) {
+      for (const double side : {-1.0, 1.0}) {
+        const double bound = side < 0 ? pointClip->min[axis] : pointClip->max[axis];
+        if (!std::isfinite(bound)) continue;
+        double origin[3] = {0.0, 0.0, 0.0}, normal[3] = {0.0, 0.0, 0.0};
+        origin[axis] = bound - displayOrigin[axis];
+        normal[axis] = -side;
+        vtkNew<vtkPlane> plane;
+        plane->SetOrigin(origin);
+        plane->SetNormal(normal);
+        mapper->AddClippingPlane(plane);
+      }
     }
   }
 }
