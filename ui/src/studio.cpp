@@ -78,14 +78,10 @@ Studio::Impl::Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowIntera
 
   style->panOnly = plane;
   interactor->SetInteractorStyle(style);
-  observe(style, vtkCommand::StartInteractionEvent, [this](vtkObject*, unsigned long, void*) {
-    interacting = true;
-    for (auto& [name, lod] : pointLods) lod.mapper->SetInputData(lod.coarse);
-  });
-  observe(style, vtkCommand::EndInteractionEvent, [this](vtkObject*, unsigned long, void*) {
-    interacting = false;
-    for (auto& [name, lod] : pointLods) lod.mapper->SetInputData(lod.full);
-  });
+  observe(style, vtkCommand::StartInteractionEvent,
+          [this](vtkObject*, unsigned long, void*) { setCoarsePoints(true); });
+  observe(style, vtkCommand::EndInteractionEvent,
+          [this](vtkObject*, unsigned long, void*) { setCoarsePoints(worker.joinable()); });
   observe(interactor, vtkCommand::KeyPressEvent, [this](vtkObject*, unsigned long, void*) { onKey(); });
   // Passive: the camera style grabs the focus on a press, and the release must still reach picking.
   // (Clicks on the stage bar fall outside every view, so they pick nothing.)
@@ -719,6 +715,7 @@ std::string Studio::Impl::startRun(const CommandInterpreter::PendingRun& run) {
     progressFraction = fraction;
     progressChanged = true;
   });
+  setCoarsePoints(true);
   worker = std::thread([this, pipeline, last = run.last] {
     try {
       pipeline->run(*runProgress, last);
@@ -746,6 +743,7 @@ bool Studio::Impl::poll() {
   bool changed = progressChanged.exchange(false);
   if (worker.joinable() && finished) {
     worker.join();
+    setCoarsePoints(false);
     std::string ending;
     try {
       if (runError) std::rethrow_exception(runError);

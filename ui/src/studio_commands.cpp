@@ -564,8 +564,7 @@ void Studio::Impl::registerCommands() {
         vtkNew<vtkCamera> saved;
         saved->DeepCopy(scene->GetActiveCamera());
         auto timeFrames = [&](bool moving) {
-          interacting = moving;
-          for (auto& [name, lod] : pointLods) lod.mapper->SetInputData(moving ? lod.coarse : lod.full);
+          setCoarsePoints(moving);
           owner.render();  // Uploads the points; not timed.
           const auto start = std::chrono::steady_clock::now();
           for (int i = 0; i < count; ++i) {

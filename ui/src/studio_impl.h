@@ -191,6 +191,8 @@ struct Studio::Impl {
   void setLayer(const std::string& name, vtkRenderer* renderer, vtkSmartPointer<vtkProp> prop, bool defaultVisible);
   void removeLayer(const std::string& name);
   bool layerVisible(const std::string& name) const;
+  /// Draws every point layer whole or as its subsample (coarsePoints).
+  void setCoarsePoints(bool coarse);
   /// A points layer that shows a subsample while the camera moves.
   void setPointLayer(const std::string& name, vtkRenderer* renderer, const std::vector<Eigen::Vector3f>& positions,
                      const std::vector<Rgb>& colors, double pointSize, bool defaultVisible);
@@ -303,7 +305,10 @@ struct Studio::Impl {
   std::map<std::string, Layer> layers;
   std::map<std::string, bool> visibility;  ///< Kept by name across re-registration.
   std::map<std::string, PointLayerLod> pointLods;
-  bool interacting = false;
+  /// The point layers are drawn as their subsamples: while the camera moves, and while stages run
+  /// in the background (a frame of every point, redrawn for each progress step, would take the
+  /// cores from the run under software rendering).
+  bool coarsePoints = false;
 
   ViewMode viewMode = ViewMode::All;
   PointColor pointColor = PointColor::Height;

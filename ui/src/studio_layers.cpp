@@ -74,7 +74,7 @@ void Studio::Impl::setPointLayer(const std::string& name, vtkRenderer* renderer,
   const std::size_t stride = std::max<std::size_t>(1, (positions.size() + budget - 1) / budget);
   lod.coarse = stride > 1 ? subsamplePointSet(lod.full, stride) : lod.full;
   lod.mapper = vtkSmartPointer<vtkPolyDataMapper>::New();
-  lod.mapper->SetInputData(interacting ? lod.coarse : lod.full);
+  lod.mapper->SetInputData(coarsePoints ? lod.coarse : lod.full);
   lod.mapper->SetScalarModeToUsePointData();
   lod.mapper->SetColorModeToDirectScalars();
   auto actor = vtkSmartPointer<vtkActor>::New();
@@ -84,6 +84,11 @@ void Studio::Impl::setPointLayer(const std::string& name, vtkRenderer* renderer,
   actor->PickableOff();
   setLayer(name, renderer, actor, defaultVisible);
   pointLods[name] = lod;
+}
+
+void Studio::Impl::setCoarsePoints(bool coarse) {
+  coarsePoints = coarse;
+  for (auto& [name, lod] : pointLods) lod.mapper->SetInputData(coarse ? lod.coarse : lod.full);
 }
 
 std::vector<Rgb> Studio::Impl::inputPointColors() {
