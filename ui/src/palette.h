@@ -21,6 +21,7 @@ Rgb categoryColor(int index);
 
 constexpr Rgb kNeutral{150, 150, 150};   ///< Points and pipes with no category.
 constexpr Rgb kHighlight{255, 40, 255};  ///< The selected element: magenta, in no colour map.
+constexpr Rgb kTileBox{120, 200, 230};   ///< The cube of the tile the Gaussian sphere shows.
 constexpr Rgb kAccepted{60, 180, 75};
 constexpr Rgb kProposed{245, 160, 30};
 constexpr Rgb kRejected{220, 40, 40};

@@ -419,6 +419,7 @@ void Studio::Impl::layout() {
   highlightLayer->SetInteractive(false);
   apply(sphere, sphereRect);
   apply(plane, planeRect);
+  showSphereTileBox();
   overlay->SetViewport(0, 0, 1, 1);
   barBase->SetDraw(bar);
   if (bar) barBase->SetViewport(0, 0, 1, bottom);

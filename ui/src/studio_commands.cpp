@@ -158,10 +158,17 @@ void Studio::Impl::registerCommands() {
   commands.add("layers", "", "list the layers and whether they are shown",
                [this](const std::vector<std::string>& args) {
                  expectArguments(args, 0, 0, "layers");
-                 std::string list;
-                 for (const auto& [name, layer] : layers)
-                   list += (list.empty() ? "" : "  ") + name + (visibility[name] ? "" : " (off)");
-                 return list;
+                 // Lines of at most 80 characters: the status line must not run into the other views.
+                 std::string list, line;
+                 for (const auto& [name, layer] : layers) {
+                   const std::string entry = name + (visibility[name] ? "" : " (off)");
+                   if (!line.empty() && line.size() + 2 + entry.size() > 80) {
+                     list += line + "\n";
+                     line.clear();
+                   }
+                   line += (line.empty() ? "" : "  ") + entry;
+                 }
+                 return list + line;
                });
 
   commands.add(

@@ -210,6 +210,8 @@ struct Studio::Impl {
   void buildNetworkLayers();
   void buildSelectionLayer();
   void buildSphereLayers();
+  /// The scene marks the sphere's tile (layer preprocess/tile) while the sphere is shown beside it.
+  void showSphereTileBox();
   void buildPlaneLayers();
   void updateColorBar();
 

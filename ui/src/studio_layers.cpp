@@ -296,7 +296,8 @@ void Studio::Impl::buildSphereLayers() {
   setLayer("sphere/grid", sphere, gridActor, true);
 
   if (!preprocessed || !tiles) {
-    for (const char* name : {"sphere/normals", "sphere/density", "sphere/directions"}) removeLayer(name);
+    for (const char* name : {"sphere/normals", "sphere/density", "sphere/directions", "preprocess/tile"})
+      removeLayer(name);
     return;
   }
   // Normals at both their signs (the sign is arbitrary), coloured by segment: on a tiled scan, the
@@ -306,10 +307,12 @@ void Studio::Impl::buildSphereLayers() {
   if (segmentCache.empty()) segmentCache = keptPointSegments();
   std::vector<std::uint32_t> tilePoints;
   std::vector<int> tileSegments;
+  const Tile* sphereTileBox = nullptr;
   if (shownTile >= 0) {
     const int tileId = (*tiles)[static_cast<std::size_t>(shownTile)].tileId;
     for (const auto& tile : preprocessed->tiles)
-      if (tile.id == tileId) tilePoints = tile.points;
+      if (tile.id == tileId) sphereTileBox = &tile;
+    if (sphereTileBox) tilePoints = sphereTileBox->points;
     // Overlapping tiles label the same points: colour them by this tile's own directions.
     tileSegments.assign(kept.size(), -1);
     for (std::size_t k = 0; k < directions.size(); ++k)
@@ -372,6 +375,33 @@ void Studio::Impl::buildSphereLayers() {
   auto arrowActor = meshActor(arrows.build());
   arrowActor->GetProperty()->SetLineWidth(static_cast<float>(2.0 * options.uiScale));
   setLayer("sphere/directions", sphere, arrowActor, true);
+
+  // Where that tile is in the 3-D scene: its cube (without the overlap), cut to the points' bounds
+  // (the tiles' grid runs past the scan).
+  if (!sphereTileBox) {
+    removeLayer("preprocess/tile");
+    return;
+  }
+  const BoundingBox bounds = preprocessed->points.boundingBox();
+  MeshBuilder cube;
+  const Eigen::Vector3d low = sphereTileBox->core.min.cwiseMax(bounds.min) - displayOrigin;
+  const Eigen::Vector3d high = sphereTileBox->core.max.cwiseMin(bounds.max) - displayOrigin;
+  auto corner = [&](int bits) {
+    return Eigen::Vector3d((bits & 1) ? high.x() : low.x(), (bits & 2) ? high.y() : low.y(), (bits & 4) ? high.z() : low.z());
+  };
+  for (int bits = 0; bits < 8; ++bits)
+    for (int axis = 0; axis < 3; ++axis)
+      if (!(bits & (1 << axis))) cube.addPolyline({corner(bits), corner(bits | (1 << axis))}, kTileBox, -1);
+  auto cubeActor = meshActor(cube.build());
+  cubeActor->PickableOff();
+  cubeActor->GetProperty()->SetLineWidth(static_cast<float>(1.5 * options.uiScale));
+  setLayer("preprocess/tile", scene, cubeActor, true);
+  showSphereTileBox();
+}
+
+void Studio::Impl::showSphereTileBox() {
+  const auto found = layers.find("preprocess/tile");
+  if (found != layers.end()) found->second.prop->SetVisibility(visibility["preprocess/tile"] && viewMode == ViewMode::All);
 }
 
 void Studio::Impl::buildPlaneLayers() {
