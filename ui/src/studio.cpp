@@ -1041,6 +1041,15 @@ void Studio::Impl::showFitBox(const std::array<double, 6>& bounds) {
   fitBox->On();
 }
 
+BoundingBox Studio::Impl::fitBoxBounds() const {
+  if (!fitBox->GetEnabled()) throw CommandError("no box shown (box show, or B)");
+  const double* shown = fitBox->GetRepresentation()->GetBounds();
+  BoundingBox box;
+  box.extend(Eigen::Vector3d(shown[0], shown[2], shown[4]) + displayOrigin);
+  box.extend(Eigen::Vector3d(shown[1], shown[3], shown[5]) + displayOrigin);
+  return box;
+}
+
 void Studio::Impl::placeEndHandle() {
   const Pipe* pipe = selection.kind == Selection::Kind::Pipe ? document.network().findPipe(selection.id) : nullptr;
   if (!handleOn || !pipe) {

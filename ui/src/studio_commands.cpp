@@ -192,12 +192,7 @@ void Studio::Impl::registerCommands() {
             pointClip = lastPointClip;
           }
         } else if (args.size() == 1 && args[0] == "box") {
-          if (!fitBox->GetEnabled()) throw CommandError("no box shown (box show, or B)");
-          const double* shown = fitBox->GetRepresentation()->GetBounds();
-          BoundingBox box;
-          box.extend(Eigen::Vector3d(shown[0], shown[2], shown[4]) + displayOrigin);
-          box.extend(Eigen::Vector3d(shown[1], shown[3], shown[5]) + displayOrigin);
-          pointClip = box;
+          pointClip = fitBoxBounds();
         } else {
           const double low = args.size() == 2 ? parseDouble(args[0], "Z_MIN") : -kOpen;
           const double high = parseDouble(args.back(), "Z_MAX");
@@ -446,11 +441,9 @@ void Studio::Impl::registerCommands() {
             fitBox->Off();
             return std::string("box hidden");
           }
-          if (!fitBox->GetEnabled()) throw CommandError("no box shown (box show, or B)");
-          const double* shown = fitBox->GetRepresentation()->GetBounds();
-          const Eigen::Vector3d low = Eigen::Vector3d(shown[0], shown[2], shown[4]) + displayOrigin;
-          const Eigen::Vector3d high = Eigen::Vector3d(shown[1], shown[3], shown[5]) + displayOrigin;
-          const std::string fitted = editSelectingNewPipe("pipe fit-box " + formatPoint(low) + " " + formatPoint(high));
+          const BoundingBox box = fitBoxBounds();
+          const std::string fitted =
+              editSelectingNewPipe("pipe fit-box " + formatPoint(box.min) + " " + formatPoint(box.max));
           fitBox->Off();
           return fitted;
         }

@@ -269,6 +269,8 @@ struct Studio::Impl {
   std::pair<int, int> selectedPipePair(const char* action) const;
   /// Shows the fit box around world bounds (xmin, xmax, ymin, ymax, zmin, zmax; metres).
   void showFitBox(const std::array<double, 6>& bounds);
+  /// The fit box shown, in world co-ordinates; throws when it is hidden.
+  BoundingBox fitBoxBounds() const;
   /// When the end handle is on: puts it on the selected pipe's end nearer the camera (the same end while the
   /// same pipe stays selected); hides it when no pipe is selected.
   void placeEndHandle();
