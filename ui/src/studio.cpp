@@ -383,6 +383,30 @@ int Studio::Impl::directionShowingPipe(int pipeId) const {
   return -1;
 }
 
+int Studio::Impl::directionOfTile(const std::string& word) const {
+  if (directions.empty()) throw CommandError("no directions yet: run the directions stage");
+  auto firstDirection = [&](int tile) {
+    for (std::size_t k = 0; k < directions.size(); ++k)
+      if (directions[k].tile == tile) return static_cast<int>(k);
+    return -1;
+  };
+  const int tileCount = static_cast<int>(tiles->size());
+  if (word == "next" || word == "previous") {
+    const int step = word == "next" ? 1 : tileCount - 1;
+    const int current = selectedDirection >= 0 ? directions[static_cast<std::size_t>(selectedDirection)].tile : 0;
+    for (int tile = (current + step) % tileCount;; tile = (tile + step) % tileCount)
+      if (const int direction = firstDirection(tile); direction >= 0) return direction;  // The current tile has one.
+  }
+  const int id = parseInt(word, "the tile");
+  for (int tile = 0; tile < tileCount; ++tile) {
+    if ((*tiles)[static_cast<std::size_t>(tile)].tileId != id) continue;
+    const int direction = firstDirection(tile);
+    if (direction < 0) throw CommandError("tile " + word + " has no principal direction");
+    return direction;
+  }
+  throw CommandError("no tile " + word + " (there are " + std::to_string(tileCount) + ")");
+}
+
 int Studio::Impl::sphereTile() const {
   if (!tiles || tiles->size() < 2) return -1;
   return selectedDirection >= 0 ? directions[static_cast<std::size_t>(selectedDirection)].tile : 0;

@@ -41,21 +41,22 @@ void Studio::Impl::registerCommands() {
                });
 
   commands.add(
-      "select", "pipe ID [ID2] | joint ID | direction N|next|previous | none",
-      "select an element (highlighted, described bottom left), two pipes (to merge or join), or a principal direction "
-      "(the plane view follows)",
+      "select", "pipe ID [ID2] | joint ID | direction|tile N|next|previous | none",
+      "select an element (highlighted, described bottom left), two pipes (to merge or join), a principal direction "
+      "(the plane view follows), or a tile's first direction (the sphere shows that tile)",
       [this](const std::vector<std::string>& args) {
-        expectArguments(args, 1, 3, "select pipe ID [ID2] | joint ID | direction N | none");
+        expectArguments(args, 1, 3, "select pipe ID [ID2] | joint ID | direction N | tile N | none");
         bool directionChanged = false;
         if (args[0] == "none") {
           selection = {};
         } else {
           expectArguments(args, 2, args[0] == "pipe" ? 3 : 2,
-                          "select pipe ID [ID2] | joint ID | direction N|next|previous | none");
+                          "select pipe ID [ID2] | joint ID | direction N|next|previous | tile N|next|previous | none");
           const int directionCount = static_cast<int>(directions.size());
-          const bool step = args[0] == "direction" && (args[1] == "next" || args[1] == "previous");
+          const bool step = (args[0] == "direction" || args[0] == "tile") && (args[1] == "next" || args[1] == "previous");
           if (step && directionCount == 0) throw CommandError("no directions yet: run the directions stage");
-          const int id = !step               ? parseInt(args[1], "the id")
+          const int id = args[0] == "tile"   ? directionOfTile(args[1])
+                         : !step             ? parseInt(args[1], "the id")
                          : args[1] == "next" ? (selectedDirection + 1) % directionCount
                                              : (selectedDirection + directionCount - 1) % directionCount;
           if (args[0] == "pipe") {
@@ -77,7 +78,7 @@ void Studio::Impl::registerCommands() {
           } else if (args[0] == "joint") {
             if (!document.network().findJoint(id)) throw CommandError("no joint " + args[1]);
             selection = {Selection::Kind::Joint, id};
-          } else if (args[0] == "direction") {
+          } else if (args[0] == "direction" || args[0] == "tile") {
             if (id < 0 || id >= static_cast<int>(directions.size()))
               throw CommandError("no direction " + args[1] + " (there are " + std::to_string(directions.size()) + ")");
             selectedDirection = id;
@@ -88,11 +89,15 @@ void Studio::Impl::registerCommands() {
         }
         buildSelectionLayer();
         buildPlaneLayers();
-        if (args[0] == "direction" || directionChanged) resetPlaneCamera();
+        const bool directionSelected = args[0] == "direction" || args[0] == "tile";
+        if (directionSelected || directionChanged) resetPlaneCamera();
         updateOverlays();
-        return args[0] == "none"        ? std::string("selection cleared")
-               : args[0] == "direction" ? "selected direction " + std::to_string(selectedDirection)
-                                        : "selected " + args[0] + " " + args[1] + (args.size() == 3 ? " and " + args[2] : "");
+        if (args[0] == "none") return std::string("selection cleared");
+        if (!directionSelected) return "selected " + args[0] + " " + args[1] + (args.size() == 3 ? " and " + args[2] : "");
+        std::string selected = "selected direction " + std::to_string(selectedDirection);
+        if (const int tile = sphereTile(); tile >= 0)
+          selected += " (tile " + std::to_string((*tiles)[static_cast<std::size_t>(tile)].tileId) + ")";
+        return selected;
       });
 
   commands.add("fly", "", "move the 3-D camera to the selected pipe or joint",
@@ -614,6 +619,8 @@ void Studio::Impl::registerCommands() {
                  {"home", "camera reset"},
                  {"right", "select direction next"},
                  {"left", "select direction previous"},
+                 {"next", "select tile next"},
+                 {"prior", "select tile previous"},
                  {"f", "fly"},
                  {"n", "review next"},
                  {"p", "review previous"},
@@ -666,7 +673,10 @@ std::vector<std::string> Studio::Impl::keyHelpLines() const {
   std::vector<Group> groups;
   for (const auto& [key, line] : keyBindings) {
     // "ctrl+z" is shown as "Ctrl+Z", "shift+m" as "Shift+M", "delete" as "Delete".
-    std::string shown = key;
+    // X11 names Page Down and Page Up "Next" and "Prior"; the help uses the keys' labels.
+    static const std::map<std::string, std::string> kKeyLabels{{"next", "PageDown"}, {"prior", "PageUp"}};
+    const auto label = kKeyLabels.find(key);
+    std::string shown = label != kKeyLabels.end() ? label->second : key;
     shown[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(shown[0])));
     const std::size_t plus = shown.find('+');
     if (plus != std::string::npos && plus + 2 == shown.size())
@@ -685,9 +695,9 @@ std::vector<std::string> Studio::Impl::keyHelpLines() const {
   }
   std::vector<std::string> lines;
   for (const Group& group : groups) lines.push_back(group.text());
-  lines.push_back("click   select a pipe, joint, direction or circle");
+  lines.push_back("click   select a pipe, joint, direction, circle");
   lines.push_back("double-click  fly to the clicked pipe or joint");
-  lines.push_back("Shift+click  add a second pipe to the selected one");
+  lines.push_back("Shift+click  add a second pipe (merge, join)");
   lines.push_back("X Y     the pixel under the mouse");
   lines.push_back(":       type a command (Return runs it)");
   return lines;

@@ -186,6 +186,9 @@ struct Studio::Impl {
   /// The tile whose Gaussian sphere the sphere view shows (the selected direction's); -1 when the
   /// scan is one tile and the sphere shows all of it.
   int sphereTile() const;
+  /// The first direction of the tile `word` names (its id, or next/previous from the selected
+  /// direction's tile, skipping tiles with none); throws naming what is missing.
+  int directionOfTile(const std::string& word) const;
 
   // Layers.
   void setLayer(const std::string& name, vtkRenderer* renderer, vtkSmartPointer<vtkProp> prop, bool defaultVisible);

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# The points' clip: chosen by itself under a roof (and Z, `clip toggle`, shows the roof again), none
-# without one; the `clip` command's heights, box, messages and refusals.
-# Usage: clip_test.sh PIPERUN_RENDER SCENE ROOFED_SCENE NETWORK WORK_DIR
+# Commands' messages and refusals, as a script's last line reports them. The points' clip: chosen by
+# itself under a roof (and Z, `clip toggle`, shows the roof again), none without one; its heights
+# and box. Selecting a tile: its first direction, the next and previous tile (wrapping round).
+# Usage: script_messages_test.sh PIPERUN_RENDER SCENE ROOFED_SCENE NETWORK WORK_DIR
 set -uo pipefail
 render=$1 scene=$2 roofed=$3 network=$4 work=$5
 mkdir -p "$work"
@@ -35,4 +36,13 @@ expect 2 "script\.txt:1: no box shown \(box show, or B\)" "$scene" "clip box" --
 expect 2 "script\.txt:1: Z_MIN must be below Z_MAX" "$scene" "clip 1.5 0.5" --no-run
 expect 2 "script\.txt:1: expected Z_MAX as a number, got 'high'" "$scene" "clip high" --no-run
 expect 2 "script\.txt:1: no points: this document is a network" "$network" "clip 1.5"
+
+# The generated scene has four tiles, whose first directions are 0, 7, 14 and 20 (26 is the last).
+expect 0 "^selected direction 26 \(tile 3\)" "$scene" "select direction 26"
+expect 0 "^selected direction 14 \(tile 2\)" "$scene" "select tile 2"
+expect 0 "^selected direction 0 \(tile 0\)" "$scene" "select direction 26\nselect tile next"
+expect 0 "^selected direction 20 \(tile 3\)" "$scene" "select tile previous"
+expect 0 "^selected direction 0 \(tile 0\)" "$scene" "select tile 1\nselect tile previous"
+expect 2 "script\.txt:1: no tile 9 \(there are 4\)" "$scene" "select tile 9"
+expect 2 "script\.txt:1: no directions yet: run the directions stage" "$scene" "select tile next" --no-run
 exit $((failures > 0))
