@@ -393,7 +393,7 @@ int Studio::Impl::directionOfTile(const std::string& word) const {
   const int tileCount = static_cast<int>(tiles->size());
   if (word == "next" || word == "previous") {
     const int step = word == "next" ? 1 : tileCount - 1;
-    const int current = selectedDirection >= 0 ? directions[static_cast<std::size_t>(selectedDirection)].tile : 0;
+    const int current = std::max(0, sphereTile());  // -1 on a scan of one tile
     for (int tile = (current + step) % tileCount;; tile = (tile + step) % tileCount)
       if (const int direction = firstDirection(tile); direction >= 0) return direction;  // The current tile has one.
   }

@@ -305,14 +305,12 @@ void Studio::Impl::buildSphereLayers() {
   const PointCloud& kept = preprocessed->points;
   const int shownTile = sphereTile();
   if (segmentCache.empty()) segmentCache = keptPointSegments();
-  std::vector<std::uint32_t> tilePoints;
+  const Tile* tileShown = nullptr;  // Its points and cube.
   std::vector<int> tileSegments;
-  const Tile* sphereTileBox = nullptr;
   if (shownTile >= 0) {
     const int tileId = (*tiles)[static_cast<std::size_t>(shownTile)].tileId;
     for (const auto& tile : preprocessed->tiles)
-      if (tile.id == tileId) sphereTileBox = &tile;
-    if (sphereTileBox) tilePoints = sphereTileBox->points;
+      if (tile.id == tileId) tileShown = &tile;
     // Overlapping tiles label the same points: colour them by this tile's own directions.
     tileSegments.assign(kept.size(), -1);
     for (std::size_t k = 0; k < directions.size(); ++k)
@@ -320,12 +318,12 @@ void Studio::Impl::buildSphereLayers() {
         for (std::uint32_t point : direction(directions[k]).stripe)
           if (point < tileSegments.size()) tileSegments[point] = static_cast<int>(k);
   }
-  const std::size_t shownCount = shownTile >= 0 ? tilePoints.size() : kept.size();
+  const std::size_t shownCount = shownTile < 0 ? kept.size() : tileShown ? tileShown->points.size() : 0;
   std::vector<Eigen::Vector3f> normalPoints;
   std::vector<Rgb> normalColors;
   const std::size_t stride = std::max<std::size_t>(1, shownCount / 30000);
   for (std::size_t n = 0; n < shownCount && kept.hasNormals(); n += stride) {
-    const std::size_t i = shownTile >= 0 ? tilePoints[n] : n;
+    const std::size_t i = shownTile >= 0 ? tileShown->points[n] : n;
     const Rgb color = categoryColor(shownTile >= 0 ? tileSegments[i] : segmentCache[i]);
     normalPoints.push_back(kept.normals[i]);
     normalPoints.push_back(-kept.normals[i]);
@@ -378,14 +376,14 @@ void Studio::Impl::buildSphereLayers() {
 
   // Where that tile is in the 3-D scene: its cube (without the overlap), cut to the points' bounds
   // (the tiles' grid runs past the scan).
-  if (!sphereTileBox) {
+  if (!tileShown) {
     removeLayer("preprocess/tile");
     return;
   }
   const BoundingBox bounds = preprocessed->points.boundingBox();
   MeshBuilder cube;
-  const Eigen::Vector3d low = sphereTileBox->core.min.cwiseMax(bounds.min) - displayOrigin;
-  const Eigen::Vector3d high = sphereTileBox->core.max.cwiseMin(bounds.max) - displayOrigin;
+  const Eigen::Vector3d low = tileShown->core.min.cwiseMax(bounds.min) - displayOrigin;
+  const Eigen::Vector3d high = tileShown->core.max.cwiseMin(bounds.max) - displayOrigin;
   auto corner = [&](int bits) {
     return Eigen::Vector3d((bits & 1) ? high.x() : low.x(), (bits & 2) ? high.y() : low.y(), (bits & 4) ? high.z() : low.z());
   };
