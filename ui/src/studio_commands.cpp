@@ -45,13 +45,13 @@ void Studio::Impl::registerCommands() {
       "select an element (highlighted, described bottom left), two pipes (to merge or join), a principal direction "
       "(the plane view follows), or a tile's first direction (the sphere shows that tile)",
       [this](const std::vector<std::string>& args) {
-        expectArguments(args, 1, 3, "select pipe ID [ID2] | joint ID | direction N | tile N | none");
+        const char* usage = "select pipe ID [ID2] | joint ID | direction|tile N|next|previous | none";
+        expectArguments(args, 1, 3, usage);
         bool directionChanged = false;
         if (args[0] == "none") {
           selection = {};
         } else {
-          expectArguments(args, 2, args[0] == "pipe" ? 3 : 2,
-                          "select pipe ID [ID2] | joint ID | direction N|next|previous | tile N|next|previous | none");
+          expectArguments(args, 2, args[0] == "pipe" ? 3 : 2, usage);
           const int directionCount = static_cast<int>(directions.size());
           const bool step = (args[0] == "direction" || args[0] == "tile") && (args[1] == "next" || args[1] == "previous");
           if (step && directionCount == 0) throw CommandError("no directions yet: run the directions stage");
@@ -84,7 +84,7 @@ void Studio::Impl::registerCommands() {
             selectedDirection = id;
             buildSphereLayers();
           } else {
-            throw CommandError("usage: select pipe ID | joint ID | direction N | none");
+            throw CommandError(std::string("usage: ") + usage);
           }
         }
         buildSelectionLayer();
