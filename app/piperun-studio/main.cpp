@@ -74,7 +74,9 @@ std::string keySym(int key) {
       {GLFW_KEY_HOME, "Home"},     {GLFW_KEY_LEFT, "Left"},    {GLFW_KEY_RIGHT, "Right"},
       {GLFW_KEY_UP, "Up"},         {GLFW_KEY_DOWN, "Down"},    {GLFW_KEY_SPACE, "space"},
       {GLFW_KEY_DELETE, "Delete"}, {GLFW_KEY_TAB, "Tab"},      {GLFW_KEY_INSERT, "Insert"},
-      {GLFW_KEY_BACKSPACE, "BackSpace"}, {GLFW_KEY_PAGE_DOWN, "Next"}, {GLFW_KEY_PAGE_UP, "Prior"}};
+      {GLFW_KEY_BACKSPACE, "BackSpace"}, {GLFW_KEY_PAGE_DOWN, "Next"}, {GLFW_KEY_PAGE_UP, "Prior"},
+      {GLFW_KEY_EQUAL, "plus"},    {GLFW_KEY_KP_ADD, "plus"},  {GLFW_KEY_MINUS, "minus"},
+      {GLFW_KEY_KP_SUBTRACT, "minus"}};
   if (key >= GLFW_KEY_A && key <= GLFW_KEY_Z) return std::string(1, static_cast<char>('a' + key - GLFW_KEY_A));
   if (key >= GLFW_KEY_0 && key <= GLFW_KEY_9) return std::string(1, static_cast<char>('0' + key - GLFW_KEY_0));
   const auto found = kNames.find(key);

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Commands' messages and refusals, as a script's last line reports them. The points' clip: chosen by
 # itself under a roof (and Z, `clip toggle`, shows the roof again), none without one; its heights
-# and box. Selecting a tile: its first direction, the next and previous tile (wrapping round).
+# and box. The points' size. Selecting a tile: its first direction, the next and previous tile
+# (wrapping round).
 # Usage: script_messages_test.sh PIPERUN_RENDER SCENE ROOFED_SCENE NETWORK WORK_DIR
 set -uo pipefail
 render=$1 scene=$2 roofed=$3 network=$4 work=$5
@@ -36,6 +37,12 @@ expect 2 "script\.txt:1: no box shown \(box show, or B\)" "$scene" "clip box" --
 expect 2 "script\.txt:1: Z_MIN must be below Z_MAX" "$scene" "clip 1.5 0.5" --no-run
 expect 2 "script\.txt:1: expected Z_MAX as a number, got 'high'" "$scene" "clip high" --no-run
 expect 2 "script\.txt:1: no points: this document is a network" "$network" "clip 1.5"
+
+# The scene's point size.
+expect 0 "^scene points drawn at 3 px" "$scene" "points size larger" --no-run
+expect 0 "^scene points drawn at 1 px" "$scene" "points size 1" --no-run
+expect 2 "script\.txt:2: points are drawn 1 to 10 pixels wide" "$scene" "points size 1\npoints size smaller" --no-run
+expect 2 "script\.txt:1: usage: points size PX\|larger\|smaller" "$scene" "points 3" --no-run
 
 # The generated scene has four tiles, whose first directions are 0, 7, 14 and 20 (26 is the last).
 expect 0 "^selected direction 26 \(tile 3\)" "$scene" "select direction 26"

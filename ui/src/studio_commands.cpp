@@ -4,12 +4,14 @@
 
 #include "piperun/error.h"
 
+#include <vtkActor.h>
 #include <vtkCamera.h>
 #include <vtkHandleRepresentation.h>
 #include <vtkWidgetRepresentation.h>
 #include <vtkNew.h>
 #include <vtkPNGWriter.h>
 #include <vtkPolyData.h>
+#include <vtkProperty.h>
 #include <vtkRenderWindow.h>
 #include <vtkWindowToImageFilter.h>
 
@@ -174,6 +176,25 @@ void Studio::Impl::registerCommands() {
                    line += (line.empty() ? "" : "  ") + entry;
                  }
                  return list + line;
+               });
+
+  commands.add("points", "size PX|larger|smaller",
+               "the size of the 3-D scene's points in pixels, 1 to 10 (2 at start; the preprocessed points one more)",
+               [this](const std::vector<std::string>& args) {
+                 const char* usage = "points size PX|larger|smaller";
+                 expectArguments(args, 2, 2, usage);
+                 if (args[0] != "size") throw CommandError(std::string("usage: ") + usage);
+                 const int size = args[1] == "larger"    ? scenePointSize + 1
+                                  : args[1] == "smaller" ? scenePointSize - 1
+                                                         : parseInt(args[1], "the size in pixels");
+                 if (size < 1 || size > 10) throw CommandError("points are drawn 1 to 10 pixels wide");
+                 scenePointSize = size;
+                 for (const auto& [name, lod] : pointLods) {
+                   auto* actor = vtkActor::SafeDownCast(layers[name].prop);
+                   actor->GetProperty()->SetPointSize(
+                       static_cast<float>(shownPointSize(name, lod.pointSize) * options.uiScale));
+                 }
+                 return "scene points drawn at " + std::to_string(size) + " px";
                });
 
   commands.add(
@@ -646,6 +667,8 @@ void Studio::Impl::registerCommands() {
                  {"t", "layer network/pipes toggle"},
                  {"j", "layer network/joints toggle"},
                  {"z", "clip toggle"},
+                 {"plus", "points size larger"},
+                 {"minus", "points size smaller"},
                  {"v", "rerun directions"},
                  {"l", "rerun placement"},
                  {"x", "rerun extents"},
@@ -674,7 +697,8 @@ std::vector<std::string> Studio::Impl::keyHelpLines() const {
   for (const auto& [key, line] : keyBindings) {
     // "ctrl+z" is shown as "Ctrl+Z", "shift+m" as "Shift+M", "delete" as "Delete".
     // X11 names Page Down and Page Up "Next" and "Prior"; the help uses the keys' labels.
-    static const std::map<std::string, std::string> kKeyLabels{{"next", "PageDown"}, {"prior", "PageUp"}};
+    static const std::map<std::string, std::string> kKeyLabels{
+        {"next", "PageDown"}, {"prior", "PageUp"}, {"plus", "+"}, {"minus", "-"}};
     const auto label = kKeyLabels.find(key);
     std::string shown = label != kKeyLabels.end() ? label->second : key;
     shown[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(shown[0])));

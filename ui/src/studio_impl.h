@@ -147,6 +147,7 @@ struct Selection {
 
 /// A points layer drawn whole when the camera is still and as a subsample while it moves.
 struct PointLayerLod {
+  double pointSize = 1.0;  ///< Pixels (screen units), as the layer asks; the scene's follow scenePointSize.
   vtkSmartPointer<vtkPolyDataMapper> mapper;
   vtkSmartPointer<vtkPolyData> full;
   vtkSmartPointer<vtkPolyData> coarse;
@@ -196,6 +197,8 @@ struct Studio::Impl {
   bool layerVisible(const std::string& name) const;
   /// Draws every point layer whole or as its subsample (coarsePoints).
   void setCoarsePoints(bool coarse);
+  /// A points layer's size on screen: the 3-D scene's grow and shrink with scenePointSize.
+  double shownPointSize(const std::string& name, double pointSize) const;
   /// A points layer that shows a subsample while the camera moves.
   void setPointLayer(const std::string& name, vtkRenderer* renderer, const std::vector<Eigen::Vector3f>& positions,
                      const std::vector<Rgb>& colors, double pointSize, bool defaultVisible);
@@ -316,6 +319,9 @@ struct Studio::Impl {
   /// in the background (a frame of every point, redrawn for each progress step, would take the
   /// cores from the run under software rendering).
   bool coarsePoints = false;
+  /// The size of the 3-D scene's input points in pixels (`points size`; the preprocessed points are
+  /// drawn a pixel larger, to tell them apart). Dense scans read better at 1.
+  int scenePointSize = 2;
 
   ViewMode viewMode = ViewMode::All;
   PointColor pointColor = PointColor::Height;

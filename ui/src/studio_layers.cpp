@@ -70,6 +70,7 @@ void Studio::Impl::setPointLayer(const std::string& name, vtkRenderer* renderer,
   const std::size_t budget =
       std::max<std::size_t>(1, renderer == scene ? options.interactivePoints : options.interactivePoints / 8);
   PointLayerLod lod;
+  lod.pointSize = pointSize;
   lod.full = makePointSet(positions, colors);
   const std::size_t stride = std::max<std::size_t>(1, (positions.size() + budget - 1) / budget);
   lod.coarse = stride > 1 ? subsamplePointSet(lod.full, stride) : lod.full;
@@ -79,11 +80,17 @@ void Studio::Impl::setPointLayer(const std::string& name, vtkRenderer* renderer,
   lod.mapper->SetColorModeToDirectScalars();
   auto actor = vtkSmartPointer<vtkActor>::New();
   actor->SetMapper(lod.mapper);
-  actor->GetProperty()->SetPointSize(static_cast<float>(pointSize * options.uiScale));
+  actor->GetProperty()->SetPointSize(static_cast<float>(shownPointSize(name, pointSize) * options.uiScale));
   actor->GetProperty()->SetColor(kNeutral[0] / 255.0, kNeutral[1] / 255.0, kNeutral[2] / 255.0);
   actor->PickableOff();
   setLayer(name, renderer, actor, defaultVisible);
   pointLods[name] = lod;
+}
+
+double Studio::Impl::shownPointSize(const std::string& name, double pointSize) const {
+  // The scene's layers ask for 2 (input, planes) or 3 (preprocessed) pixels.
+  const bool inScene = name.rfind("input/", 0) == 0 || name.rfind("preprocess/", 0) == 0;
+  return inScene ? pointSize - 2.0 + scenePointSize : pointSize;
 }
 
 void Studio::Impl::setCoarsePoints(bool coarse) {
