@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # Commands' messages and refusals, as a script's last line reports them. The points' clip: chosen by
 # itself under a roof (and Z, `clip toggle`, shows the roof again), none without one; its heights
-# and box. The points' size. Selecting a tile: its first direction, the next and previous tile
-# (wrapping round).
-# Usage: script_messages_test.sh PIPERUN_RENDER SCENE ROOFED_SCENE NETWORK WORK_DIR
+# and box. The points' size (1 pixel at start on a scan of over 4 million points). Selecting a tile:
+# its first direction, the next and previous tile (wrapping round).
+# Usage: script_messages_test.sh PIPERUN_RENDER PIPERUN SCENE ROOFED_SCENE NETWORK WORK_DIR
 set -uo pipefail
-render=$1 scene=$2 roofed=$3 network=$4 work=$5
+render=$1 piperun=$2 scene=$3 roofed=$4 network=$5 work=$6
 mkdir -p "$work"
 failures=0
 
@@ -43,6 +43,8 @@ expect 0 "^scene points drawn at 3 px" "$scene" "points size larger" --no-run
 expect 0 "^scene points drawn at 1 px" "$scene" "points size 1" --no-run
 expect 2 "script\.txt:2: points are drawn 1 to 10 pixels wide" "$scene" "points size 1\npoints size smaller" --no-run
 expect 2 "script\.txt:1: usage: points size PX\|larger\|smaller" "$scene" "points 3" --no-run
+"$piperun" generate --preset medium --seed 1 --density 2.2 -o "$work/dense.ply" >/dev/null  # 4.4 million points
+expect 0 "^scene points drawn at 2 px" "$work/dense.ply" "points size larger" --no-run
 
 # The generated scene has four tiles, whose first directions are 0, 7, 14 and 20 (26 is the last).
 expect 0 "^selected direction 26 \(tile 3\)" "$scene" "select direction 26"

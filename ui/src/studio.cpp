@@ -244,6 +244,8 @@ void Studio::Impl::open(Document opened) {
   pointClip.reset();
   lastPointClip.reset();
   firstClipChosen = false;
+  // Millions of 2-pixel points seen whole are a solid block; at 1 pixel the structure shows.
+  scenePointSize = document.input() && document.input()->size() > kDenseScanPoints ? 1 : 2;
   viewMode = document.hasPipeline() ? ViewMode::All : ViewMode::Scene;
   pipeColor = std::any_of(document.network().pipes.begin(), document.network().pipes.end(),
                           [](const Pipe& pipe) { return pipe.runId >= 0; })

@@ -165,6 +165,8 @@ vtkSmartPointer<vtkTextActor> makeText(double r, double g, double b);
 
 /// Points farther than this from every surface are not coloured by the QA map (m).
 inline constexpr double kQaReach = 0.02;
+/// Scans of more points than this open with the scene's points at 1 pixel, not 2.
+inline constexpr std::size_t kDenseScanPoints = 4'000'000;
 /// Most labels on the colour bar (round values: roundTicks).
 inline constexpr int kColorBarLabels = 6;
 
@@ -320,7 +322,7 @@ struct Studio::Impl {
   /// cores from the run under software rendering).
   bool coarsePoints = false;
   /// The size of the 3-D scene's input points in pixels (`points size`; the preprocessed points are
-  /// drawn a pixel larger, to tell them apart). Dense scans read better at 1.
+  /// drawn a pixel larger, to tell them apart): 2, or 1 for a scan of over kDenseScanPoints.
   int scenePointSize = 2;
 
   ViewMode viewMode = ViewMode::All;
