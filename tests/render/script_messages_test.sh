@@ -2,7 +2,7 @@
 # Commands' messages and refusals, as a script's last line reports them. The points' clip: chosen by
 # itself under a roof (and Z, `clip toggle`, shows the roof again), none without one; its heights
 # and box. The points' size (1 pixel at start on a scan of over 4 million points). Selecting a tile:
-# its first direction, the next and previous tile (wrapping round).
+# its first direction, the next and previous tile (wrapping round); fly with nothing selected goes there.
 # Usage: script_messages_test.sh PIPERUN_RENDER PIPERUN SCENE ROOFED_SCENE NETWORK WORK_DIR
 set -uo pipefail
 render=$1 piperun=$2 scene=$3 roofed=$4 network=$5 work=$6
@@ -52,6 +52,7 @@ expect 0 "^selected direction 14 \(tile 2\)" "$scene" "select tile 2"
 expect 0 "^selected direction 0 \(tile 0\)" "$scene" "select direction 26\nselect tile next"
 expect 0 "^selected direction 20 \(tile 3\)" "$scene" "select tile previous"
 expect 0 "^selected direction 0 \(tile 0\)" "$scene" "select tile 1\nselect tile previous"
+expect 0 "^camera on tile 2" "$scene" "select tile 2\nfly"
 expect 2 "script\.txt:1: no tile 9 \(there are 4\)" "$scene" "select tile 9"
 expect 2 "script\.txt:1: no directions yet: run the directions stage" "$scene" "select tile next" --no-run
 exit $((failures > 0))

@@ -414,6 +414,26 @@ int Studio::Impl::sphereTile() const {
   return selectedDirection >= 0 ? directions[static_cast<std::size_t>(selectedDirection)].tile : 0;
 }
 
+const Tile* Studio::Impl::sphereTilePoints() const {
+  const int shown = sphereTile();
+  if (shown < 0 || !preprocessed) return nullptr;
+  const int tileId = (*tiles)[static_cast<std::size_t>(shown)].tileId;
+  for (const auto& tile : preprocessed->tiles)
+    if (tile.id == tileId) return &tile;
+  return nullptr;
+}
+
+std::optional<BoundingBox> Studio::Impl::sphereTileCube() const {
+  const Tile* tile = sphereTilePoints();
+  if (!tile) return std::nullopt;
+  // The tiles' grid runs past the scan: the cube (without the overlap) is cut to the points' bounds.
+  const BoundingBox bounds = preprocessed->points.boundingBox();
+  BoundingBox cube;
+  cube.min = tile->core.min.cwiseMax(bounds.min);
+  cube.max = tile->core.max.cwiseMin(bounds.max);
+  return cube;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Views and overlays
 

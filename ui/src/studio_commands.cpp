@@ -102,7 +102,7 @@ void Studio::Impl::registerCommands() {
         return selected;
       });
 
-  commands.add("fly", "", "move the 3-D camera to the selected pipe or joint",
+  commands.add("fly", "", "move the 3-D camera to the selected pipe or joint (nothing selected: to the sphere's tile)",
                [this](const std::vector<std::string>& args) {
                  expectArguments(args, 0, 0, "fly");
                  const PipeNetwork& network = document.network();
@@ -112,6 +112,9 @@ void Studio::Impl::registerCommands() {
                  } else if (selection.kind == Selection::Kind::Joint) {
                    const Joint& joint = *network.findJoint(selection.id);
                    flyTo(joint.position(), std::max(joint.length(), 12.0 * joint.radius));
+                 } else if (const auto cube = sphereTileCube()) {
+                   flyTo(cube->center(), 0.5 * cube->size().norm());
+                   return "camera on tile " + std::to_string((*tiles)[static_cast<std::size_t>(sphereTile())].tileId);
                  } else {
                    throw CommandError("nothing selected to fly to");
                  }

@@ -189,6 +189,10 @@ struct Studio::Impl {
   /// The tile whose Gaussian sphere the sphere view shows (the selected direction's); -1 when the
   /// scan is one tile and the sphere shows all of it.
   int sphereTile() const;
+  /// That tile's points and cube (the preprocess stage's); null when the sphere shows the whole scan.
+  const Tile* sphereTilePoints() const;
+  /// That tile's cube cut to the points' bounds (world, m); none when the sphere shows the whole scan.
+  std::optional<BoundingBox> sphereTileCube() const;
   /// The first direction of the tile `word` names (its id, or next/previous from the selected
   /// direction's tile, skipping tiles with none); throws naming what is missing.
   int directionOfTile(const std::string& word) const;

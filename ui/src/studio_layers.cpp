@@ -312,12 +312,9 @@ void Studio::Impl::buildSphereLayers() {
   const PointCloud& kept = preprocessed->points;
   const int shownTile = sphereTile();
   if (segmentCache.empty()) segmentCache = keptPointSegments();
-  const Tile* tileShown = nullptr;  // Its points and cube.
+  const Tile* tileShown = sphereTilePoints();
   std::vector<int> tileSegments;
   if (shownTile >= 0) {
-    const int tileId = (*tiles)[static_cast<std::size_t>(shownTile)].tileId;
-    for (const auto& tile : preprocessed->tiles)
-      if (tile.id == tileId) tileShown = &tile;
     // Overlapping tiles label the same points: colour them by this tile's own directions.
     tileSegments.assign(kept.size(), -1);
     for (std::size_t k = 0; k < directions.size(); ++k)
@@ -381,16 +378,14 @@ void Studio::Impl::buildSphereLayers() {
   arrowActor->GetProperty()->SetLineWidth(static_cast<float>(2.0 * options.uiScale));
   setLayer("sphere/directions", sphere, arrowActor, true);
 
-  // Where that tile is in the 3-D scene: its cube (without the overlap), cut to the points' bounds
-  // (the tiles' grid runs past the scan).
-  if (!tileShown) {
+  // Where that tile is in the 3-D scene.
+  const auto tileCube = sphereTileCube();
+  if (!tileCube) {
     removeLayer("preprocess/tile");
     return;
   }
-  const BoundingBox bounds = preprocessed->points.boundingBox();
   MeshBuilder cube;
-  const Eigen::Vector3d low = tileShown->core.min.cwiseMax(bounds.min) - displayOrigin;
-  const Eigen::Vector3d high = tileShown->core.max.cwiseMin(bounds.max) - displayOrigin;
+  const Eigen::Vector3d low = tileCube->min - displayOrigin, high = tileCube->max - displayOrigin;
   auto corner = [&](int bits) {
     return Eigen::Vector3d((bits & 1) ? high.x() : low.x(), (bits & 2) ? high.y() : low.y(), (bits & 4) ? high.z() : low.z());
   };
