@@ -35,6 +35,7 @@ expect 0 "^points outside the box from -1\.000 -2\.000 0\.500 to 1\.000 2\.000 1
   "box show -1 -2 0.5 1 2 1.5\nclip box" --no-run
 expect 2 "script\.txt:1: no box shown \(box show, or B\)" "$scene" "clip box" --no-run
 expect 2 "script\.txt:1: Z_MIN must be below Z_MAX" "$scene" "clip 1.5 0.5" --no-run
+expect 2 "script\.txt:1: heights must be finite numbers \(metres\)" "$scene" "clip inf" --no-run
 expect 2 "script\.txt:1: expected Z_MAX as a number, got 'high'" "$scene" "clip high" --no-run
 expect 2 "script\.txt:1: no points: this document is a network" "$network" "clip 1.5"
 

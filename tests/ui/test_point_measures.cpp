@@ -72,6 +72,7 @@ TEST(CeilingHeight, IsALittleOverTheNetworkUnderARoof) {
   PointChunk chunk = roomPoints(4.0);
   for (int i = 0; i <= 500; ++i)
     for (int j = 0; j <= 500; ++j) chunk.positions.push_back({0.02 * i, 0.02 * j, 4.0});
+  chunk.positions.push_back(Eigen::Vector3d::Constant(std::nan("")));  // Readers may keep invalid points.
   PointCloud cloud;
   cloud.append(chunk);
   const auto height = ceilingHeight(cloud, pipeAtHeight(2.0));

@@ -125,13 +125,15 @@ std::optional<double> ceilingHeight(const PointCloud& cloud, const PipeNetwork& 
   if (!std::isfinite(top) || cloud.empty()) return std::nullopt;
   const double height = top + kCeilingMargin;
 
-  const BoundingBox bounds = cloud.boundingBox();
+  const BoundingBox bounds = cloud.boundingBox();  // Of the finite points.
+  if (bounds.empty()) return std::nullopt;
   const double cell = std::max(0.25, std::max(bounds.size().x(), bounds.size().y()) / 64.0);
   const int columns = static_cast<int>(bounds.size().x() / cell) + 1, rows = static_cast<int>(bounds.size().y() / cell) + 1;
   // Per cell: its points, and those above the height. Scattered outliers over the network are no ceiling.
   std::vector<std::array<std::uint32_t, 2>> counts(static_cast<std::size_t>(columns) * static_cast<std::size_t>(rows));
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     const Eigen::Vector3d p = cloud.worldPosition(i);
+    if (!p.allFinite()) continue;
     const int column = std::min(columns - 1, static_cast<int>((p.x() - bounds.min.x()) / cell));
     const int row = std::min(rows - 1, static_cast<int>((p.y() - bounds.min.y()) / cell));
     auto& count = counts[static_cast<std::size_t>(row) * static_cast<std::size_t>(columns) + static_cast<std::size_t>(column)];

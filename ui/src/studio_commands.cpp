@@ -225,6 +225,7 @@ void Studio::Impl::registerCommands() {
         } else {
           const double low = args.size() == 2 ? parseDouble(args[0], "Z_MIN") : -kOpen;
           const double high = parseDouble(args.back(), "Z_MAX");
+          if (!std::isfinite(high) || std::isnan(low)) throw CommandError("heights must be finite numbers (metres)");
           if (!(low < high)) throw CommandError("Z_MIN must be below Z_MAX");
           pointClip = heightRange(low, high);
         }
