@@ -52,3 +52,9 @@ printf 'color pipes plain\nselect pipe 1\nfly\ncamera zoom 0.8\nbox show\n' >"$w
 render "$work/scene.ply" --script "$work/box.txt" --view scene --size 800x500 -o docs/images/studio-fit-box.png
 printf 'layer input/points off\ncolor pipes plain\nselect pipe 3\nfly\nhandle on\nclick 400 195 shift\n' >"$work/two.txt"
 render "$work/scene.ply" --script "$work/two.txt" --view scene --size 800x500 -o docs/images/studio-two-pipes.png
+
+# A site-sized scan: the medium preset's 25 tiles, one tile's Gaussian sphere and its cube in the
+# scene, the scan's points at 1 pixel.
+build/app/piperun generate --preset medium --seed 1 -o "$work/medium.ply" >/dev/null
+printf 'points size 1\nselect tile 16\n' >"$work/tiles.txt"
+render "$work/medium.ply" --script "$work/tiles.txt" --size 1280x800 -o docs/images/studio-tiles.png
