@@ -401,13 +401,15 @@ int Studio::Impl::directionOfTile(const std::string& word) const {
   }
   const int id = parseInt(word, "the tile");
   for (int tile = 0; tile < tileCount; ++tile) {
-    if ((*tiles)[static_cast<std::size_t>(tile)].tileId != id) continue;
+    if (tileIdOf(tile) != id) continue;
     const int direction = firstDirection(tile);
     if (direction < 0) throw CommandError("tile " + word + " has no principal direction");
     return direction;
   }
   throw CommandError("no tile " + word + " (there are " + std::to_string(tileCount) + ")");
 }
+
+int Studio::Impl::tileIdOf(int tile) const { return (*tiles)[static_cast<std::size_t>(tile)].tileId; }
 
 int Studio::Impl::sphereTile() const {
   if (!tiles || tiles->size() < 2) return -1;
@@ -417,7 +419,7 @@ int Studio::Impl::sphereTile() const {
 const Tile* Studio::Impl::sphereTilePoints() const {
   const int shown = sphereTile();
   if (shown < 0 || !preprocessed) return nullptr;
-  const int tileId = (*tiles)[static_cast<std::size_t>(shown)].tileId;
+  const int tileId = tileIdOf(shown);
   for (const auto& tile : preprocessed->tiles)
     if (tile.id == tileId) return &tile;
   return nullptr;
@@ -630,7 +632,7 @@ std::string Studio::Impl::selectionInfo() const {
     const auto cylinders = std::count_if(placement->cylinders.begin(), placement->cylinders.end(),
                                          [&](const Cylinder& c) { return c.directionIndex == ref.index; });
     if (selection.kind != Selection::Kind::None) info << "\n";
-    info << "direction " << selectedDirection << " (tile " << (*tiles)[static_cast<std::size_t>(ref.tile)].tileId
+    info << "direction " << selectedDirection << " (tile " << tileIdOf(ref.tile)
          << ", round " << ref.round << ")  axis (" << chosen.axis.x() << ", " << chosen.axis.y() << ", "
          << chosen.axis.z() << ")  support " << chosen.support * 100.0 << " %  stripe " << chosen.stripe.size()
          << " points  " << cylinders << " cylinders";
@@ -667,7 +669,7 @@ void Studio::Impl::updateOverlays() {
   sceneTitle->SetInput(sceneCaption.c_str());
   std::string sphereCaption = "Gaussian sphere";
   if (const int tile = sphereTile(); tile >= 0)
-    sphereCaption += " - tile " + std::to_string((*tiles)[static_cast<std::size_t>(tile)].tileId) + " (of " +
+    sphereCaption += " - tile " + std::to_string(tileIdOf(tile)) + " (of " +
                      std::to_string(tiles->size()) + ")";
   sphereTitle->SetInput(sphereCaption.c_str());
   std::string planeCaption = "Projection plane";

@@ -98,7 +98,7 @@ void Studio::Impl::registerCommands() {
         if (!directionSelected) return "selected " + args[0] + " " + args[1] + (args.size() == 3 ? " and " + args[2] : "");
         std::string selected = "selected direction " + std::to_string(selectedDirection);
         if (const int tile = sphereTile(); tile >= 0)
-          selected += " (tile " + std::to_string((*tiles)[static_cast<std::size_t>(tile)].tileId) + ")";
+          selected += " (tile " + std::to_string(tileIdOf(tile)) + ")";
         return selected;
       });
 
@@ -114,7 +114,7 @@ void Studio::Impl::registerCommands() {
                    flyTo(joint.position(), std::max(joint.length(), 12.0 * joint.radius));
                  } else if (const auto cube = sphereTileCube()) {
                    flyTo(cube->center(), 0.5 * cube->size().norm());
-                   return "camera on tile " + std::to_string((*tiles)[static_cast<std::size_t>(sphereTile())].tileId);
+                   return "camera on tile " + std::to_string(tileIdOf(sphereTile()));
                  } else {
                    throw CommandError("nothing selected to fly to");
                  }
@@ -610,6 +610,7 @@ void Studio::Impl::registerCommands() {
         };
         const std::string moving = timeFrames(true);
         const std::string still = timeFrames(false);
+        setCoarsePoints(worker.joinable());  // A run still going draws them coarse.
         scene->GetActiveCamera()->DeepCopy(saved);
         scene->ResetCameraClippingRange();
         return "moving " + moving + ", still " + still;

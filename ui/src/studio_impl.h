@@ -189,6 +189,8 @@ struct Studio::Impl {
   /// The tile whose Gaussian sphere the sphere view shows (the selected direction's); -1 when the
   /// scan is one tile and the sphere shows all of it.
   int sphereTile() const;
+  /// The id a tile (an index into `tiles`) goes by in the views: the preprocess stage's.
+  int tileIdOf(int tile) const;
   /// That tile's points and cube (the preprocess stage's); null when the sphere shows the whole scan.
   const Tile* sphereTilePoints() const;
   /// That tile's cube cut to the points' bounds (world, m); none when the sphere shows the whole scan.
