@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Commands' messages and refusals, as a script's last line reports them. The points' clip: chosen by
 # itself under a roof (and Z, `clip toggle`, shows the roof again), none without one; its heights
-# and box. The points' size (1 pixel at start on a scan of over 4 million points). Selecting a tile:
+# and box. The points' size (1 pixel at start on a scan of over 4 million points), their strays. Selecting a tile:
 # its first direction, the next and previous tile (wrapping round); fly with nothing selected goes there.
 # Usage: script_messages_test.sh PIPERUN_RENDER PIPERUN SCENE ROOFED_SCENE NETWORK WORK_DIR
 set -uo pipefail
@@ -44,6 +44,9 @@ expect 0 "^scene points drawn at 3 px" "$scene" "points size larger" --no-run
 expect 0 "^scene points drawn at 1 px" "$scene" "points size 1" --no-run
 expect 2 "script\.txt:2: points are drawn 1 to 10 pixels wide" "$scene" "points size 1\npoints size smaller" --no-run
 expect 2 "script\.txt:1: usage: points size PX\|larger\|smaller" "$scene" "points 3" --no-run
+expect 0 "^[0-9]+ stray points hidden \([0-9.]+ % of the scan\)" "$scene" "points strays hide" --no-run
+expect 0 "^stray points shown" "$scene" "points strays toggle\npoints strays toggle" --no-run
+expect 2 "script\.txt:1: no points: this document is a network" "$network" "points strays hide"
 "$piperun" generate --preset medium --seed 1 --density 2.2 -o "$work/dense.ply" >/dev/null  # 4.4 million points
 expect 0 "^scene points drawn at 2 px" "$work/dense.ply" "points size larger" --no-run
 

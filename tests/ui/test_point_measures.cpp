@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -43,6 +44,28 @@ TEST(NearestKeptPoint, FindsTheClosestKeptPointWithinReach) {
   EXPECT_EQ(nearest, (std::vector<int>{1, 0, -1}));
 }
 
+
+TEST(StrayPoints, AreThePointsWithFewNeighboursAndTheInvalidOnes) {
+  PointChunk chunk;
+  for (int i = 0; i <= 100; ++i)
+    for (int j = 0; j <= 100; ++j) chunk.positions.push_back({0.01 * i, 0.01 * j, 0.0});  // A 1 m wall.
+  const std::size_t wall = chunk.positions.size();
+  for (int k = 0; k < 5; ++k) chunk.positions.push_back({0.5 * k, 3.0, 2.0});  // Alone in the air.
+  chunk.positions.push_back({0.0, 5.0, 1.0});  // A pair.
+  chunk.positions.push_back({0.01, 5.0, 1.0});
+  chunk.positions.push_back(Eigen::Vector3d::Constant(std::nan("")));
+  PointCloud cloud;
+  cloud.append(chunk);
+
+  const std::vector<bool> stray = strayPoints(cloud, 0.05, 2);
+  EXPECT_EQ(std::count(stray.begin(), stray.begin() + static_cast<std::ptrdiff_t>(wall), true), 0);
+  for (std::size_t k = wall; k < cloud.size(); ++k) EXPECT_TRUE(stray[k]) << k;
+  // With one neighbour enough, the pair stays.
+  const std::vector<bool> lenient = strayPoints(cloud, 0.05, 1);
+  EXPECT_FALSE(lenient[wall + 5]);
+  EXPECT_FALSE(lenient[wall + 6]);
+  EXPECT_TRUE(lenient[wall]);
+}
 
 /// A 10 m x 10 m room: a floor of points every 2 cm at z = 0 and four walls of points every 10 cm.
 PointChunk roomPoints(double wallHeight) {

@@ -117,6 +117,34 @@ std::vector<int> nearestKeptPoint(const PointCloud& input, const PointCloud& pre
   return nearest;
 }
 
+std::vector<bool> strayPoints(const PointCloud& cloud, double cell, int minNeighbours) {
+  std::vector<bool> stray(cloud.size(), true);
+  if (!(cell > 0.0)) return stray;
+  auto cellOf = [&](std::size_t i) {
+    return Eigen::Vector3i((cloud.positions[i].cast<double>() / cell).array().floor().cast<int>());
+  };
+  // Points per cell, then per point the count over its cell's block (summed once per cell).
+  std::unordered_map<std::int64_t, std::uint32_t> counts;
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (cloud.positions[i].allFinite()) ++counts[cellKey(cellOf(i))];
+  std::unordered_map<std::int64_t, std::uint32_t> blockCounts;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (!cloud.positions[i].allFinite()) continue;
+    const Eigen::Vector3i own = cellOf(i);
+    auto [block, added] = blockCounts.try_emplace(cellKey(own), 0);
+    if (added) {
+      for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dz = -1; dz <= 1; ++dz) {
+            const auto found = counts.find(cellKey(own + Eigen::Vector3i(dx, dy, dz)));
+            if (found != counts.end()) block->second += found->second;
+          }
+    }
+    stray[i] = static_cast<int>(block->second) - 1 < minNeighbours;
+  }
+  return stray;
+}
+
 std::optional<double> ceilingHeight(const PointCloud& cloud, const PipeNetwork& network) {
   double top = -std::numeric_limits<double>::infinity();
   for (const auto& pipe : network.pipes) top = std::max(top, std::max(pipe.start.z(), pipe.end.z()) + pipe.radius);

@@ -25,6 +25,11 @@ SurfaceDistances surfaceDistances(const PointCloud& cloud, const PipeNetwork& ne
 /// metres, -1 when none (the point was merged away as an outlier or a plane, or is far from any kept point).
 std::vector<int> nearestKeptPoint(const PointCloud& input, const PointCloud& preprocessed, double reach);
 
+/// The stray points of a scan: those with fewer than `minNeighbours` other points in the 3 x 3 x 3
+/// block of cubic cells of edge `cell` (m) around their own cell, and the non-finite ones: the
+/// outliers a scanner scatters through the air (mixed pixels, dust, reflections).
+std::vector<bool> strayPoints(const PointCloud& cloud, double cell, int minNeighbours);
+
 /// Points this far above the network's top still show (m): what sits on the highest pipes.
 inline constexpr double kCeilingMargin = 0.25;
 

@@ -246,6 +246,8 @@ void Studio::Impl::open(Document opened) {
   firstClipChosen = false;
   // Millions of 2-pixel points seen whole are a solid block; at 1 pixel the structure shows.
   scenePointSize = document.input() && document.input()->size() > kDenseScanPoints ? 1 : 2;
+  straysHidden = false;
+  strays.clear();
   viewMode = document.hasPipeline() ? ViewMode::All : ViewMode::Scene;
   pipeColor = std::any_of(document.network().pipes.begin(), document.network().pipes.end(),
                           [](const Pipe& pipe) { return pipe.runId >= 0; })
@@ -663,8 +665,8 @@ void Studio::Impl::updateOverlays() {
   statusText->SetInput(status.str().c_str());
   infoText->SetInput(selectionInfo().c_str());
 
-  std::string sceneCaption =
-      "3-D scene  [points: " + nameOf(kPointColors, pointColor) + ", pipes: " + nameOf(kPipeColors, pipeColor) + "]";
+  std::string sceneCaption = "3-D scene  [points: " + nameOf(kPointColors, pointColor) +
+                             (straysHidden ? " (strays hidden)" : "") + ", pipes: " + nameOf(kPipeColors, pipeColor) + "]";
   if (pointClip) sceneCaption += "  clip: " + pointClipCaption();
   sceneTitle->SetInput(sceneCaption.c_str());
   std::string sphereCaption = "Gaussian sphere";

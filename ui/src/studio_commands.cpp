@@ -3,6 +3,7 @@
 #include "studio_impl.h"
 
 #include "piperun/error.h"
+#include "piperun/spacing.h"
 
 #include <vtkActor.h>
 #include <vtkCamera.h>
@@ -181,11 +182,13 @@ void Studio::Impl::registerCommands() {
                  return list + line;
                });
 
-  commands.add("points", "size PX|larger|smaller",
-               "the size of the 3-D scene's points in pixels, 1 to 10 (2 at start; the preprocessed points one more)",
+  commands.add("points", "size PX|larger|smaller | strays hide|show|toggle",
+               "the size of the 3-D scene's points in pixels, 1 to 10 (2 at start; the preprocessed points one more); "
+               "hide or show the scan's stray points (scattered through the air)",
                [this](const std::vector<std::string>& args) {
-                 const char* usage = "points size PX|larger|smaller";
+                 const char* usage = "points size PX|larger|smaller | strays hide|show|toggle";
                  expectArguments(args, 2, 2, usage);
+                 if (args[0] == "strays") return showStrays(args[1]);
                  if (args[0] != "size") throw CommandError(std::string("usage: ") + usage);
                  const int size = args[1] == "larger"    ? scenePointSize + 1
                                   : args[1] == "smaller" ? scenePointSize - 1
@@ -672,6 +675,7 @@ void Studio::Impl::registerCommands() {
                  {"t", "layer network/pipes toggle"},
                  {"j", "layer network/joints toggle"},
                  {"z", "clip toggle"},
+                 {"y", "points strays toggle"},
                  {"plus", "points size larger"},
                  {"minus", "points size smaller"},
                  {"v", "rerun directions"},
@@ -730,6 +734,23 @@ std::vector<std::string> Studio::Impl::keyHelpLines() const {
   lines.push_back("X Y     the pixel under the mouse");
   lines.push_back(":       type a command (Return runs it)");
   return lines;
+}
+
+std::string Studio::Impl::showStrays(const std::string& word) {
+  if (word != "hide" && word != "show" && word != "toggle") throw CommandError("usage: points strays hide|show|toggle");
+  const PointCloud* cloud = document.input().get();
+  if (!cloud) throw CommandError("no points: this document is a network");
+  straysHidden = word == "toggle" ? !straysHidden : word == "hide";
+  if (straysHidden && strays.empty()) {
+    // Blocks of 15 point spacings: a surface fills them, a point in the air is alone in its.
+    const double cell = std::max(kStrayCellSpacings * estimatePointSpacing(*cloud), 0.01);
+    strays = strayPoints(*cloud, cell, kStrayNeighbours);
+  }
+  buildPointLayers();
+  updateOverlays();
+  if (!straysHidden) return std::string("stray points shown");
+  const auto count = std::count(strays.begin(), strays.end(), true);
+  return std::to_string(count) + format(" stray points hidden (%.2g %% of the scan)", 100.0 * count / std::max<double>(1, strays.size()));
 }
 
 }  // namespace piperun::ui

@@ -165,6 +165,10 @@ vtkSmartPointer<vtkTextActor> makeText(double r, double g, double b);
 
 /// Points farther than this from every surface are not coloured by the QA map (m).
 inline constexpr double kQaReach = 0.02;
+/// Stray points: cells of this many point spacings (estimatePointSpacing), and fewer neighbours
+/// than this in a cell's 3 x 3 x 3 block.
+inline constexpr double kStrayCellSpacings = 5.0;
+inline constexpr int kStrayNeighbours = 2;
 /// Scans of more points than this open with the scene's points at 1 pixel, not 2.
 inline constexpr std::size_t kDenseScanPoints = 4'000'000;
 /// Most labels on the colour bar (round values: roundTicks).
@@ -216,6 +220,9 @@ struct Studio::Impl {
   /// Once a document has points and a network: hides the points above a ceiling that would hide
   /// the network from the first view (ceilingHeight).
   void chooseFirstClip();
+  /// `points strays hide|show|toggle`: draws the input points without or with their strays (strayPoints,
+  /// computed the first time); returns the message.
+  std::string showStrays(const std::string& word);
   /// "points above 9.79 m hidden" and the like, for the clip command's message.
   std::string pointClipText() const;
   /// "z < 9.79 m", "box 2.00 x 3.10 x 1.50 m": the clip in the scene's title.
@@ -330,6 +337,8 @@ struct Studio::Impl {
   /// The size of the 3-D scene's input points in pixels (`points size`; the preprocessed points are
   /// drawn a pixel larger, to tell them apart): 2, or 1 for a scan of over kDenseScanPoints.
   int scenePointSize = 2;
+  bool straysHidden = false;  ///< `points strays hide`: the input points' strays are not drawn.
+  std::vector<bool> strays;   ///< strayPoints of the input, once asked for.
 
   ViewMode viewMode = ViewMode::All;
   PointColor pointColor = PointColor::Height;

@@ -145,7 +145,18 @@ void Studio::Impl::buildPointLayers() {
     std::vector<Eigen::Vector3f> positions(cloud.size());
     const Eigen::Vector3f shift = (cloud.origin - displayOrigin).cast<float>();
     for (std::size_t i = 0; i < cloud.size(); ++i) positions[i] = cloud.positions[i] + shift;
-    setPointLayer("input/points", scene, positions, inputPointColors(), 2.0, true);
+    std::vector<Rgb> colors = inputPointColors();
+    if (straysHidden) {
+      std::size_t kept = 0;
+      for (std::size_t i = 0; i < cloud.size(); ++i) {
+        if (strays[i]) continue;
+        positions[kept] = positions[i];
+        colors[kept++] = colors[i];
+      }
+      positions.resize(kept);
+      colors.resize(kept);
+    }
+    setPointLayer("input/points", scene, positions, colors, 2.0, true);
   } else {
     removeLayer("input/points");
   }
