@@ -2,6 +2,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include <Eigen/Geometry>
 
@@ -10,6 +11,7 @@
 #include <cmath>
 #include <cstdint>
 #include <unordered_map>
+#include <utility>
 
 namespace piperun::ui {
 
@@ -119,28 +121,49 @@ std::vector<int> nearestKeptPoint(const PointCloud& input, const PointCloud& pre
 
 std::vector<bool> strayPoints(const PointCloud& cloud, double cell, int minNeighbours) {
   std::vector<bool> stray(cloud.size(), true);
-  if (!(cell > 0.0)) return stray;
-  auto cellOf = [&](std::size_t i) {
-    return Eigen::Vector3i((cloud.positions[i].cast<double>() / cell).array().floor().cast<int>());
-  };
-  // Points per cell, then per point the count over its cell's block (summed once per cell).
-  std::unordered_map<std::int64_t, std::uint32_t> counts;
-  for (std::size_t i = 0; i < cloud.size(); ++i)
-    if (cloud.positions[i].allFinite()) ++counts[cellKey(cellOf(i))];
-  std::unordered_map<std::int64_t, std::uint32_t> blockCounts;
+  const BoundingBox bounds = cloud.boundingBox();  // Of the finite points.
+  if (!(cell > 0.0) || bounds.empty()) return stray;
+  // Cells numbered in (x, y, z) order with a cell of margin all round: the cells of a 3 x 3 x 3
+  // block with the same x and y are three consecutive numbers.
+  const Eigen::Vector3d low = bounds.min - cloud.origin;  // In the positions' frame.
+  const Eigen::Array3i size = ((bounds.max - bounds.min) / cell).array().floor().cast<int>() + 3;
+  std::vector<std::pair<std::int64_t, std::uint32_t>> entries;  // (cell number, point)
+  entries.reserve(cloud.size());
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     if (!cloud.positions[i].allFinite()) continue;
-    const Eigen::Vector3i own = cellOf(i);
-    auto [block, added] = blockCounts.try_emplace(cellKey(own), 0);
-    if (added) {
-      for (int dx = -1; dx <= 1; ++dx)
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dz = -1; dz <= 1; ++dz) {
-            const auto found = counts.find(cellKey(own + Eigen::Vector3i(dx, dy, dz)));
-            if (found != counts.end()) block->second += found->second;
-          }
+    const Eigen::Array3i c = ((cloud.positions[i].cast<double>() - low) / cell).array().floor().cast<int>() + 1;
+    entries.emplace_back((static_cast<std::int64_t>(c.x()) * size.y() + c.y()) * size.z() + c.z(),
+                         static_cast<std::uint32_t>(i));
+  }
+  tbb::parallel_sort(entries.begin(), entries.end());  // (cell, point) pairs are distinct: one order.
+
+  std::vector<std::int64_t> cells;
+  std::vector<std::uint32_t> counts;
+  for (const auto& entry : entries) {
+    if (cells.empty() || cells.back() != entry.first) {
+      cells.push_back(entry.first);
+      counts.push_back(0);
     }
-    stray[i] = static_cast<int>(block->second) - 1 < minNeighbours;
+    ++counts.back();
+  }
+  // Each block, column by column: as the cells' numbers grow so does the first number of each of
+  // the nine (dx, dy) columns around them, so one cursor per column walks the cells once.
+  std::vector<std::uint32_t> blocks(cells.size(), 0);
+  for (int dx = -1; dx <= 1; ++dx) {
+    for (int dy = -1; dy <= 1; ++dy) {
+      const std::int64_t offset = (static_cast<std::int64_t>(dx) * size.y() + dy) * size.z();
+      std::size_t cursor = 0;
+      for (std::size_t k = 0; k < cells.size(); ++k) {
+        const std::int64_t first = cells[k] + offset - 1;
+        while (cursor < cells.size() && cells[cursor] < first) ++cursor;
+        for (std::size_t m = cursor; m < cells.size() && cells[m] <= first + 2; ++m) blocks[k] += counts[m];
+      }
+    }
+  }
+  std::size_t k = 0;
+  for (const auto& [number, point] : entries) {
+    while (cells[k] != number) ++k;
+    stray[point] = static_cast<int>(blocks[k]) - 1 < minNeighbours;
   }
   return stray;
 }
