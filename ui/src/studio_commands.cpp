@@ -196,9 +196,9 @@ void Studio::Impl::registerCommands() {
                  if (size < 1 || size > 10) throw CommandError("points are drawn 1 to 10 pixels wide");
                  scenePointSize = size;
                  for (const auto& [name, lod] : pointLods) {
-                   auto* actor = vtkActor::SafeDownCast(layers[name].prop);
-                   actor->GetProperty()->SetPointSize(
-                       static_cast<float>(shownPointSize(name, lod.pointSize) * options.uiScale));
+                   const Layer& layer = layers.at(name);
+                   vtkActor::SafeDownCast(layer.prop)->GetProperty()->SetPointSize(
+                       static_cast<float>(shownPointSize(layer.renderer, lod.pointSize) * options.uiScale));
                  }
                  return "scene points drawn at " + std::to_string(size) + " px";
                });

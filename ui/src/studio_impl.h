@@ -210,7 +210,7 @@ struct Studio::Impl {
   /// Draws every point layer whole or as its subsample (coarsePoints).
   void setCoarsePoints(bool coarse);
   /// A points layer's size on screen: the 3-D scene's grow and shrink with scenePointSize.
-  double shownPointSize(const std::string& name, double pointSize) const;
+  double shownPointSize(const vtkRenderer* renderer, double pointSize) const;
   /// A points layer that shows a subsample while the camera moves.
   void setPointLayer(const std::string& name, vtkRenderer* renderer, const std::vector<Eigen::Vector3f>& positions,
                      const std::vector<Rgb>& colors, double pointSize, bool defaultVisible);

@@ -80,17 +80,16 @@ void Studio::Impl::setPointLayer(const std::string& name, vtkRenderer* renderer,
   lod.mapper->SetColorModeToDirectScalars();
   auto actor = vtkSmartPointer<vtkActor>::New();
   actor->SetMapper(lod.mapper);
-  actor->GetProperty()->SetPointSize(static_cast<float>(shownPointSize(name, pointSize) * options.uiScale));
+  actor->GetProperty()->SetPointSize(static_cast<float>(shownPointSize(renderer, pointSize) * options.uiScale));
   actor->GetProperty()->SetColor(kNeutral[0] / 255.0, kNeutral[1] / 255.0, kNeutral[2] / 255.0);
   actor->PickableOff();
   setLayer(name, renderer, actor, defaultVisible);
   pointLods[name] = lod;
 }
 
-double Studio::Impl::shownPointSize(const std::string& name, double pointSize) const {
+double Studio::Impl::shownPointSize(const vtkRenderer* renderer, double pointSize) const {
   // The scene's layers ask for 2 (input, planes) or 3 (preprocessed) pixels.
-  const bool inScene = name.rfind("input/", 0) == 0 || name.rfind("preprocess/", 0) == 0;
-  return inScene ? pointSize - 2.0 + scenePointSize : pointSize;
+  return renderer == scene ? pointSize - 2.0 + scenePointSize : pointSize;
 }
 
 void Studio::Impl::setCoarsePoints(bool coarse) {
