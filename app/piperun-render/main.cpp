@@ -38,7 +38,16 @@ int main(int argc, char** argv) {
                "Show the scan without running the pipeline (a project: without recomputing its fresh stages)");
   app.add_option("-o,--output", output, "PNG to write");
   app.add_option("--text", textOutput, "Also write the texts drawn over the views (titles, status, info) to this file");
+  long long pointBudget = static_cast<long long>(piperun::ui::StudioOptions{}.pointBudget);
+  app.add_option("--point-budget", pointBudget,
+                 "Most points a layer of the 3-D scene draws when the camera is still; a larger one draws those in "
+                 "view, the near ones densest (the points budget command changes it)")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  if (pointBudget < 1) {
+    std::fprintf(stderr, "piperun-render: error: --point-budget: expected at least 1 point\n");
+    return 1;
+  }
   if (!listCommands && (input.empty() || output.empty())) {
     std::fprintf(stderr, "piperun-render: error: INPUT and -o OUT.png are required (see --help)\n");
     return 1;
@@ -63,6 +72,7 @@ int main(int argc, char** argv) {
     interactor->Initialize();
 
     piperun::ui::StudioOptions options;
+    options.pointBudget = static_cast<std::size_t>(pointBudget);
     options.autosaveEdits = 0;  // A batch run saves when its script says so.
     options.restoreStages = !noRun;
     piperun::ui::Studio studio(window, interactor, options);

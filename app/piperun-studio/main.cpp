@@ -172,7 +172,16 @@ int main(int argc, char** argv) {
   CLI::Option* sizeOption = app.add_option("--size", size,
                                            "Window size WIDTHxHEIGHT in screen units (default: 1400x860, shrunk to fit "
                                            "the screen's work area)");
+  long long pointBudget = static_cast<long long>(piperun::ui::StudioOptions{}.pointBudget);
+  app.add_option("--point-budget", pointBudget,
+                 "Most points a layer of the 3-D scene draws when the camera is still; a larger one draws those in "
+                 "view, the near ones densest (the points budget command changes it)")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  if (pointBudget < 1) {
+    std::fprintf(stderr, "piperun-studio: error: --point-budget: expected at least 1 point\n");
+    return 1;
+  }
   std::smatch match;
   if (!std::regex_match(size, match, std::regex("([0-9]+)x([0-9]+)")) || std::stoi(match[1]) < 320 ||
       std::stoi(match[2]) < 240) {
@@ -242,6 +251,7 @@ int main(int argc, char** argv) {
     float scaleX = 1.0f, scaleY = 1.0f;
     glfwGetWindowContentScale(window, &scaleX, &scaleY);
     piperun::ui::StudioOptions options;
+    options.pointBudget = static_cast<std::size_t>(pointBudget);
     options.backgroundStages = true;
     options.uiScale = std::max(1.0f, scaleX);
     options.runFinished = [](const std::string& message) {

@@ -34,5 +34,6 @@ expect 2 "no_handle\.txt:1: no end handle shown" "$render" "$scene" --no-run --s
 expect 2 "piperun-render: error: .*/no-such-dir/texts\.txt: cannot write" "$render" "$scene" --no-run -o "$work/out.png" \
   --text "$work/no-such-dir/texts.txt"
 expect 1 "--size: expected WIDTHxHEIGHT" "$render" "$scene" --size 12 -o "$work/out.png"
+expect 1 "--point-budget: expected at least 1 point" "$render" "$scene" --point-budget 0 -o "$work/out.png"
 expect 1 "INPUT and -o OUT.png are required" "$render" "$scene"
 exit $((failures > 0))

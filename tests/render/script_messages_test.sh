@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Commands' messages and refusals, as a script's last line reports them. The points' clip: chosen by
 # itself under a roof (and Z, `clip toggle`, shows the roof again), none without one; its heights
-# and box. The points' size (1 pixel at start on a scan of over 4 million points), their strays. Selecting a tile:
+# and box. The points' size (1 pixel at start on a scan of over 4 million points), their strays, their
+# budget (the scene's title counts the points drawn when a layer is over it). Selecting a tile:
 # its first direction, the next and previous tile (wrapping round); fly with nothing selected goes there.
 # Usage: script_messages_test.sh PIPERUN_RENDER PIPERUN SCENE ROOFED_SCENE NETWORK WORK_DIR
 set -uo pipefail
@@ -49,6 +50,17 @@ expect 0 "^stray points shown" "$scene" "points strays toggle\npoints strays tog
 expect 2 "script\.txt:1: no points: this document is a network" "$network" "points strays hide"
 "$piperun" generate --preset medium --seed 1 --density 2.2 -o "$work/dense.ply" >/dev/null  # 4.4 million points
 expect 0 "^scene points drawn at 2 px" "$work/dense.ply" "points size larger" --no-run
+
+# The points drawn when still: at most the budget, of the points in view.
+expect 0 "^scene layers draw at most 30000 points when still" "$scene" "points budget 30000" --no-run
+expect 0 "^scene layers draw every point when still" "$scene" "points budget 30000\npoints budget all" --no-run
+expect 2 "script\.txt:1: the point budget is at least 1 point" "$scene" "points budget 0" --no-run
+expect 2 "script\.txt:1: expected the most points drawn as an integer, got 'many'" "$scene" "points budget many" --no-run
+expect 0 "^camera zoom 2" "$work/dense.ply" "points budget 1000000\ncamera zoom 2" --no-run --text "$work/dense.txt"
+if ! grep -Eq "points drawn: (9[0-9]{5}|1000000) of 4[0-9]{6}$" "$work/dense.txt"; then
+  echo "FAIL: the dense scan's title does not count the points drawn: $(head -2 "$work/dense.txt")" >&2
+  failures=$((failures + 1))
+fi
 
 # The generated scene has four tiles, whose first directions are 0, 7, 14 and 20 (26 is the last).
 expect 0 "^selected direction 26 \(tile 3\)" "$scene" "select direction 26"

@@ -28,15 +28,15 @@ vtkSmartPointer<vtkUnsignedCharArray> colorArray(const std::vector<Rgb>& colors)
   return array;
 }
 
-}  // namespace
-
-vtkSmartPointer<vtkPolyData> makePointSet(const std::vector<Eigen::Vector3f>& positions,
-                                          const std::vector<Rgb>& colors) {
-  const auto count = static_cast<vtkIdType>(positions.size());
+/// Points as vertices with an RGB array: the point at `i` is positions[index(i)].
+template <typename Index>
+vtkSmartPointer<vtkPolyData> pointSet(const std::vector<Eigen::Vector3f>& positions, const std::vector<Rgb>& colors,
+                                      vtkIdType count, Index index) {
   auto coordinates = vtkSmartPointer<vtkFloatArray>::New();
   coordinates->SetNumberOfComponents(3);
   coordinates->SetNumberOfTuples(count);
-  if (count > 0) std::copy(positions.front().data(), positions.front().data() + 3 * count, coordinates->GetPointer(0));
+  float* xyz = coordinates->GetPointer(0);
+  for (vtkIdType i = 0; i < count; ++i) std::copy_n(positions[index(i)].data(), 3, xyz + 3 * i);
   auto points = vtkSmartPointer<vtkPoints>::New();
   points->SetData(coordinates);
 
@@ -54,8 +54,30 @@ vtkSmartPointer<vtkPolyData> makePointSet(const std::vector<Eigen::Vector3f>& po
   auto polyData = vtkSmartPointer<vtkPolyData>::New();
   polyData->SetPoints(points);
   polyData->SetVerts(vertices);
-  if (!colors.empty() && count > 0) polyData->GetPointData()->SetScalars(colorArray(colors));
+  if (!colors.empty() && count > 0) {
+    auto array = vtkSmartPointer<vtkUnsignedCharArray>::New();
+    array->SetName("colors");
+    array->SetNumberOfComponents(3);
+    array->SetNumberOfTuples(count);
+    unsigned char* rgb = array->GetPointer(0);
+    for (vtkIdType i = 0; i < count; ++i) std::copy_n(colors[index(i)].data(), 3, rgb + 3 * i);
+    polyData->GetPointData()->SetScalars(array);
+  }
   return polyData;
+}
+
+}  // namespace
+
+vtkSmartPointer<vtkPolyData> makePointSet(const std::vector<Eigen::Vector3f>& positions,
+                                          const std::vector<Rgb>& colors) {
+  return pointSet(positions, colors, static_cast<vtkIdType>(positions.size()),
+                  [](vtkIdType i) { return static_cast<std::size_t>(i); });
+}
+
+vtkSmartPointer<vtkPolyData> makePointSet(const std::vector<Eigen::Vector3f>& positions, const std::vector<Rgb>& colors,
+                                          const std::vector<std::uint32_t>& indices) {
+  return pointSet(positions, colors, static_cast<vtkIdType>(indices.size()),
+                  [&](vtkIdType i) { return static_cast<std::size_t>(indices[static_cast<std::size_t>(i)]); });
 }
 
 vtkSmartPointer<vtkPolyData> subsamplePointSet(vtkPolyData* points, std::size_t stride) {

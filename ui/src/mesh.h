@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 #include <vtkSmartPointer.h>
 
+#include <cstdint>
 #include <vector>
 
 class vtkPolyData;
@@ -24,6 +25,10 @@ constexpr const char* kElementArray = "element";
 /// Points as vertices with an RGB array; `colors` empty for a uniform colour set on the actor.
 vtkSmartPointer<vtkPolyData> makePointSet(const std::vector<Eigen::Vector3f>& positions,
                                           const std::vector<Rgb>& colors);
+
+/// The points `indices` of `positions` (and of `colors`, unless empty) as vertices.
+vtkSmartPointer<vtkPolyData> makePointSet(const std::vector<Eigen::Vector3f>& positions, const std::vector<Rgb>& colors,
+                                          const std::vector<std::uint32_t>& indices);
 
 /// Every `stride`-th point of a point set made by makePointSet (colours kept).
 vtkSmartPointer<vtkPolyData> subsamplePointSet(vtkPolyData* points, std::size_t stride);

@@ -57,7 +57,7 @@ double parameterValue(const PipelineParams& params, const std::string& key) {
 
 Studio::Impl::Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowInteractor* interactor,
                    const StudioOptions& options)
-    : owner(owner), window(window), interactor(interactor), options(options) {
+    : owner(owner), window(window), interactor(interactor), options(options), pointBudget(options.pointBudget) {
   window->SetNumberOfLayers(3);
   window->SetMultiSamples(0);
   scene->SetBackground(0.10, 0.11, 0.13);
@@ -82,6 +82,7 @@ Studio::Impl::Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowIntera
           [this](vtkObject*, unsigned long, void*) { setCoarsePoints(true); });
   observe(style, vtkCommand::EndInteractionEvent,
           [this](vtkObject*, unsigned long, void*) { setCoarsePoints(worker.joinable()); });
+  observe(scene, vtkCommand::StartEvent, [this](vtkObject*, unsigned long, void*) { choosePointsInView(); });
   observe(interactor, vtkCommand::KeyPressEvent, [this](vtkObject*, unsigned long, void*) { onKey(); });
   // Passive: the camera style grabs the focus on a press, and the release must still reach picking.
   // (Clicks on the stage bar fall outside every view, so they pick nothing.)
@@ -642,6 +643,14 @@ std::string Studio::Impl::selectionInfo() const {
   return info.str();
 }
 
+std::string Studio::Impl::sceneCaption() const {
+  std::string caption = "3-D scene  [points: " + nameOf(kPointColors, pointColor) +
+                        (straysHidden ? " (strays hidden)" : "") + ", pipes: " + nameOf(kPipeColors, pipeColor) + "]";
+  if (pointClip) caption += "  clip: " + pointClipCaption();
+  if (const std::string drawn = pointBudgetCaption(); !drawn.empty()) caption += "  " + drawn;
+  return caption;
+}
+
 void Studio::Impl::updateOverlays() {
   const Pipeline* pipeline = document.pipeline();
   const PipeNetwork& network = document.network();
@@ -665,10 +674,7 @@ void Studio::Impl::updateOverlays() {
   statusText->SetInput(status.str().c_str());
   infoText->SetInput(selectionInfo().c_str());
 
-  std::string sceneCaption = "3-D scene  [points: " + nameOf(kPointColors, pointColor) +
-                             (straysHidden ? " (strays hidden)" : "") + ", pipes: " + nameOf(kPipeColors, pipeColor) + "]";
-  if (pointClip) sceneCaption += "  clip: " + pointClipCaption();
-  sceneTitle->SetInput(sceneCaption.c_str());
+  sceneTitle->SetInput(sceneCaption().c_str());
   std::string sphereCaption = "Gaussian sphere";
   if (const int tile = sphereTile(); tile >= 0)
     sphereCaption += " - tile " + std::to_string(tileIdOf(tile)) + " (of " +

@@ -182,13 +182,16 @@ void Studio::Impl::registerCommands() {
                  return list + line;
                });
 
-  commands.add("points", "size PX|larger|smaller | strays hide|show|toggle",
+  commands.add("points", "size PX|larger|smaller | strays hide|show|toggle | budget N|all",
                "the size of the 3-D scene's points in pixels, 1 to 10 (2 at start; the preprocessed points one more); "
-               "hide or show the scan's stray points (scattered through the air)",
+               "hide or show the scan's stray points (scattered through the air); the most points a scene layer "
+               "draws when the camera is still (5000000 at start; a larger layer draws those in view, the near ones "
+               "densest)",
                [this](const std::vector<std::string>& args) {
-                 const char* usage = "points size PX|larger|smaller | strays hide|show|toggle";
+                 const char* usage = "points size PX|larger|smaller | strays hide|show|toggle | budget N|all";
                  expectArguments(args, 2, 2, usage);
                  if (args[0] == "strays") return showStrays(args[1]);
+                 if (args[0] == "budget") return setPointBudget(args[1]);
                  if (args[0] != "size") throw CommandError(std::string("usage: ") + usage);
                  const int size = args[1] == "larger"    ? scenePointSize + 1
                                   : args[1] == "smaller" ? scenePointSize - 1
@@ -751,6 +754,20 @@ std::string Studio::Impl::showStrays(const std::string& word) {
   if (!straysHidden) return std::string("stray points shown");
   const auto count = std::count(strays.begin(), strays.end(), true);
   return std::to_string(count) + format(" stray points hidden (%.2g %% of the scan)", 100.0 * count / std::max<double>(1, strays.size()));
+}
+
+std::string Studio::Impl::setPointBudget(const std::string& word) {
+  if (word == "all") {
+    pointBudget = std::numeric_limits<std::size_t>::max();
+  } else {
+    const int budget = parseInt(word, "the most points drawn");
+    if (budget < 1) throw CommandError("the point budget is at least 1 point");
+    pointBudget = static_cast<std::size_t>(budget);
+  }
+  buildPointLayers();
+  updateOverlays();
+  return word == "all" ? std::string("scene layers draw every point when still")
+                       : "scene layers draw at most " + word + " points when still";
 }
 
 }  // namespace piperun::ui

@@ -5,6 +5,7 @@
 #include "piperun/ui/studio.h"
 
 #include "palette.h"
+#include "point_budget.h"
 #include "point_measures.h"
 #include "stage_bar.h"
 
@@ -145,12 +146,27 @@ struct Selection {
   int secondPipe = -1;  ///< A second selected pipe (Shift+click), for merge and join; -1 when none.
 };
 
-/// A points layer drawn whole when the camera is still and as a subsample while it moves.
+/// The points of a scene layer over the still budget, filed by cell: the scene draws the share of
+/// them its view asks for (pointsToDraw).
+struct BudgetedPoints {
+  std::vector<Eigen::Vector3f> positions;
+  std::vector<Rgb> colors;
+  PointCells cells;
+};
+
+/// A camera's position, focal point, view-up, angle, parallel scale and projection, and the view's
+/// aspect: what decides which of a budgeted layer's points are in view.
+using ViewKey = std::array<double, 12>;
+
+/// A points layer drawn whole when the camera is still and as a subsample while it moves; a scene
+/// layer of more points than the budget, when still, as the points its view asks for.
 struct PointLayerLod {
   double pointSize = 1.0;  ///< Pixels (screen units), as the layer asks; the scene's follow scenePointSize.
   vtkSmartPointer<vtkPolyDataMapper> mapper;
-  vtkSmartPointer<vtkPolyData> full;
+  vtkSmartPointer<vtkPolyData> full;  ///< Drawn when still: every point, or a budgeted layer's points in view.
   vtkSmartPointer<vtkPolyData> coarse;
+  std::shared_ptr<const BudgetedPoints> budgeted;  ///< Null when `full` holds every point.
+  std::optional<ViewKey> chosenFor;                ///< The view `full` was chosen for (budgeted layers).
 };
 
 struct Layer {
@@ -211,12 +227,22 @@ struct Studio::Impl {
   void setCoarsePoints(bool coarse);
   /// A points layer's size on screen: the 3-D scene's grow and shrink with scenePointSize.
   double shownPointSize(const vtkRenderer* renderer, double pointSize) const;
-  /// A points layer that shows a subsample while the camera moves.
-  void setPointLayer(const std::string& name, vtkRenderer* renderer, const std::vector<Eigen::Vector3f>& positions,
-                     const std::vector<Rgb>& colors, double pointSize, bool defaultVisible);
+  /// A points layer that shows a subsample while the camera moves; in the scene, over `pointBudget`
+  /// points, those its view asks for when still.
+  void setPointLayer(const std::string& name, vtkRenderer* renderer, std::vector<Eigen::Vector3f> positions,
+                     std::vector<Rgb> colors, double pointSize, bool defaultVisible);
+  /// Before the scene is drawn still: the budgeted layers shown take the points of the camera's
+  /// view, when it changed since they were chosen.
+  void choosePointsInView();
+  /// `points budget N|all`: rebuilds the scene's point layers for the new budget; returns the message.
+  std::string setPointBudget(const std::string& word);
+  /// "points drawn: 4998311 of 99744347" when budgeted layers are shown.
+  std::string pointBudgetCaption() const;
   void buildPointLayers();
   /// Draws the scene's point layers only inside `pointClip` (clipping planes).
   void applyPointClip();
+  /// The faces of `pointClip` in display co-ordinates as (normal, offset): n.x + offset >= 0 is kept.
+  std::vector<std::pair<Eigen::Vector3d, double>> pointClipPlanes() const;
   /// Once a document has points and a network: hides the points above a ceiling that would hide
   /// the network from the first view (ceilingHeight).
   void chooseFirstClip();
@@ -243,6 +269,8 @@ struct Studio::Impl {
   void resetPlaneCamera();
   void flyTo(const Eigen::Vector3d& world, double size);
   void updateOverlays();
+  /// The 3-D scene's title: colours, clip, points drawn.
+  std::string sceneCaption() const;
   void placeKeysHelp();
   std::string selectionInfo() const;
   std::vector<StageState> stageStates() const;
@@ -337,6 +365,8 @@ struct Studio::Impl {
   /// The size of the 3-D scene's input points in pixels (`points size`; the preprocessed points are
   /// drawn a pixel larger, to tell them apart): 2, or 1 for a scan of over kDenseScanPoints.
   int scenePointSize = 2;
+  /// The most points a scene layer draws when the camera is still (`points budget`).
+  std::size_t pointBudget = 0;
   bool straysHidden = false;  ///< `points strays hide`: the input points' strays are not drawn.
   std::vector<bool> strays;   ///< strayPoints of the input, once asked for.
 

@@ -6,6 +6,7 @@
 #include "palette.h"
 
 #include <vtkActor.h>
+#include <vtkCamera.h>
 #include <vtkDoubleArray.h>
 #include <vtkLookupTable.h>
 #include <vtkNew.h>
@@ -17,6 +18,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace piperun::ui {
 
@@ -63,17 +65,44 @@ bool Studio::Impl::layerVisible(const std::string& name) const {
   return found != visibility.end() && found->second && layers.count(name);
 }
 
-void Studio::Impl::setPointLayer(const std::string& name, vtkRenderer* renderer,
-                                 const std::vector<Eigen::Vector3f>& positions, const std::vector<Rgb>& colors,
-                                 double pointSize, bool defaultVisible) {
+namespace {
+
+/// The first `counts[c]` points of each cell c, as indices into the layer's points.
+std::vector<std::uint32_t> firstPointsOfCells(const PointCells& cells, const std::vector<std::uint32_t>& counts) {
+  std::vector<std::uint32_t> indices;
+  std::size_t total = 0;
+  for (const std::uint32_t count : counts) total += count;
+  indices.reserve(total);
+  for (std::size_t c = 0; c < counts.size(); ++c) {
+    const auto first = cells.order.begin() + cells.cells[c].begin;
+    indices.insert(indices.end(), first, first + counts[c]);
+  }
+  return indices;
+}
+
+}  // namespace
+
+void Studio::Impl::setPointLayer(const std::string& name, vtkRenderer* renderer, std::vector<Eigen::Vector3f> positions,
+                                 std::vector<Rgb> colors, double pointSize, bool defaultVisible) {
   // The 3-D scene gets the interactive budget; the sphere and plane views, redrawn with it, an eighth each.
   const std::size_t budget =
       std::max<std::size_t>(1, renderer == scene ? options.interactivePoints : options.interactivePoints / 8);
   PointLayerLod lod;
   lod.pointSize = pointSize;
-  lod.full = makePointSet(positions, colors);
-  const std::size_t stride = std::max<std::size_t>(1, (positions.size() + budget - 1) / budget);
-  lod.coarse = stride > 1 ? subsamplePointSet(lod.full, stride) : lod.full;
+  if (renderer == scene && positions.size() > pointBudget) {
+    auto budgeted = std::make_shared<BudgetedPoints>();
+    budgeted->cells = filePointCells(positions);
+    budgeted->positions = std::move(positions);
+    budgeted->colors = std::move(colors);
+    lod.coarse = makePointSet(budgeted->positions, budgeted->colors,
+                              firstPointsOfCells(budgeted->cells, pointsToDraw(budgeted->cells, nullptr, budget)));
+    lod.full = lod.coarse;  // Until the first still frame chooses the points in view.
+    lod.budgeted = std::move(budgeted);
+  } else {
+    lod.full = makePointSet(positions, colors);
+    const std::size_t stride = std::max<std::size_t>(1, (positions.size() + budget - 1) / budget);
+    lod.coarse = stride > 1 ? subsamplePointSet(lod.full, stride) : lod.full;
+  }
   lod.mapper = vtkSmartPointer<vtkPolyDataMapper>::New();
   lod.mapper->SetInputData(coarsePoints ? lod.coarse : lod.full);
   lod.mapper->SetScalarModeToUsePointData();
@@ -85,6 +114,49 @@ void Studio::Impl::setPointLayer(const std::string& name, vtkRenderer* renderer,
   actor->PickableOff();
   setLayer(name, renderer, actor, defaultVisible);
   pointLods[name] = lod;
+}
+
+void Studio::Impl::choosePointsInView() {
+  if (coarsePoints) return;
+  vtkCamera* camera = scene->GetActiveCamera();
+  const double aspect = scene->GetTiledAspectRatio();
+  ViewKey key;
+  camera->GetPosition(key.data());
+  camera->GetFocalPoint(key.data() + 3);
+  camera->GetViewUp(key.data() + 6);
+  key[9] = camera->GetParallelProjection() ? camera->GetParallelScale() : camera->GetViewAngle();
+  key[10] = camera->GetParallelProjection();
+  key[11] = aspect;
+  std::optional<ViewVolume> view;
+  for (auto& [name, lod] : pointLods) {
+    if (!lod.budgeted || !layerVisible(name) || lod.chosenFor == key) continue;
+    if (!view) {
+      double planes[24];
+      camera->GetFrustumPlanes(aspect, planes);
+      view.emplace();
+      for (int side = 0; side < 4; ++side) view->planes.emplace_back(Eigen::Map<const Eigen::Vector4d>(planes + 4 * side));
+      for (const auto& [normal, offset] : pointClipPlanes()) view->planes.emplace_back(normal.x(), normal.y(), normal.z(), offset);
+      view->eye = Eigen::Map<const Eigen::Vector3d>(key.data());
+      view->perspective = !camera->GetParallelProjection();
+    }
+    const BudgetedPoints& points = *lod.budgeted;
+    lod.full = makePointSet(points.positions, points.colors,
+                            firstPointsOfCells(points.cells, pointsToDraw(points.cells, &*view, pointBudget)));
+    lod.chosenFor = key;
+    lod.mapper->SetInputData(lod.full);
+  }
+  if (view) sceneTitle->SetInput(sceneCaption().c_str());
+}
+
+std::string Studio::Impl::pointBudgetCaption() const {
+  vtkIdType drawn = 0;
+  std::size_t total = 0;
+  for (const auto& [name, lod] : pointLods) {
+    if (!lod.budgeted || !layerVisible(name)) continue;
+    drawn += lod.full->GetNumberOfPoints();
+    total += lod.budgeted->positions.size();
+  }
+  return total == 0 ? std::string() : "points drawn: " + std::to_string(drawn) + " of " + std::to_string(total);
 }
 
 double Studio::Impl::shownPointSize(const vtkRenderer* renderer, double pointSize) const {
@@ -155,7 +227,7 @@ void Studio::Impl::buildPointLayers() {
       positions.resize(kept);
       colors.resize(kept);
     }
-    setPointLayer("input/points", scene, positions, colors, 2.0, true);
+    setPointLayer("input/points", scene, std::move(positions), std::move(colors), 2.0, true);
   } else {
     removeLayer("input/points");
   }
@@ -174,7 +246,6 @@ void Studio::Impl::buildPointLayers() {
     positions[i] = kept.positions[i] + shift;
     colors[i] = categoryColor(segmentCache[i]);
   }
-  setPointLayer("preprocess/points", scene, positions, colors, 3.0, false);
 
   // Normal glyphs: a short line per point, for a bounded number of points.
   MeshBuilder normals;
@@ -186,13 +257,14 @@ void Studio::Impl::buildPointLayers() {
   }
   auto normalActor = meshActor(normals.build());
   normalActor->PickableOff();
+  setPointLayer("preprocess/points", scene, std::move(positions), std::move(colors), 3.0, false);
   setLayer("preprocess/normals", scene, normalActor, false);
 
   const PointCloud& planes = preprocessed->planePoints;
   std::vector<Eigen::Vector3f> planePositions(planes.size());
   const Eigen::Vector3f planeShift = (planes.origin - displayOrigin).cast<float>();
   for (std::size_t i = 0; i < planes.size(); ++i) planePositions[i] = planes.positions[i] + planeShift;
-  setPointLayer("preprocess/planes", scene, planePositions, std::vector<Rgb>(planes.size(), Rgb{110, 110, 125}), 2.0,
+  setPointLayer("preprocess/planes", scene, std::move(planePositions), std::vector<Rgb>(planes.size(), Rgb{110, 110, 125}), 2.0,
                 false);
   applyPointClip();
 }
@@ -204,22 +276,29 @@ void Studio::Impl::applyPointClip() {
     if (!actor) continue;
     vtkMapper* mapper = actor->GetMapper();
     mapper->RemoveAllClippingPlanes();
-    if (!pointClip) continue;
-    // A clipping plane keeps the side its normal points to.
-    for (int axis = 0; axis < 3; ++axis) {
-      for (const double side : {-1.0, 1.0}) {
-        const double bound = side < 0 ? pointClip->min[axis] : pointClip->max[axis];
-        if (!std::isfinite(bound)) continue;
-        double origin[3] = {0.0, 0.0, 0.0}, normal[3] = {0.0, 0.0, 0.0};
-        origin[axis] = bound - displayOrigin[axis];
-        normal[axis] = -side;
-        vtkNew<vtkPlane> plane;
-        plane->SetOrigin(origin);
-        plane->SetNormal(normal);
-        mapper->AddClippingPlane(plane);
-      }
+    for (const auto& [normal, offset] : pointClipPlanes()) {
+      vtkNew<vtkPlane> plane;
+      plane->SetNormal(normal.data());
+      plane->SetOrigin((-offset * normal).eval().data());
+      mapper->AddClippingPlane(plane);
     }
   }
+  for (auto& [name, lod] : pointLods) lod.chosenFor.reset();  // The clip bounds what a budget is spent on.
+}
+
+std::vector<std::pair<Eigen::Vector3d, double>> Studio::Impl::pointClipPlanes() const {
+  std::vector<std::pair<Eigen::Vector3d, double>> planes;
+  if (!pointClip) return planes;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (const double side : {-1.0, 1.0}) {
+      const double bound = side < 0 ? pointClip->min[axis] : pointClip->max[axis];
+      if (!std::isfinite(bound)) continue;
+      // Kept: -side * (x - bound) >= 0, x in display co-ordinates.
+      const Eigen::Vector3d normal = -side * Eigen::Vector3d::Unit(axis);
+      planes.emplace_back(normal, -normal[axis] * (bound - displayOrigin[axis]));
+    }
+  }
+  return planes;
 }
 
 void Studio::Impl::buildNetworkLayers() {
@@ -343,7 +422,7 @@ void Studio::Impl::buildSphereLayers() {
     normalPoints.push_back(-kept.normals[i]);
     normalColors.insert(normalColors.end(), {color, color});
   }
-  setPointLayer("sphere/normals", sphere, normalPoints, normalColors, 1.0, true);
+  setPointLayer("sphere/normals", sphere, std::move(normalPoints), std::move(normalColors), 1.0, true);
 
   // Direction samples (n_i × n_j) coloured by their density: counts in equal-area cells of the
   // upper hemisphere (uniform in z and in longitude).
@@ -372,7 +451,7 @@ void Studio::Impl::buildSphereLayers() {
     densityColors.push_back(
         mapColor(densityMap, std::log1p(static_cast<double>(counts[static_cast<std::size_t>(cellOf(samples[i]))]))));
   }
-  setPointLayer("sphere/density", sphere, densityPoints, densityColors, 2.0, true);
+  setPointLayer("sphere/density", sphere, std::move(densityPoints), std::move(densityColors), 2.0, true);
 
   // Principal directions: arrows with their great circles (where the stripe's normals lie).
   MeshBuilder arrows;
@@ -441,7 +520,7 @@ void Studio::Impl::buildPlaneLayers() {
     projected.emplace_back(static_cast<float>(p.dot(u)), static_cast<float>(p.dot(v)), 0.0f);
     pointColors.push_back({175, 175, 185});
   }
-  setPointLayer("plane/points", plane, projected, pointColors, 2.0, true);
+  setPointLayer("plane/points", plane, std::move(projected), std::move(pointColors), 2.0, true);
 
   std::vector<Eigen::Vector3f> candidates;
   std::vector<Rgb> candidateColors;
@@ -450,7 +529,7 @@ void Studio::Impl::buildPlaneLayers() {
       candidates.emplace_back(candidate.center.x(), candidate.center.y(), 0.001f);
       candidateColors.push_back(candidate.circle >= 0 ? categoryColor(candidate.circle) : Rgb{95, 95, 110});
     }
-  setPointLayer("plane/candidates", plane, candidates, candidateColors, 3.0, true);
+  setPointLayer("plane/candidates", plane, std::move(candidates), std::move(candidateColors), 3.0, true);
 
   MeshBuilder circles;
   for (std::size_t c = 0; c < placement->cylinders.size(); ++c) {

@@ -26,6 +26,9 @@ struct StudioOptions {
   double uiScale = 1.0;
   /// Points drawn while the camera moves; the whole cloud is drawn when it stops.
   std::size_t interactivePoints = 120000;
+  /// The most points a layer of the 3-D scene draws when the camera is still: a larger layer draws
+  /// those in view, the near ones densest (`points budget` changes it).
+  std::size_t pointBudget = 5'000'000;
   /// Autosave the project after this many edits (undo and redo count); 0: never.
   int autosaveEdits = 5;
   /// On opening a project with its scan, recompute the stages that were fresh when it was saved
