@@ -226,8 +226,13 @@ void Studio::Impl::open(Document opened) {
   bindInterpreter();
   reviewShown = false;
   noticeShown = !document.warnings().empty() || document.newerAutosave();
-  if (document.input()) {
-    displayOrigin = document.input()->origin;
+  if (const PointCloud* cloud = document.input().get()) {
+    displayOrigin = cloud->origin;
+    inputBounds = cloud->boundingBox();
+    if (cloud->hasIntensity()) {
+      const auto [low, high] = std::minmax_element(cloud->intensities.begin(), cloud->intensities.end());
+      inputIntensities = {*low, *high};
+    }
   } else {
     BoundingBox bounds;
     for (const auto& pipe : document.network().pipes) {

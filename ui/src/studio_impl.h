@@ -348,6 +348,10 @@ struct Studio::Impl {
 
   Document document;
   Eigen::Vector3d displayOrigin = Eigen::Vector3d::Zero();
+  /// The input's bounds (of its finite points) and intensity range, measured once on opening: the
+  /// colour bar reads them at every overlay update, and a pass over a site's points takes a while.
+  BoundingBox inputBounds;
+  std::pair<float, float> inputIntensities{0.0f, 0.0f};
   std::shared_ptr<const PreprocessResult> preprocessed;
   std::shared_ptr<const std::vector<TileReconstruction>> tiles;
   std::vector<DirectionRef> directions;

@@ -174,14 +174,12 @@ std::vector<Rgb> Studio::Impl::inputPointColors() {
   std::vector<Rgb> colors(cloud.size(), kNeutral);
   switch (pointColor) {
     case PointColor::Height: {
-      const BoundingBox bounds = cloud.boundingBox();
-      auto map = scalarMap(bounds.min.z(), bounds.max.z());
+      auto map = scalarMap(inputBounds.min.z(), inputBounds.max.z());
       for (std::size_t i = 0; i < cloud.size(); ++i) colors[i] = mapColor(map, cloud.worldPosition(i).z());
       break;
     }
     case PointColor::Intensity: {
-      const auto [low, high] = std::minmax_element(cloud.intensities.begin(), cloud.intensities.end());
-      auto map = scalarMap(*low, *high);
+      auto map = scalarMap(inputIntensities.first, inputIntensities.second);
       for (std::size_t i = 0; i < cloud.size(); ++i) colors[i] = mapColor(map, cloud.intensities[i]);
       break;
     }
@@ -550,14 +548,11 @@ void Studio::Impl::updateColorBar() {
   vtkSmartPointer<vtkLookupTable> map;
   std::string title;
   if (layerVisible("input/points") && document.input()) {
-    const PointCloud& cloud = *document.input();
     if (pointColor == PointColor::Height) {
-      const BoundingBox bounds = cloud.boundingBox();
-      map = scalarMap(bounds.min.z(), bounds.max.z());
+      map = scalarMap(inputBounds.min.z(), inputBounds.max.z());
       title = "height (m)";
     } else if (pointColor == PointColor::Intensity) {
-      const auto [low, high] = std::minmax_element(cloud.intensities.begin(), cloud.intensities.end());
-      map = scalarMap(*low, *high);
+      map = scalarMap(inputIntensities.first, inputIntensities.second);
       title = "intensity";
     } else if (pointColor == PointColor::Qa) {
       map = scalarMap(0.0, kQaReach, true);
