@@ -165,7 +165,9 @@ struct PointLayerLod {
   vtkSmartPointer<vtkPolyDataMapper> mapper;
   vtkSmartPointer<vtkPolyData> full;  ///< Drawn when still: every point, or a budgeted layer's points in view.
   vtkSmartPointer<vtkPolyData> coarse;
-  std::shared_ptr<const BudgetedPoints> budgeted;  ///< Null when `full` holds every point.
+  /// Null when `full` holds every point. Rebuilding the layer with the same points (another colour
+  /// mode) takes their filing over.
+  std::shared_ptr<BudgetedPoints> budgeted;
   std::optional<ViewKey> chosenFor;                ///< The view `full` was chosen for (budgeted layers).
 };
 

@@ -90,9 +90,15 @@ void Studio::Impl::setPointLayer(const std::string& name, vtkRenderer* renderer,
   PointLayerLod lod;
   lod.pointSize = pointSize;
   if (renderer == scene && positions.size() > pointBudget) {
-    auto budgeted = std::make_shared<BudgetedPoints>();
-    budgeted->cells = filePointCells(positions);
-    budgeted->positions = std::move(positions);
+    std::shared_ptr<BudgetedPoints> budgeted;
+    if (const auto old = pointLods.find(name);
+        old != pointLods.end() && old->second.budgeted && old->second.budgeted->positions == positions) {
+      budgeted = old->second.budgeted;  // The same points in other colours: filed already.
+    } else {
+      budgeted = std::make_shared<BudgetedPoints>();
+      budgeted->cells = filePointCells(positions);
+      budgeted->positions = std::move(positions);
+    }
     budgeted->colors = std::move(colors);
     lod.coarse = makePointSet(budgeted->positions, budgeted->colors,
                               firstPointsOfCells(budgeted->cells, pointsToDraw(budgeted->cells, nullptr, budget)));
