@@ -146,16 +146,17 @@ struct Selection {
   int secondPipe = -1;  ///< A second selected pipe (Shift+click), for merge and join; -1 when none.
 };
 
-/// The points of a scene layer over the still budget, filed by cell: the scene draws the share of
-/// them its view asks for (pointsToDraw).
-struct BudgetedPoints {
+/// A scene layer's points filed by cell, so that a view can choose the share of them it asks for
+/// (pointsToDraw): the subsample drawn while the camera moves, and, over the point budget, the
+/// points drawn when it is still.
+struct FiledPoints {
   std::vector<Eigen::Vector3f> positions;
   std::vector<Rgb> colors;
   PointCells cells;
 };
 
 /// A camera's position, focal point, view-up, angle, parallel scale and projection, and the view's
-/// aspect: what decides which of a budgeted layer's points are in view.
+/// aspect: what decides which of a layer's points are in view.
 using ViewKey = std::array<double, 12>;
 
 /// A points layer drawn whole when the camera is still and as a subsample while it moves; a scene
@@ -163,12 +164,13 @@ using ViewKey = std::array<double, 12>;
 struct PointLayerLod {
   double pointSize = 1.0;  ///< Pixels (screen units), as the layer asks; the scene's follow scenePointSize.
   vtkSmartPointer<vtkPolyDataMapper> mapper;
-  vtkSmartPointer<vtkPolyData> full;  ///< Drawn when still: every point, or a budgeted layer's points in view.
-  vtkSmartPointer<vtkPolyData> coarse;
-  /// Null when `full` holds every point. Rebuilding the layer with the same points (another colour
-  /// mode) takes their filing over.
-  std::shared_ptr<BudgetedPoints> budgeted;
-  std::optional<ViewKey> chosenFor;                ///< The view `full` was chosen for (budgeted layers).
+  vtkSmartPointer<vtkPolyData> full;    ///< Drawn when still: every point, or the points in view (overBudget).
+  vtkSmartPointer<vtkPolyData> coarse;  ///< Drawn while the camera moves.
+  /// Scene layers of more points than the moving subsample; null for the others. Rebuilding the
+  /// layer with the same points (another colour mode) takes their filing over.
+  std::shared_ptr<FiledPoints> filed;
+  bool overBudget = false;            ///< More points than pointBudget: `full` holds those in view.
+  std::optional<ViewKey> chosenFor;   ///< The view `full` was chosen for (overBudget).
 };
 
 struct Layer {
@@ -187,6 +189,10 @@ inline constexpr double kQaReach = 0.02;
 /// than this in a cell's 3 x 3 x 3 block.
 inline constexpr double kStrayCellSpacings = 5.0;
 inline constexpr int kStrayNeighbours = 2;
+/// While the camera moves, the scene's subsample covers its view widened this many times (what a
+/// drag may turn to), no wider than kWidestViewAngle (degrees).
+inline constexpr double kMovingViewWidening = 1.5;
+inline constexpr double kWidestViewAngle = 150.0;
 /// Scans of more points than this open with the scene's points at 1 pixel, not 2.
 inline constexpr std::size_t kDenseScanPoints = 4'000'000;
 /// Most labels on the colour bar (round values: roundTicks).
@@ -225,20 +231,24 @@ struct Studio::Impl {
   void setLayer(const std::string& name, vtkRenderer* renderer, vtkSmartPointer<vtkProp> prop, bool defaultVisible);
   void removeLayer(const std::string& name);
   bool layerVisible(const std::string& name) const;
-  /// Draws every point layer whole or as its subsample (coarsePoints).
+  /// Draws every point layer whole or as its subsample (coarsePoints). Going coarse, the scene's
+  /// filed layers take the subsample the camera's view asks for (chooseMovingPoints).
   void setCoarsePoints(bool coarse);
+  /// The scene's view for choosing points (pointsToDraw): the sides of the camera's frustum with its
+  /// view angle (or parallel scale) times `widening`, the clip's faces, the eye.
+  ViewVolume sceneViewVolume(double widening) const;
   /// A points layer's size on screen: the 3-D scene's grow and shrink with scenePointSize.
   double shownPointSize(const vtkRenderer* renderer, double pointSize) const;
   /// A points layer that shows a subsample while the camera moves; in the scene, over `pointBudget`
   /// points, those its view asks for when still.
   void setPointLayer(const std::string& name, vtkRenderer* renderer, std::vector<Eigen::Vector3f> positions,
                      std::vector<Rgb> colors, double pointSize, bool defaultVisible);
-  /// Before the scene is drawn still: the budgeted layers shown take the points of the camera's
-  /// view, when it changed since they were chosen.
+  /// Before the scene is drawn still: the layers over the budget shown take the points of the
+  /// camera's view, when it changed since they were chosen.
   void choosePointsInView();
   /// `points budget N|all`: rebuilds the scene's point layers for the new budget; returns the message.
   std::string setPointBudget(const std::string& word);
-  /// "points drawn: 4998311 of 99744347" when budgeted layers are shown.
+  /// "points drawn: 4998311 of 99744347" when layers over the budget are shown.
   std::string pointBudgetCaption() const;
   void buildPointLayers();
   /// Draws the scene's point layers only inside `pointClip` (clipping planes).

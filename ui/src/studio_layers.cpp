@@ -89,21 +89,23 @@ void Studio::Impl::setPointLayer(const std::string& name, vtkRenderer* renderer,
       std::max<std::size_t>(1, renderer == scene ? options.interactivePoints : options.interactivePoints / 8);
   PointLayerLod lod;
   lod.pointSize = pointSize;
-  if (renderer == scene && positions.size() > pointBudget) {
-    std::shared_ptr<BudgetedPoints> budgeted;
+  if (renderer == scene && positions.size() > budget) {
+    std::shared_ptr<FiledPoints> filed;
     if (const auto old = pointLods.find(name);
-        old != pointLods.end() && old->second.budgeted && old->second.budgeted->positions == positions) {
-      budgeted = old->second.budgeted;  // The same points in other colours: filed already.
+        old != pointLods.end() && old->second.filed && old->second.filed->positions == positions) {
+      filed = old->second.filed;  // The same points in other colours: filed already.
     } else {
-      budgeted = std::make_shared<BudgetedPoints>();
-      budgeted->cells = filePointCells(positions);
-      budgeted->positions = std::move(positions);
+      filed = std::make_shared<FiledPoints>();
+      filed->cells = filePointCells(positions);
+      filed->positions = std::move(positions);
     }
-    budgeted->colors = std::move(colors);
-    lod.coarse = makePointSet(budgeted->positions, budgeted->colors,
-                              firstPointsOfCells(budgeted->cells, pointsToDraw(budgeted->cells, nullptr, budget)));
-    lod.full = lod.coarse;  // Until the first still frame chooses the points in view.
-    lod.budgeted = std::move(budgeted);
+    filed->colors = std::move(colors);
+    // Until the camera's view chooses: the same share of every cell.
+    lod.coarse = makePointSet(filed->positions, filed->colors,
+                              firstPointsOfCells(filed->cells, pointsToDraw(filed->cells, nullptr, budget)));
+    lod.overBudget = filed->positions.size() > pointBudget;
+    lod.full = lod.overBudget ? lod.coarse : makePointSet(filed->positions, filed->colors);
+    lod.filed = std::move(filed);
   } else {
     lod.full = makePointSet(positions, colors);
     const std::size_t stride = std::max<std::size_t>(1, (positions.size() + budget - 1) / budget);
@@ -122,30 +124,36 @@ void Studio::Impl::setPointLayer(const std::string& name, vtkRenderer* renderer,
   pointLods[name] = lod;
 }
 
+ViewVolume Studio::Impl::sceneViewVolume(double widening) const {
+  vtkNew<vtkCamera> camera;
+  camera->DeepCopy(scene->GetActiveCamera());
+  camera->SetViewAngle(std::min(widening * camera->GetViewAngle(), kWidestViewAngle));
+  camera->SetParallelScale(widening * camera->GetParallelScale());
+  double planes[24];
+  camera->GetFrustumPlanes(scene->GetTiledAspectRatio(), planes);
+  ViewVolume view;
+  for (int side = 0; side < 4; ++side) view.planes.emplace_back(Eigen::Map<const Eigen::Vector4d>(planes + 4 * side));
+  for (const auto& [normal, offset] : pointClipPlanes()) view.planes.emplace_back(normal.x(), normal.y(), normal.z(), offset);
+  view.eye = Eigen::Vector3d(camera->GetPosition());
+  view.perspective = !camera->GetParallelProjection();
+  return view;
+}
+
 void Studio::Impl::choosePointsInView() {
   if (coarsePoints) return;
   vtkCamera* camera = scene->GetActiveCamera();
-  const double aspect = scene->GetTiledAspectRatio();
   ViewKey key;
   camera->GetPosition(key.data());
   camera->GetFocalPoint(key.data() + 3);
   camera->GetViewUp(key.data() + 6);
   key[9] = camera->GetParallelProjection() ? camera->GetParallelScale() : camera->GetViewAngle();
   key[10] = camera->GetParallelProjection();
-  key[11] = aspect;
+  key[11] = scene->GetTiledAspectRatio();
   std::optional<ViewVolume> view;
   for (auto& [name, lod] : pointLods) {
-    if (!lod.budgeted || !layerVisible(name) || lod.chosenFor == key) continue;
-    if (!view) {
-      double planes[24];
-      camera->GetFrustumPlanes(aspect, planes);
-      view.emplace();
-      for (int side = 0; side < 4; ++side) view->planes.emplace_back(Eigen::Map<const Eigen::Vector4d>(planes + 4 * side));
-      for (const auto& [normal, offset] : pointClipPlanes()) view->planes.emplace_back(normal.x(), normal.y(), normal.z(), offset);
-      view->eye = Eigen::Map<const Eigen::Vector3d>(key.data());
-      view->perspective = !camera->GetParallelProjection();
-    }
-    const BudgetedPoints& points = *lod.budgeted;
+    if (!lod.overBudget || !layerVisible(name) || lod.chosenFor == key) continue;
+    if (!view) view = sceneViewVolume(1.0);
+    const FiledPoints& points = *lod.filed;
     lod.full = makePointSet(points.positions, points.colors,
                             firstPointsOfCells(points.cells, pointsToDraw(points.cells, &*view, pointBudget)));
     lod.chosenFor = key;
@@ -158,9 +166,9 @@ std::string Studio::Impl::pointBudgetCaption() const {
   vtkIdType drawn = 0;
   std::size_t total = 0;
   for (const auto& [name, lod] : pointLods) {
-    if (!lod.budgeted || !layerVisible(name)) continue;
+    if (!lod.overBudget || !layerVisible(name)) continue;
     drawn += lod.full->GetNumberOfPoints();
-    total += lod.budgeted->positions.size();
+    total += lod.filed->positions.size();
   }
   return total == 0 ? std::string() : "points drawn: " + std::to_string(drawn) + " of " + std::to_string(total);
 }
@@ -171,6 +179,17 @@ double Studio::Impl::shownPointSize(const vtkRenderer* renderer, double pointSiz
 }
 
 void Studio::Impl::setCoarsePoints(bool coarse) {
+  if (coarse && !coarsePoints) {
+    // What the camera may turn to while it moves: its view widened, the near points densest.
+    const ViewVolume view = sceneViewVolume(kMovingViewWidening);
+    for (auto& [name, lod] : pointLods) {
+      if (!lod.filed || !layerVisible(name)) continue;
+      const FiledPoints& points = *lod.filed;
+      lod.coarse = makePointSet(points.positions, points.colors,
+                                firstPointsOfCells(points.cells, pointsToDraw(points.cells, &view,
+                                                                              options.interactivePoints)));
+    }
+  }
   coarsePoints = coarse;
   for (auto& [name, lod] : pointLods) lod.mapper->SetInputData(coarse ? lod.coarse : lod.full);
 }
