@@ -97,7 +97,8 @@ PointCells filePointCells(const std::vector<Eigen::Vector3f>& positions, float m
                         PointCells::Cell& entry = filed.cells[c];
                         SplitMix random{entry.begin};
                         for (std::uint32_t i = entry.end - 1; i > entry.begin; --i) {
-                          const auto j = static_cast<std::uint32_t>(entry.begin + random.next() % (i - entry.begin + 1));
+                          const auto j =
+                              static_cast<std::uint32_t>(entry.begin + random.next() % (i - entry.begin + 1));
                           std::swap(filed.order[i], filed.order[j]);
                         }
                         entry.min = entry.max = positions[filed.order[entry.begin]];
@@ -133,7 +134,8 @@ std::vector<std::uint32_t> pointsToDraw(const PointCells& cells, const ViewVolum
     std::uint64_t total = 0;
     for (std::size_t c = 0; c < count; ++c) {
       const std::uint32_t size = cells.cells[c].end - cells.cells[c].begin;
-      drawn[c] = static_cast<std::uint32_t>(std::min<double>(size, std::floor(size * std::min(1.0, scale * weight[c]))));
+      const double share = std::min(1.0, scale * weight[c]);
+      drawn[c] = static_cast<std::uint32_t>(std::min<double>(size, std::floor(size * share)));
       total += drawn[c];
     }
     return total;

@@ -133,7 +133,8 @@ ViewVolume Studio::Impl::sceneViewVolume(double widening) const {
   camera->GetFrustumPlanes(scene->GetTiledAspectRatio(), planes);
   ViewVolume view;
   for (int side = 0; side < 4; ++side) view.planes.emplace_back(Eigen::Map<const Eigen::Vector4d>(planes + 4 * side));
-  for (const auto& [normal, offset] : pointClipPlanes()) view.planes.emplace_back(normal.x(), normal.y(), normal.z(), offset);
+  for (const auto& [normal, offset] : pointClipPlanes())
+    view.planes.emplace_back(normal.x(), normal.y(), normal.z(), offset);
   view.eye = Eigen::Vector3d(camera->GetPosition());
   view.perspective = !camera->GetParallelProjection();
   return view;
@@ -287,8 +288,8 @@ void Studio::Impl::buildPointLayers() {
   std::vector<Eigen::Vector3f> planePositions(planes.size());
   const Eigen::Vector3f planeShift = (planes.origin - displayOrigin).cast<float>();
   for (std::size_t i = 0; i < planes.size(); ++i) planePositions[i] = planes.positions[i] + planeShift;
-  setPointLayer("preprocess/planes", scene, std::move(planePositions), std::vector<Rgb>(planes.size(), Rgb{110, 110, 125}), 2.0,
-                false);
+  setPointLayer("preprocess/planes", scene, std::move(planePositions),
+                std::vector<Rgb>(planes.size(), Rgb{110, 110, 125}), 2.0, false);
   applyPointClip();
 }
 
