@@ -161,6 +161,7 @@ void Studio::Impl::registerCommands() {
                    shown = !shown;
                  else
                    throw CommandError("usage: layer NAME on|off|toggle");
+                 if (shown) buildDeferredLayer(args[0]);
                  layers[args[0]].prop->SetVisibility(shown);
                  updateOverlays();
                  return args[0] + (shown ? " on" : " off");

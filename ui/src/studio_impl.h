@@ -251,6 +251,12 @@ struct Studio::Impl {
   /// "points drawn: 4998311 of 99744347" when layers over the budget are shown.
   std::string pointBudgetCaption() const;
   void buildPointLayers();
+  /// A scene point layer hidden at start: built now if shown, else registered empty and built by
+  /// `build` the first time it is shown (buildDeferredLayer). A site's preprocessed and plane
+  /// points are tens of millions, mostly never looked at.
+  void setDeferredPointLayer(const std::string& name, std::function<void()> build);
+  /// Builds a layer registered by setDeferredPointLayer, if it is not built yet.
+  void buildDeferredLayer(const std::string& name);
   /// Draws the scene's point layers only inside `pointClip` (clipping planes).
   void applyPointClip();
   /// The faces of `pointClip` in display co-ordinates as (normal, offset): n.x + offset >= 0 is kept.
@@ -374,6 +380,7 @@ struct Studio::Impl {
   std::map<std::string, Layer> layers;
   std::map<std::string, bool> visibility;  ///< Kept by name across re-registration.
   std::map<std::string, PointLayerLod> pointLods;
+  std::map<std::string, std::function<void()>> deferredLayers;  ///< Hidden point layers not built yet.
   /// The point layers are drawn as their subsamples: while the camera moves, and while stages run
   /// in the background (a frame of every point, redrawn for each progress step, would take the
   /// cores from the run under software rendering).

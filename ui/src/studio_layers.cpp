@@ -58,6 +58,7 @@ void Studio::Impl::removeLayer(const std::string& name) {
   found->second.renderer->RemoveViewProp(found->second.prop);
   layers.erase(found);
   pointLods.erase(name);
+  deferredLayers.erase(name);
 }
 
 bool Studio::Impl::layerVisible(const std::string& name) const {
@@ -264,32 +265,57 @@ void Studio::Impl::buildPointLayers() {
   const PointCloud& kept = preprocessed->points;
   if (segmentCache.empty()) segmentCache = keptPointSegments();
   const Eigen::Vector3f shift = (kept.origin - displayOrigin).cast<float>();
-  std::vector<Eigen::Vector3f> positions(kept.size());
-  std::vector<Rgb> colors(kept.size());
-  for (std::size_t i = 0; i < kept.size(); ++i) {
-    positions[i] = kept.positions[i] + shift;
-    colors[i] = categoryColor(segmentCache[i]);
-  }
+  setDeferredPointLayer("preprocess/points", [this] {
+    const PointCloud& points = preprocessed->points;
+    const Eigen::Vector3f pointShift = (points.origin - displayOrigin).cast<float>();
+    std::vector<Eigen::Vector3f> positions(points.size());
+    std::vector<Rgb> colors(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      positions[i] = points.positions[i] + pointShift;
+      colors[i] = categoryColor(segmentCache[i]);
+    }
+    setPointLayer("preprocess/points", scene, std::move(positions), std::move(colors), 3.0, false);
+  });
 
   // Normal glyphs: a short line per point, for a bounded number of points.
   MeshBuilder normals;
   const double length = 3.0 * std::max(preprocessed->diagnostics.voxelSize, 0.005);
   const std::size_t stride = std::max<std::size_t>(1, kept.size() / 40000);
   for (std::size_t i = 0; i < kept.size() && kept.hasNormals(); i += stride) {
-    const Eigen::Vector3d from = positions[i].cast<double>();
-    normals.addPolyline({from, from + length * kept.normals[i].cast<double>()}, colors[i], static_cast<int>(i));
+    const Eigen::Vector3d from = (kept.positions[i] + shift).cast<double>();
+    normals.addPolyline({from, from + length * kept.normals[i].cast<double>()}, categoryColor(segmentCache[i]),
+                        static_cast<int>(i));
   }
   auto normalActor = meshActor(normals.build());
   normalActor->PickableOff();
-  setPointLayer("preprocess/points", scene, std::move(positions), std::move(colors), 3.0, false);
   setLayer("preprocess/normals", scene, normalActor, false);
 
-  const PointCloud& planes = preprocessed->planePoints;
-  std::vector<Eigen::Vector3f> planePositions(planes.size());
-  const Eigen::Vector3f planeShift = (planes.origin - displayOrigin).cast<float>();
-  for (std::size_t i = 0; i < planes.size(); ++i) planePositions[i] = planes.positions[i] + planeShift;
-  setPointLayer("preprocess/planes", scene, std::move(planePositions),
-                std::vector<Rgb>(planes.size(), Rgb{110, 110, 125}), 2.0, false);
+  setDeferredPointLayer("preprocess/planes", [this] {
+    const PointCloud& planes = preprocessed->planePoints;
+    std::vector<Eigen::Vector3f> positions(planes.size());
+    const Eigen::Vector3f planeShift = (planes.origin - displayOrigin).cast<float>();
+    for (std::size_t i = 0; i < planes.size(); ++i) positions[i] = planes.positions[i] + planeShift;
+    setPointLayer("preprocess/planes", scene, std::move(positions), std::vector<Rgb>(planes.size(), Rgb{110, 110, 125}),
+                  2.0, false);
+  });
+  applyPointClip();
+}
+
+void Studio::Impl::setDeferredPointLayer(const std::string& name, std::function<void()> build) {
+  if (visibility.count(name) && visibility[name]) {
+    build();
+    return;
+  }
+  setLayer(name, scene, vtkSmartPointer<vtkActor>::New(), false);
+  deferredLayers[name] = std::move(build);
+}
+
+void Studio::Impl::buildDeferredLayer(const std::string& name) {
+  const auto found = deferredLayers.find(name);
+  if (found == deferredLayers.end()) return;
+  const std::function<void()> build = std::move(found->second);
+  deferredLayers.erase(found);
+  build();
   applyPointClip();
 }
 
@@ -297,8 +323,8 @@ void Studio::Impl::applyPointClip() {
   for (const char* name : {"input/points", "preprocess/points", "preprocess/normals", "preprocess/planes"}) {
     const auto found = layers.find(name);
     auto* actor = found != layers.end() ? vtkActor::SafeDownCast(found->second.prop) : nullptr;
-    if (!actor) continue;
-    vtkMapper* mapper = actor->GetMapper();
+    vtkMapper* mapper = actor ? actor->GetMapper() : nullptr;
+    if (!mapper) continue;  // None, or not built yet (setDeferredPointLayer).
     mapper->RemoveAllClippingPlanes();
     for (const auto& [normal, offset] : pointClipPlanes()) {
       vtkNew<vtkPlane> plane;
