@@ -24,16 +24,7 @@ select pipe 3
 fly
 handle on
 SCRIPT
-"$studio" "$scene" --size 1200x760 --script "$work/setup.txt" >"$work/studio.log" 2>&1 &
-studio_pid=$!
-for _ in $(seq 600); do
-  grep -q "script done" "$work/studio.log" && break
-  kill -0 "$studio_pid" 2>/dev/null || { cat "$work/studio.log"; echo "the studio exited" >&2; exit 1; }
-  sleep 0.1
-done
-window=$(xdotool search --sync --name "PipeRun Studio")
-eval "$(xdotool getwindowgeometry --shell "$window")"  # X Y WIDTH HEIGHT
-sleep 1  # The script's last frame.
+open_studio "$studio" "$scene" "$work/setup.txt" "$work/studio.log"
 
 centre_of() {  # IMAGE CROP FX-CONDITION: "x y width" (screen) of the matching pixels' bounding box centre
   local crop_x=${2#*+} box

@@ -20,17 +20,7 @@ layer network/joints off
 layer network/rejected-joints off
 view scene
 SCRIPT
-"$studio" "$work/scene.ply" --size 1200x760 --script "$work/setup.txt" >"$work/studio.log" 2>&1 &
-studio_pid=$!
-for _ in $(seq 1200); do
-  grep -q "script done" "$work/studio.log" && break
-  kill -0 "$studio_pid" 2>/dev/null || { cat "$work/studio.log"; echo "the studio exited" >&2; exit 1; }
-  sleep 0.1
-done
-grep -q "script done" "$work/studio.log" || { cat "$work/studio.log"; echo "timed out" >&2; exit 1; }
-window=$(xdotool search --sync --name "PipeRun Studio")
-eval "$(xdotool getwindowgeometry --shell "$window")"  # X Y WIDTH HEIGHT
-sleep 1
+open_studio "$studio" "$work/scene.ply" "$work/setup.txt" "$work/studio.log"
 
 centre_x=$((X + WIDTH / 2)) centre_y=$((Y + (HEIGHT - 54) / 2))
 xdotool mousemove "$centre_x" "$centre_y"

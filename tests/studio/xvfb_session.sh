@@ -1,5 +1,7 @@
 # Sourced by the real-window tests: start_xvfb WORK_DIR starts Xvfb on a free display (1280x860),
-# exports DISPLAY, and kills it and the studio ($studio_pid, once set) when the test exits.
+# exports DISPLAY, and kills it and the studio ($studio_pid, once set) when the test exits;
+# wait_for_script LOG waits for the studio's "script done" line; open_studio starts the studio on a
+# scan with a script and waits for it.
 xvfb_pid="" studio_pid=""
 cleanup() {
   [[ -n "$studio_pid" ]] && kill "$studio_pid" 2>/dev/null || true
@@ -19,4 +21,25 @@ start_xvfb() {
   done
   [[ "$display" =~ ^[0-9]+$ ]] || { cat "$work/xvfb.log"; echo "Xvfb did not start" >&2; exit 1; }
   export DISPLAY=":$display"
+}
+
+wait_for_script() {  # LOG: until the studio ($studio_pid) logs "script done" (at most 2 minutes)
+  local log=$1
+  for _ in $(seq 1200); do
+    grep -q "script done" "$log" && return 0
+    kill -0 "$studio_pid" 2>/dev/null || { cat "$log"; echo "the studio exited" >&2; exit 1; }
+    sleep 0.1
+  done
+  cat "$log"
+  echo "timed out waiting for the studio's script" >&2
+  exit 1
+}
+
+open_studio() {  # STUDIO SCAN SCRIPT LOG: a 1200x760 window running SCRIPT; sets window, X Y WIDTH HEIGHT
+  "$1" "$2" --size 1200x760 --script "$3" >"$4" 2>&1 &
+  studio_pid=$!
+  wait_for_script "$4"
+  window=$(xdotool search --sync --name "PipeRun Studio")
+  eval "$(xdotool getwindowgeometry --shell "$window")"
+  sleep 1  # The script's last frame.
 }
