@@ -768,7 +768,7 @@ std::string Studio::Impl::setPointBudget(const std::string& word) {
   buildPointLayers();
   updateOverlays();
   return word == "all" ? std::string("scene layers draw every point when still")
-                       : "scene layers draw at most " + word + " points when still";
+                       : "scene layers draw at most " + std::to_string(pointBudget) + " points when still";
 }
 
 }  // namespace piperun::ui

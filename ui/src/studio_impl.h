@@ -232,7 +232,7 @@ struct Studio::Impl {
   void removeLayer(const std::string& name);
   bool layerVisible(const std::string& name) const;
   /// Draws every point layer whole or as its subsample (coarsePoints). Going coarse, the scene's
-  /// filed layers take the subsample the camera's view asks for (chooseMovingPoints).
+  /// filed layers take the subsample of the camera's view widened by kMovingViewWidening.
   void setCoarsePoints(bool coarse);
   /// The scene's view for choosing points (pointsToDraw): the sides of the camera's frustum with its
   /// view angle (or parallel scale) times `widening`, the clip's faces, the eye.
