@@ -150,9 +150,13 @@ struct Selection {
 /// (pointsToDraw): the subsample drawn while the camera moves, and, over the point budget, the
 /// points drawn when it is still.
 struct FiledPoints {
-  std::vector<Eigen::Vector3f> positions;
+  /// The scan itself when the layer draws its points where they lie (the input points: the display
+  /// origin is the scan's origin), so that a site's positions are not held twice; else null.
+  std::shared_ptr<const PointCloud> source;
+  std::vector<Eigen::Vector3f> positions;  ///< The layer's own positions when there is no source.
   std::vector<Rgb> colors;
   PointCells cells;
+  const std::vector<Eigen::Vector3f>& points() const { return source ? source->positions : positions; }
 };
 
 /// A camera's position, focal point, view-up, angle, parallel scale and projection, and the view's
@@ -240,9 +244,11 @@ struct Studio::Impl {
   /// A points layer's size on screen: the 3-D scene's grow and shrink with scenePointSize.
   double shownPointSize(const vtkRenderer* renderer, double pointSize) const;
   /// A points layer that shows a subsample while the camera moves; in the scene, over `pointBudget`
-  /// points, those its view asks for when still.
+  /// points, those its view asks for when still. Its points are `positions`, or with a `source`
+  /// (`positions` empty) that cloud's, drawn where they lie.
   void setPointLayer(const std::string& name, vtkRenderer* renderer, std::vector<Eigen::Vector3f> positions,
-                     std::vector<Rgb> colors, double pointSize, bool defaultVisible);
+                     std::vector<Rgb> colors, double pointSize, bool defaultVisible,
+                     std::shared_ptr<const PointCloud> source = nullptr);
   /// Before the scene is drawn still: the layers over the budget shown take the points of the
   /// camera's view, when it changed since they were chosen.
   void choosePointsInView();

@@ -84,32 +84,36 @@ std::vector<std::uint32_t> firstPointsOfCells(const PointCells& cells, const std
 }  // namespace
 
 void Studio::Impl::setPointLayer(const std::string& name, vtkRenderer* renderer, std::vector<Eigen::Vector3f> positions,
-                                 std::vector<Rgb> colors, double pointSize, bool defaultVisible) {
+                                 std::vector<Rgb> colors, double pointSize, bool defaultVisible,
+                                 std::shared_ptr<const PointCloud> source) {
   // The 3-D scene gets the interactive budget; the sphere and plane views, redrawn with it, an eighth each.
   const std::size_t budget =
       std::max<std::size_t>(1, renderer == scene ? options.interactivePoints : options.interactivePoints / 8);
   PointLayerLod lod;
   lod.pointSize = pointSize;
-  if (renderer == scene && positions.size() > budget) {
+  const std::vector<Eigen::Vector3f>& points = source ? source->positions : positions;
+  if (renderer == scene && points.size() > budget) {
     std::shared_ptr<FiledPoints> filed;
-    if (const auto old = pointLods.find(name);
-        old != pointLods.end() && old->second.filed && old->second.filed->positions == positions) {
+    const auto old = pointLods.find(name);
+    if (old != pointLods.end() && old->second.filed && old->second.filed->source == source &&
+        (source || old->second.filed->positions == positions)) {
       filed = old->second.filed;  // The same points in other colours: filed already.
     } else {
       filed = std::make_shared<FiledPoints>();
-      filed->cells = filePointCells(positions);
+      filed->cells = filePointCells(points);
+      filed->source = std::move(source);
       filed->positions = std::move(positions);
     }
     filed->colors = std::move(colors);
     // Until the camera's view chooses: the same share of every cell.
-    lod.coarse = makePointSet(filed->positions, filed->colors,
+    lod.coarse = makePointSet(filed->points(), filed->colors,
                               firstPointsOfCells(filed->cells, pointsToDraw(filed->cells, nullptr, budget)));
-    lod.overBudget = filed->positions.size() > pointBudget;
-    lod.full = lod.overBudget ? lod.coarse : makePointSet(filed->positions, filed->colors);
+    lod.overBudget = filed->points().size() > pointBudget;
+    lod.full = lod.overBudget ? lod.coarse : makePointSet(filed->points(), filed->colors);
     lod.filed = std::move(filed);
   } else {
-    lod.full = makePointSet(positions, colors);
-    const std::size_t stride = std::max<std::size_t>(1, (positions.size() + budget - 1) / budget);
+    lod.full = makePointSet(points, colors);
+    const std::size_t stride = std::max<std::size_t>(1, (points.size() + budget - 1) / budget);
     lod.coarse = stride > 1 ? subsamplePointSet(lod.full, stride) : lod.full;
   }
   lod.mapper = vtkSmartPointer<vtkPolyDataMapper>::New();
@@ -155,9 +159,9 @@ void Studio::Impl::choosePointsInView() {
   for (auto& [name, lod] : pointLods) {
     if (!lod.overBudget || !layerVisible(name) || lod.chosenFor == key) continue;
     if (!view) view = sceneViewVolume(1.0);
-    const FiledPoints& points = *lod.filed;
-    lod.full = makePointSet(points.positions, points.colors,
-                            firstPointsOfCells(points.cells, pointsToDraw(points.cells, &*view, pointBudget)));
+    const FiledPoints& filed = *lod.filed;
+    lod.full = makePointSet(filed.points(), filed.colors,
+                            firstPointsOfCells(filed.cells, pointsToDraw(filed.cells, &*view, pointBudget)));
     lod.chosenFor = key;
     lod.mapper->SetInputData(lod.full);
   }
@@ -170,7 +174,7 @@ std::string Studio::Impl::pointBudgetCaption() const {
   for (const auto& [name, lod] : pointLods) {
     if (!lod.overBudget || !layerVisible(name)) continue;
     drawn += lod.full->GetNumberOfPoints();
-    total += lod.filed->positions.size();
+    total += lod.filed->points().size();
   }
   return total == 0 ? std::string() : "points drawn: " + std::to_string(drawn) + " of " + std::to_string(total);
 }
@@ -186,10 +190,10 @@ void Studio::Impl::setCoarsePoints(bool coarse) {
     const ViewVolume view = sceneViewVolume(kMovingViewWidening);
     for (auto& [name, lod] : pointLods) {
       if (!lod.filed || !layerVisible(name)) continue;
-      const FiledPoints& points = *lod.filed;
-      lod.coarse = makePointSet(points.positions, points.colors,
-                                firstPointsOfCells(points.cells, pointsToDraw(points.cells, &view,
-                                                                              options.interactivePoints)));
+      const FiledPoints& filed = *lod.filed;
+      lod.coarse = makePointSet(filed.points(), filed.colors,
+                                firstPointsOfCells(filed.cells, pointsToDraw(filed.cells, &view,
+                                                                             options.interactivePoints)));
     }
   }
   coarsePoints = coarse;
@@ -236,23 +240,23 @@ std::vector<Rgb> Studio::Impl::inputPointColors() {
 }
 
 void Studio::Impl::buildPointLayers() {
-  if (document.input()) {
-    const PointCloud& cloud = *document.input();
-    std::vector<Eigen::Vector3f> positions(cloud.size());
-    const Eigen::Vector3f shift = (cloud.origin - displayOrigin).cast<float>();
-    for (std::size_t i = 0; i < cloud.size(); ++i) positions[i] = cloud.positions[i] + shift;
+  if (const std::shared_ptr<const PointCloud> input = document.input()) {
+    // The display origin is the scan's: its points are drawn where they lie, from its own positions.
     std::vector<Rgb> colors = inputPointColors();
     if (straysHidden) {
+      std::vector<Eigen::Vector3f> positions;
+      positions.reserve(input->size());
       std::size_t kept = 0;
-      for (std::size_t i = 0; i < cloud.size(); ++i) {
+      for (std::size_t i = 0; i < input->size(); ++i) {
         if (strays[i]) continue;
-        positions[kept] = positions[i];
+        positions.push_back(input->positions[i]);
         colors[kept++] = colors[i];
       }
-      positions.resize(kept);
       colors.resize(kept);
+      setPointLayer("input/points", scene, std::move(positions), std::move(colors), 2.0, true);
+    } else {
+      setPointLayer("input/points", scene, {}, std::move(colors), 2.0, true, input);
     }
-    setPointLayer("input/points", scene, std::move(positions), std::move(colors), 2.0, true);
   } else {
     removeLayer("input/points");
   }
