@@ -173,6 +173,28 @@ TEST(PointsToDraw, EveryPointInViewWhenTheyFit) {
   EXPECT_EQ(sum(counts), 100000u);
 }
 
+TEST(PointsToDraw, EveryPointInViewAndNoOtherWhenTheyFit) {
+  // The eye in the middle of the cube looking along +x: about a quarter of it in view, under the budget.
+  const std::vector<Eigen::Vector3f> points = randomPoints(100000, 20.0f);
+  const PointCells filed = filePointCells(points);
+  const ViewVolume view = lookingAlongX({10.0, 10.0, 10.0});
+  const std::vector<std::uint32_t> counts = pointsToDraw(filed, &view, 60000);
+  std::size_t inView = 0;
+  for (std::size_t c = 0; c < counts.size(); ++c) {
+    const bool outside = std::any_of(view.planes.begin(), view.planes.end(), [&](const Eigen::Vector4d& plane) {
+      Eigen::Vector3d corner;
+      for (int axis = 0; axis < 3; ++axis)
+        corner[axis] = plane[axis] >= 0.0 ? filed.cells[c].max[axis] : filed.cells[c].min[axis];
+      return plane.head<3>().dot(corner) + plane[3] < 0.0;
+    });
+    EXPECT_EQ(counts[c], outside ? 0u : size(filed.cells[c])) << "cell " << c;
+    if (!outside) inView += size(filed.cells[c]);
+  }
+  EXPECT_GT(inView, 10000u);
+  EXPECT_LT(inView, 60000u);
+  EXPECT_EQ(sum(counts), inView);
+}
+
 TEST(PointsToDraw, NothingFiledNothingDrawn) {
   const PointCells filed = filePointCells({});
   EXPECT_TRUE(filed.cells.empty());

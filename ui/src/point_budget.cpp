@@ -134,7 +134,7 @@ std::vector<std::uint32_t> pointsToDraw(const PointCells& cells, const ViewVolum
     std::uint64_t total = 0;
     for (std::size_t c = 0; c < count; ++c) {
       const std::uint32_t size = cells.cells[c].end - cells.cells[c].begin;
-      const double share = std::min(1.0, scale * weight[c]);
+      const double share = weight[c] > 0.0 ? std::min(1.0, scale * weight[c]) : 0.0;  // Out of view: none.
       drawn[c] = static_cast<std::uint32_t>(std::min<double>(size, std::floor(size * share)));
       total += drawn[c];
     }
