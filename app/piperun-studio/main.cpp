@@ -174,8 +174,8 @@ int main(int argc, char** argv) {
                                            "the screen's work area)");
   long long pointBudget = static_cast<long long>(piperun::ui::StudioOptions{}.pointBudget);
   app.add_option("--point-budget", pointBudget,
-                 "Most points a layer of the 3-D scene draws when the camera is still; a larger one draws those in "
-                 "view, the near ones densest (the points budget command changes it)")
+                 "Most points the 3-D scene's point layers draw when the camera is still; over it they draw "
+                 "those in view, the near ones densest (the points budget command changes it)")
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   if (pointBudget < 1) {

@@ -61,6 +61,20 @@ if ! grep -Eq "points drawn: (9[0-9]{5}|1000000) of 4[0-9]{6}$" "$work/dense.txt
   echo "FAIL: the dense scan's title does not count the points drawn: $(head -2 "$work/dense.txt")" >&2
   failures=$((failures + 1))
 fi
+# The shown layers share the budget: the scan's 299,897 points and the plane points together are
+# over 300,000 (the title counts both layers), the scan alone is not (every point, no count).
+expect 0 "^preprocess/planes on" "$scene" "points budget 300000\nlayer preprocess/planes on" --text "$work/shared.txt"
+drawn=$(sed -nE 's/.*points drawn: ([0-9]+) of ([0-9]+)$/\1 \2/p' "$work/shared.txt")
+if ! awk -v counts="$drawn" 'BEGIN { split(counts, c, " "); exit !(c[1] <= 300000 && c[1] > 290000 && c[2] > 299897) }'; then
+  echo "FAIL: two shown layers do not share the budget: $(head -2 "$work/shared.txt")" >&2
+  failures=$((failures + 1))
+fi
+expect 0 "^preprocess/planes off" "$scene" "points budget 300000\nlayer preprocess/planes on\nlayer preprocess/planes off" \
+  --text "$work/alone.txt"
+if grep -q "points drawn" "$work/alone.txt"; then
+  echo "FAIL: the scan alone within the budget still counts its points drawn: $(head -2 "$work/alone.txt")" >&2
+  failures=$((failures + 1))
+fi
 
 # The generated scene has four tiles, whose first directions are 0, 7, 14 and 20 (26 is the last).
 expect 0 "^selected direction 26 \(tile 3\)" "$scene" "select direction 26"

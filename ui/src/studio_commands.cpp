@@ -185,9 +185,9 @@ void Studio::Impl::registerCommands() {
 
   commands.add("points", "size PX|larger|smaller | strays hide|show|toggle | budget N|all",
                "the size of the 3-D scene's points in pixels, 1 to 10 (2 at start; the preprocessed points one more); "
-               "hide or show the scan's stray points (scattered through the air); the most points a scene layer "
-               "draws when the camera is still (5000000 at start; a larger layer draws those in view, the near ones "
-               "densest)",
+               "hide or show the scan's stray points (scattered through the air); the most points the scene's layers "
+               "draw together when the camera is still (5000000 at start; over it they draw those in view, the near "
+               "ones densest)",
                [this](const std::vector<std::string>& args) {
                  const char* usage = "points size PX|larger|smaller | strays hide|show|toggle | budget N|all";
                  expectArguments(args, 2, 2, usage);

@@ -168,13 +168,15 @@ using ViewKey = std::array<double, 12>;
 struct PointLayerLod {
   double pointSize = 1.0;  ///< Pixels (screen units), as the layer asks; the scene's follow scenePointSize.
   vtkSmartPointer<vtkPolyDataMapper> mapper;
-  vtkSmartPointer<vtkPolyData> full;    ///< Drawn when still: every point, or the points in view (overBudget).
+  vtkSmartPointer<vtkPolyData> full;    ///< Drawn when still: every point, or those chosen by view (chosenBudget).
   vtkSmartPointer<vtkPolyData> coarse;  ///< Drawn while the camera moves.
   /// Scene layers of more points than the moving subsample; null for the others. Rebuilding the
   /// layer with the same points (another colour mode) takes their filing over.
   std::shared_ptr<FiledPoints> filed;
-  bool overBudget = false;            ///< More points than pointBudget: `full` holds those in view.
-  std::optional<ViewKey> chosenFor;   ///< The view `full` was chosen for (overBudget).
+  /// The layer's share of pointBudget that `full` was chosen for by view (the shown layers share
+  /// it when they have more points together); 0: `full` holds every point.
+  std::size_t chosenBudget = 0;
+  std::optional<ViewKey> chosenFor;  ///< The view `full` was chosen for (chosenBudget > 0).
 };
 
 struct Layer {
@@ -249,12 +251,13 @@ struct Studio::Impl {
   void setPointLayer(const std::string& name, vtkRenderer* renderer, std::vector<Eigen::Vector3f> positions,
                      std::vector<Rgb> colors, double pointSize, bool defaultVisible,
                      std::shared_ptr<const PointCloud> source = nullptr);
-  /// Before the scene is drawn still: the layers over the budget shown take the points of the
-  /// camera's view, when it changed since they were chosen.
+  /// Before the scene is drawn still: when the shown filed layers have more points together than
+  /// the budget, each takes its share of it (in proportion to its points) from the camera's view,
+  /// when the view or the share changed since; else every point.
   void choosePointsInView();
   /// `points budget N|all`: rebuilds the scene's point layers for the new budget; returns the message.
   std::string setPointBudget(const std::string& word);
-  /// "points drawn: 4998311 of 99744347" when layers over the budget are shown.
+  /// "points drawn: 4998311 of 99744347" when shown layers draw their share of the budget.
   std::string pointBudgetCaption() const;
   void buildPointLayers();
   /// A scene point layer hidden at start: built now if shown, else registered empty and built by

@@ -108,8 +108,9 @@ void Studio::Impl::setPointLayer(const std::string& name, vtkRenderer* renderer,
     // Until the camera's view chooses: the same share of every cell.
     lod.coarse = makePointSet(filed->points(), filed->colors,
                               firstPointsOfCells(filed->cells, pointsToDraw(filed->cells, nullptr, budget)));
-    lod.overBudget = filed->points().size() > pointBudget;
-    lod.full = lod.overBudget ? lod.coarse : makePointSet(filed->points(), filed->colors);
+    // Over the budget alone: drawn as the subsample until the first still frame chooses its points.
+    lod.chosenBudget = filed->points().size() > pointBudget ? pointBudget : 0;
+    lod.full = lod.chosenBudget > 0 ? lod.coarse : makePointSet(filed->points(), filed->colors);
     lod.filed = std::move(filed);
   } else {
     lod.full = makePointSet(points, colors);
@@ -155,24 +156,40 @@ void Studio::Impl::choosePointsInView() {
   key[9] = camera->GetParallelProjection() ? camera->GetParallelScale() : camera->GetViewAngle();
   key[10] = camera->GetParallelProjection();
   key[11] = scene->GetTiledAspectRatio();
+  // The shown layers share the budget in proportion to their points.
+  std::size_t shown = 0;
+  for (const auto& [name, lod] : pointLods)
+    if (lod.filed && layerVisible(name)) shown += lod.filed->points().size();
   std::optional<ViewVolume> view;
+  bool changed = false;
   for (auto& [name, lod] : pointLods) {
-    if (!lod.overBudget || !layerVisible(name) || lod.chosenFor == key) continue;
-    if (!view) view = sceneViewVolume(1.0);
+    if (!lod.filed || !layerVisible(name)) continue;
     const FiledPoints& filed = *lod.filed;
-    lod.full = makePointSet(filed.points(), filed.colors,
-                            firstPointsOfCells(filed.cells, pointsToDraw(filed.cells, &*view, pointBudget)));
+    if (shown <= pointBudget) {
+      if (lod.chosenBudget == 0) continue;
+      lod.full = makePointSet(filed.points(), filed.colors);  // Every point again.
+      lod.chosenBudget = 0;
+    } else {
+      const auto share = std::max<std::size_t>(
+          1, static_cast<std::size_t>(static_cast<double>(pointBudget) * filed.points().size() / shown));
+      if (lod.chosenFor == key && lod.chosenBudget == share) continue;
+      if (!view) view = sceneViewVolume(1.0);
+      lod.full = makePointSet(filed.points(), filed.colors,
+                              firstPointsOfCells(filed.cells, pointsToDraw(filed.cells, &*view, share)));
+      lod.chosenBudget = share;
+    }
     lod.chosenFor = key;
     lod.mapper->SetInputData(lod.full);
+    changed = true;
   }
-  if (view) sceneTitle->SetInput(sceneCaption().c_str());
+  if (changed) sceneTitle->SetInput(sceneCaption().c_str());
 }
 
 std::string Studio::Impl::pointBudgetCaption() const {
   vtkIdType drawn = 0;
   std::size_t total = 0;
   for (const auto& [name, lod] : pointLods) {
-    if (!lod.overBudget || !layerVisible(name)) continue;
+    if (lod.chosenBudget == 0 || !layerVisible(name)) continue;
     drawn += lod.full->GetNumberOfPoints();
     total += lod.filed->points().size();
   }

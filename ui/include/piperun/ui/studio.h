@@ -26,8 +26,8 @@ struct StudioOptions {
   double uiScale = 1.0;
   /// Points drawn while the camera moves; the whole cloud is drawn when it stops.
   std::size_t interactivePoints = 120000;
-  /// The most points a layer of the 3-D scene draws when the camera is still: a larger layer draws
-  /// those in view, the near ones densest (`points budget` changes it).
+  /// The most points the 3-D scene's point layers draw together when the camera is still: over it,
+  /// each draws its share of the points in view, the near ones densest (`points budget` changes it).
   std::size_t pointBudget = 5'000'000;
   /// Autosave the project after this many edits (undo and redo count); 0: never.
   int autosaveEdits = 5;
