@@ -50,13 +50,14 @@ void Studio::Impl::registerCommands() {
       [this](const std::vector<std::string>& args) {
         const char* usage = "select pipe ID [ID2] | joint ID | direction|tile N|next|previous | none";
         expectArguments(args, 1, 3, usage);
+        const bool directionSelected = args[0] == "direction" || args[0] == "tile";
         bool directionChanged = false;
         if (args[0] == "none") {
           selection = {};
         } else {
           expectArguments(args, 2, args[0] == "pipe" ? 3 : 2, usage);
           const int directionCount = static_cast<int>(directions.size());
-          const bool step = (args[0] == "direction" || args[0] == "tile") && (args[1] == "next" || args[1] == "previous");
+          const bool step = directionSelected && (args[1] == "next" || args[1] == "previous");
           if (step && directionCount == 0) throw CommandError("no directions yet: run the directions stage");
           const int id = args[0] == "tile"   ? directionOfTile(args[1])
                          : !step             ? parseInt(args[1], "the id")
@@ -81,7 +82,7 @@ void Studio::Impl::registerCommands() {
           } else if (args[0] == "joint") {
             if (!document.network().findJoint(id)) throw CommandError("no joint " + args[1]);
             selection = {Selection::Kind::Joint, id};
-          } else if (args[0] == "direction" || args[0] == "tile") {
+          } else if (directionSelected) {
             if (id < 0 || id >= static_cast<int>(directions.size()))
               throw CommandError("no direction " + args[1] + " (there are " + std::to_string(directions.size()) + ")");
             selectedDirection = id;
@@ -92,7 +93,6 @@ void Studio::Impl::registerCommands() {
         }
         buildSelectionLayer();
         buildPlaneLayers();
-        const bool directionSelected = args[0] == "direction" || args[0] == "tile";
         if (directionSelected || directionChanged) resetPlaneCamera();
         updateOverlays();
         if (args[0] == "none") return std::string("selection cleared");
@@ -765,8 +765,7 @@ std::string Studio::Impl::setPointBudget(const std::string& word) {
     if (budget < 1) throw CommandError("the point budget is at least 1 point");
     pointBudget = static_cast<std::size_t>(budget);
   }
-  buildPointLayers();
-  updateOverlays();
+  updateOverlays();  // The next still frame takes the shares of the new budget (choosePointsInView).
   return word == "all" ? std::string("scene layers draw every point when still")
                        : "scene layers draw at most " + std::to_string(pointBudget) + " points when still";
 }

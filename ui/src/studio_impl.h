@@ -255,7 +255,7 @@ struct Studio::Impl {
   /// the budget, each takes its share of it (in proportion to its points) from the camera's view,
   /// when the view or the share changed since; else every point.
   void choosePointsInView();
-  /// `points budget N|all`: rebuilds the scene's point layers for the new budget; returns the message.
+  /// `points budget N|all`: the budget the next still frame shares out; returns the message.
   std::string setPointBudget(const std::string& word);
   /// "points drawn: 4998311 of 99744347" when shown layers draw their share of the budget.
   std::string pointBudgetCaption() const;
