@@ -80,23 +80,6 @@ vtkSmartPointer<vtkPolyData> makePointSet(const std::vector<Eigen::Vector3f>& po
                   [&](vtkIdType i) { return static_cast<std::size_t>(indices[static_cast<std::size_t>(i)]); });
 }
 
-vtkSmartPointer<vtkPolyData> subsamplePointSet(vtkPolyData* points, std::size_t stride) {
-  const vtkIdType count = points->GetNumberOfPoints();
-  std::vector<Eigen::Vector3f> positions;
-  std::vector<Rgb> colors;
-  auto* scalars = vtkUnsignedCharArray::SafeDownCast(points->GetPointData()->GetScalars());
-  for (vtkIdType i = 0; i < count; i += static_cast<vtkIdType>(stride)) {
-    double p[3];
-    points->GetPoint(i, p);
-    positions.emplace_back(static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2]));
-    if (scalars) {
-      const unsigned char* c = scalars->GetPointer(3 * i);
-      colors.push_back({c[0], c[1], c[2]});
-    }
-  }
-  return makePointSet(positions, colors);
-}
-
 MeshBuilder::MeshBuilder()
     : points_(vtkSmartPointer<vtkPoints>::New()),
       triangles_(vtkSmartPointer<vtkCellArray>::New()),

@@ -30,8 +30,6 @@ vtkSmartPointer<vtkPolyData> makePointSet(const std::vector<Eigen::Vector3f>& po
 vtkSmartPointer<vtkPolyData> makePointSet(const std::vector<Eigen::Vector3f>& positions, const std::vector<Rgb>& colors,
                                           const std::vector<std::uint32_t>& indices);
 
-/// Every `stride`-th point of a point set made by makePointSet (colours kept).
-vtkSmartPointer<vtkPolyData> subsamplePointSet(vtkPolyData* points, std::size_t stride);
 
 /// Triangles, lines and their per-cell colour and element id, filled piece by piece.
 class MeshBuilder {

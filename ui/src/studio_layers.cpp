@@ -115,7 +115,10 @@ void Studio::Impl::setPointLayer(const std::string& name, vtkRenderer* renderer,
   } else {
     lod.full = makePointSet(points, colors);
     const std::size_t stride = std::max<std::size_t>(1, (points.size() + budget - 1) / budget);
-    lod.coarse = stride > 1 ? subsamplePointSet(lod.full, stride) : lod.full;
+    std::vector<std::uint32_t> everyStride;
+    for (std::size_t i = 0; stride > 1 && i < points.size(); i += stride)
+      everyStride.push_back(static_cast<std::uint32_t>(i));
+    lod.coarse = stride > 1 ? makePointSet(points, colors, everyStride) : lod.full;
   }
   lod.mapper = vtkSmartPointer<vtkPolyDataMapper>::New();
   lod.mapper->SetInputData(coarsePoints ? lod.coarse : lod.full);
