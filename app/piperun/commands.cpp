@@ -501,8 +501,9 @@ int runReconstruct(const ReconstructOptions& options) {
               "%zu kept, %zu tiles  [%.2f s]\n",
               d.afterVoxel, d.voxelSize * 1000.0, d.outliersRemoved, d.planePoints, d.planes, d.keptPoints, prepared.tiles.size(),
               pipeline.stageSeconds(Stage::Preprocess));
-  std::printf("  steps: voxel grid %.2f s, neighbours %.2f s, outliers and normals %.2f s, planes %.2f s, tiles %.2f s\n",
-              d.voxelSeconds, d.neighborSeconds, d.normalSeconds, d.planeSeconds, d.tileSeconds);
+  std::printf("  steps: voxel grid %.2f s, outliers %.2f s, normals %.2f s%s, planes %.2f s, tiles %.2f s\n",
+              d.voxelSeconds, d.outlierSeconds, d.normalSeconds,
+              d.neighborSearches == 2 ? " (a second neighbour search)" : "", d.planeSeconds, d.tileSeconds);
   std::printf("directions: %zu over all tiles and rounds  [%.2f s]\n", directions,
               pipeline.stageSeconds(Stage::Directions));
   std::printf("placement: %zu cylinders  [%.2f s]\n", cylinders, pipeline.stageSeconds(Stage::Placement));

@@ -261,11 +261,10 @@ struct Unsettled {
   double kth = 0.0;     ///< ...the k-th of them this far away: the true k-th is no farther.
 };
 
-/// Searches point i's neighbours among the loaded block. Writes its list and returns nothing when
+/// Searches point i's neighbours among the loaded block. Visits its list and returns nothing when
 /// the k-th is nearer than `clearance`; otherwise returns what it found.
 std::optional<Unsettled> trySettle(std::uint32_t i, const Eigen::Vector3f& q, const CellGrid& grid, Scratch& s,
-                                   double clearance, NeighborLists& lists) {
-  const auto k = static_cast<std::size_t>(lists.k);
+                                   double clearance, std::size_t k, const NeighborVisitor& visit) {
   const std::size_t count = s.block.count;
   if (count < k + 1) return Unsettled{};  // the point itself is among the candidates
   s.squared.resize(count);
@@ -346,13 +345,7 @@ std::optional<Unsettled> trySettle(std::uint32_t i, const Eigen::Vector3f& q, co
   const float kth = s.rankedSquared[k - 1];
   s.guess = kth;
   if (static_cast<double>(kth) > clearance * clearance) return Unsettled{true, std::sqrt(static_cast<double>(kth))};
-  std::uint32_t* out = &lists.indices[i * k];
-  float distanceSum = 0.0f;
-  for (std::size_t j = 0; j < k; ++j) {
-    out[j] = s.rankedPoint[j];
-    if (j < static_cast<std::size_t>(lists.meanOf)) distanceSum += std::sqrt(s.rankedSquared[j]);
-  }
-  if (lists.meanOf > 0) lists.meanDistance[i] = distanceSum / static_cast<float>(lists.meanOf);
+  visit(i, s.rankedPoint.data(), s.rankedSquared.data());
   return std::nullopt;
 }
 
@@ -361,7 +354,7 @@ std::optional<Unsettled> trySettle(std::uint32_t i, const Eigen::Vector3f& q, co
 /// so far reaches past the faces (then it settles there), or doubled where a point found fewer than
 /// k. Appends the points whose block would grow past kMaxBlockCells to `unsettled`.
 void settleCell(const CellGrid& grid, const Cube& centre, const std::uint32_t* first, const std::uint32_t* last,
-                const std::vector<Eigen::Vector3f>& positions, Scratch& s, NeighborLists& lists,
+                const std::vector<Eigen::Vector3f>& positions, Scratch& s, std::size_t k, const NeighborVisitor& visit,
                 std::vector<std::uint32_t>& unsettled) {
   std::vector<std::uint32_t>& points = s.open;
   points.assign(first, last);
@@ -377,7 +370,7 @@ void settleCell(const CellGrid& grid, const Cube& centre, const std::uint32_t* f
     std::size_t open = 0;
     for (const std::uint32_t i : points) {
       const Eigen::Vector3f& q = positions[i];
-      const std::optional<Unsettled> result = trySettle(i, q, grid, s, grid.clearance(q, from, to), lists);
+      const std::optional<Unsettled> result = trySettle(i, q, grid, s, grid.clearance(q, from, to), k, visit);
       if (!result) continue;
       if (result->enough) {
         // Grow each side the sphere of the k-th found crosses, by the cells it crosses into.
@@ -398,20 +391,20 @@ void settleCell(const CellGrid& grid, const Cube& centre, const std::uint32_t* f
 
 }  // namespace
 
-NeighborLists findNearestNeighbors(const std::vector<Eigen::Vector3f>& positions, int k, int meanOf, double spacing,
-                                   Progress& progress, const char* task, double progressFrom, double progressTo) {
+int neighborListSize(std::size_t points, int k) {
+  return points < 2 ? 0 : static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(std::max(k, 0)), points - 1));
+}
+
+void visitNearestNeighbors(const std::vector<Eigen::Vector3f>& positions, int k, double spacing, Progress& progress,
+                           const char* task, double progressFrom, double progressTo, const NeighborVisitor& visit) {
   const std::size_t n = positions.size();
-  NeighborLists lists;
-  if (n < 2 || k <= 0) return lists;
+  const auto listSize = static_cast<std::size_t>(neighborListSize(n, k));
+  if (listSize == 0) return;
   const auto [bounds, finite] = finiteBounds(positions);
   // A non-finite point is at no distance from anything: its search would never settle.
-  if (finite != n) throw std::invalid_argument("findNearestNeighbors: every position must be finite");
-  lists.k = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(k), n - 1));
-  lists.meanOf = std::clamp(meanOf, 0, lists.k);
-  lists.indices.resize(n * static_cast<std::size_t>(lists.k));
-  if (lists.meanOf > 0) lists.meanDistance.resize(n);
+  if (finite != n) throw std::invalid_argument("visitNearestNeighbors: every position must be finite");
 
-  const double neighborRadius = spacing * std::sqrt(static_cast<double>(lists.k) / kPi);
+  const double neighborRadius = spacing * std::sqrt(static_cast<double>(listSize) / kPi);
   double edge = kEdgePerNeighborRadius * neighborRadius;
 
   // Level by level: the points a level leaves open (sparse regions, outliers) go to wider cells.
@@ -443,7 +436,7 @@ NeighborLists findNearestNeighbors(const std::vector<Eigen::Vector3f>& positions
       const std::size_t lastCell = std::min(cells, (chunk + 1) * kCellsPerChunk);
       for (std::size_t c = chunk * kCellsPerChunk; c < lastCell; ++c) {
         settleCell(grid, grid.cubeOfKey(keys[c]), points.data() + begins[c], points.data() + begins[c + 1], positions,
-                   scratch, lists, openPerChunk[chunk]);
+                   scratch, listSize, visit, openPerChunk[chunk]);
       }
       const std::size_t done = begins[lastCell] - begins[chunk * kCellsPerChunk] - openPerChunk[chunk].size();
       const std::size_t total = settled.fetch_add(done) + done;
@@ -452,7 +445,6 @@ NeighborLists findNearestNeighbors(const std::vector<Eigen::Vector3f>& positions
     open.clear();
     for (const auto& part : openPerChunk) open.insert(open.end(), part.begin(), part.end());
   }
-  return lists;
 }
 
 }  // namespace piperun

@@ -32,6 +32,36 @@ std::vector<std::uint32_t> bruteForceLists(const std::vector<Eigen::Vector3f>& p
   return lists;
 }
 
+/// Every point's list as visited, k per point in point order, with their squared distances.
+struct VisitedLists {
+  int k = 0;
+  std::vector<std::uint32_t> indices;
+  std::vector<float> squaredDistances;
+  std::vector<int> visits;  ///< Times each point was visited.
+};
+
+VisitedLists visitAll(const std::vector<Eigen::Vector3f>& points, int k, double spacing, Progress& progress,
+                      const char* task = "test", double from = 0.0, double to = 1.0) {
+  VisitedLists lists;
+  lists.k = neighborListSize(points.size(), k);
+  const auto size = static_cast<std::size_t>(lists.k);
+  lists.indices.resize(points.size() * size);
+  lists.squaredDistances.resize(points.size() * size);
+  lists.visits.resize(points.size());
+  visitNearestNeighbors(points, k, spacing, progress, task, from, to,
+                        [&](std::uint32_t point, const std::uint32_t* neighbors, const float* squaredDistances) {
+                          std::copy_n(neighbors, size, lists.indices.begin() + static_cast<std::ptrdiff_t>(point * size));
+                          std::copy_n(squaredDistances, size,
+                                      lists.squaredDistances.begin() + static_cast<std::ptrdiff_t>(point * size));
+                          ++lists.visits[point];  // each point is visited by one thread, once
+                        });
+  return lists;
+}
+
+VisitedLists visitAll(const std::vector<Eigen::Vector3f>& points, int k, double spacing) {
+  return visitAll(points, k, spacing, Progress::none());
+}
+
 /// A scan-like cloud: a dense curved sheet, a sparse far patch, exact duplicates and scattered
 /// outliers, so every level of the search is exercised.
 std::vector<Eigen::Vector3f> mixedCloud(std::uint32_t seed) {
@@ -54,20 +84,26 @@ TEST(NearestNeighbors, ListsMatchBruteForceWhateverTheCellSize) {
   const std::vector<std::uint32_t> expected = bruteForceLists(points, 16);
   // The spacing only sizes the cells: far too small or too large, the lists stay exact.
   for (const double spacing : {0.01, 0.0005, 0.5, 10.0}) {
-    const NeighborLists lists = findNearestNeighbors(points, 16, 8, spacing, Progress::none(), "test", 0.0, 1.0);
+    const VisitedLists lists = visitAll(points, 16, spacing);
     ASSERT_EQ(lists.k, 16);
     EXPECT_EQ(lists.indices, expected) << "spacing " << spacing;
+    EXPECT_EQ(lists.visits, std::vector<int>(points.size(), 1)) << "spacing " << spacing;
   }
 }
 
-TEST(NearestNeighbors, MeanDistanceIsOverTheFirstNeighbours) {
+TEST(NearestNeighbors, SquaredDistancesAreThoseOfTheListedPoints) {
   const std::vector<Eigen::Vector3f> points = mixedCloud(11);
-  const NeighborLists lists = findNearestNeighbors(points, 16, 5, 0.01, Progress::none(), "test", 0.0, 1.0);
-  ASSERT_EQ(lists.meanDistance.size(), points.size());
-  for (std::size_t i = 0; i < points.size(); i += 37) {
-    float sum = 0.0f;
-    for (std::size_t j = 0; j < 5; ++j) sum += (points[lists.indices[i * 16 + j]] - points[i]).norm();
-    EXPECT_NEAR(lists.meanDistance[i], sum / 5.0f, 1e-6f) << "point " << i;
+  const VisitedLists lists = visitAll(points, 8, 0.01);
+  ASSERT_EQ(lists.k, 8);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    for (std::size_t j = 0; j < 8; ++j) {
+      const std::uint32_t neighbor = lists.indices[i * 8 + j];
+      ASSERT_NEAR(lists.squaredDistances[i * 8 + j], (points[neighbor] - points[i]).squaredNorm(), 1e-6f)
+          << "point " << i << ", neighbour " << j;
+      if (j > 0) {
+        ASSERT_LE(lists.squaredDistances[i * 8 + j - 1], lists.squaredDistances[i * 8 + j]);
+      }
+    }
   }
 }
 
@@ -77,42 +113,44 @@ TEST(NearestNeighbors, SameListsWithOneAndTwoThreads) {
   for (int x = 0; x < 30; ++x) {
     for (int y = 0; y < 30; ++y) points.emplace_back(10.0f + 0.01f * static_cast<float>(x), 0.01f * static_cast<float>(y), 0.0f);
   }
-  NeighborLists one, two;
+  VisitedLists one, two;
   {
     const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
-    one = findNearestNeighbors(points, 16, 8, 0.01, Progress::none(), "test", 0.0, 1.0);
+    one = visitAll(points, 16, 0.01);
   }
   {
     const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
-    two = findNearestNeighbors(points, 16, 8, 0.01, Progress::none(), "test", 0.0, 1.0);
+    two = visitAll(points, 16, 0.01);
   }
   EXPECT_EQ(one.indices, two.indices);
-  EXPECT_EQ(one.meanDistance, two.meanDistance);
+  EXPECT_EQ(one.squaredDistances, two.squaredDistances);
   EXPECT_EQ(one.indices, bruteForceLists(points, 16));
 }
 
 TEST(NearestNeighbors, SmallCloudsAskForAtMostTheOtherPoints) {
   const std::vector<Eigen::Vector3f> three = {{0, 0, 0}, {1, 0, 0}, {0, 3, 0}};
-  const NeighborLists lists = findNearestNeighbors(three, 16, 8, 0.01, Progress::none(), "test", 0.0, 1.0);
+  const VisitedLists lists = visitAll(three, 16, 0.01);
   EXPECT_EQ(lists.k, 2);
-  EXPECT_EQ(lists.meanOf, 2);
   EXPECT_EQ(lists.indices, (std::vector<std::uint32_t>{1, 2, 0, 2, 0, 1}));
-  EXPECT_FLOAT_EQ(lists.meanDistance[2], 0.5f * (3.0f + std::sqrt(10.0f)));
+  EXPECT_EQ(lists.squaredDistances, (std::vector<float>{1, 9, 1, 10, 9, 10}));
 
   const std::vector<Eigen::Vector3f> same(5, Eigen::Vector3f(1, 2, 3));  // all points coincide
-  const NeighborLists coincident = findNearestNeighbors(same, 3, 0, 0.01, Progress::none(), "test", 0.0, 1.0);
+  const VisitedLists coincident = visitAll(same, 3, 0.01);
   EXPECT_EQ(coincident.indices, (std::vector<std::uint32_t>{1, 2, 3, 0, 2, 3, 0, 1, 3, 0, 1, 2, 0, 1, 2}));
-  EXPECT_TRUE(coincident.meanDistance.empty());
 
-  EXPECT_TRUE(findNearestNeighbors({{0, 0, 0}}, 16, 8, 0.01, Progress::none(), "test", 0.0, 1.0).indices.empty());
+  const VisitedLists single = visitAll({{0, 0, 0}}, 16, 0.01);
+  EXPECT_EQ(single.k, 0);
+  EXPECT_EQ(single.visits, std::vector<int>{0});
+  EXPECT_EQ(neighborListSize(0, 16), 0);
+  EXPECT_EQ(neighborListSize(20, 0), 0);
 }
 
 TEST(NearestNeighbors, RefusesNonFinitePositions) {
   std::vector<Eigen::Vector3f> points = mixedCloud(3);
   points[17] = Eigen::Vector3f(std::nanf(""), 0.0f, 0.0f);
-  EXPECT_THROW(findNearestNeighbors(points, 16, 8, 0.01, Progress::none(), "test", 0.0, 1.0), std::invalid_argument);
+  EXPECT_THROW(visitAll(points, 16, 0.01), std::invalid_argument);
   points[17] = Eigen::Vector3f(std::numeric_limits<float>::infinity(), 0.0f, 0.0f);
-  EXPECT_THROW(findNearestNeighbors(points, 16, 8, 0.01, Progress::none(), "test", 0.0, 1.0), std::invalid_argument);
+  EXPECT_THROW(visitAll(points, 16, 0.01), std::invalid_argument);
 }
 
 TEST(NearestNeighbors, ReportsProgressAndCanBeCancelled) {
@@ -124,12 +162,12 @@ TEST(NearestNeighbors, ReportsProgressAndCanBeCancelled) {
     EXPECT_LE(fraction, 0.6 + 1e-12);
     last = fraction;
   });
-  findNearestNeighbors(points, 16, 8, 0.01, progress, "search", 0.2, 0.6);
+  visitAll(points, 16, 0.01, progress, "search", 0.2, 0.6);
   EXPECT_NEAR(last, 0.6, 1e-9);
 
   Progress cancelled;
   cancelled.cancel();
-  EXPECT_THROW(findNearestNeighbors(points, 16, 8, 0.01, cancelled, "search", 0.0, 1.0), Cancelled);
+  EXPECT_THROW(visitAll(points, 16, 0.01, cancelled, "search"), Cancelled);
 }
 
 }  // namespace

@@ -456,6 +456,25 @@ TEST(PreprocessDeterminism, SameResultWithOneAndTwoThreads) {
   for (std::size_t t = 0; t < one.tiles.size(); ++t) EXPECT_EQ(one.tiles[t].points, two.tiles[t].points);
 }
 
+TEST(PreprocessNormals, TheSameWhetherTheNeighboursAreKeptOrSearchedAgain) {
+  const RoomScene room(37, 0.015, 2000);
+  for (const int outlierNeighbors : {8, 24}) {  // fewer and more than the normals' 16
+    PreprocessParams params;
+    params.outlierNeighbors = outlierNeighbors;
+    const PreprocessResult kept = preprocess(room.cloud, params);
+    params.keptNeighborsMB = 0.0;
+    const PreprocessResult searched = preprocess(room.cloud, params);
+    EXPECT_EQ(kept.diagnostics.neighborSearches, 1);
+    EXPECT_EQ(searched.diagnostics.neighborSearches, 2);
+    EXPECT_GT(kept.diagnostics.outliersRemoved, 0u);
+    EXPECT_EQ(kept.diagnostics.outliersRemoved, searched.diagnostics.outliersRemoved);
+    EXPECT_EQ(kept.points.positions, searched.points.positions) << outlierNeighbors << " outlier neighbours";
+    EXPECT_EQ(kept.points.normals, searched.points.normals) << outlierNeighbors << " outlier neighbours";
+    EXPECT_EQ(kept.curvature, searched.curvature) << outlierNeighbors << " outlier neighbours";
+    EXPECT_EQ(kept.planePoints.positions, searched.planePoints.positions) << outlierNeighbors << " outlier neighbours";
+  }
+}
+
 TEST(PreprocessProgress, ReportsToTheEndAndCanBeCancelled) {
   const RoomScene room(29, 0.015);
   std::vector<double> fractions;
@@ -493,6 +512,7 @@ TEST(PreprocessParamsCheck, RejectsInvalidParameters) {
   };
   invalid([](PreprocessParams& p) { p.voxelSize = -0.01; });
   invalid([](PreprocessParams& p) { p.normalNeighbors = 2; });
+  invalid([](PreprocessParams& p) { p.keptNeighborsMB = -1.0; });
   invalid([](PreprocessParams& p) { p.tileSize = 0.0; });
   invalid([](PreprocessParams& p) { p.planeMaxThickness = std::nan(""); });
   const PreprocessResult empty = preprocess(PointCloud{}, PreprocessParams{});

@@ -6,18 +6,22 @@
 //    leaf's edge aligned to world multiples of it (cropping a scan does not move the grid) and each
 //    occupied cube gives the centroid of its points. Sorting (cube key, point index) pairs fixes the output order whatever the thread count,
 //    and puts points of neighbouring cubes at nearby indices (cache-friendly queries later).
-// 2. The k nearest neighbours of every point, k = the larger of the outlier and normal
-//    neighbourhoods: steps 3 and 4 share them. The search (nearest_neighbors.h) is exact and runs
-//    in a grid of cells sized from the spacing; on scans it is faster than PCL's FLANN k-d tree,
-//    which it replaced (1.23 s → 0.53 s on the medium preset's 1.1 M points, 2 cores).
-// 3. Statistical outlier removal as in PCL's StatisticalOutlierRemoval: a point whose mean distance
+// 2. Statistical outlier removal as in PCL's StatisticalOutlierRemoval: a point whose mean distance
 //    to its nearest neighbours exceeds the global mean + ratio × std of that measure goes. Outliers
 //    beyond ~10 % inflate that std until they hide themselves; outlierRobust then uses the median
 //    and MAD instead, at the price of dropping sparse far-range surfaces on clean scans.
-// 4. Normals: PCA of the point and its nearest non-outlier neighbours; the normal is the eigenvector
-//    of the smallest eigenvalue, curvature the surface variation λ0 / (λ0 + λ1 + λ2). The sign of a
-//    normal is arbitrary: the method only uses unoriented normals (n and −n alike).
-// 5. Large planes (floors, walls, equipment faces) would drown the Gaussian sphere, so they go.
+//    The neighbour search (nearest_neighbors.h) is exact and runs in a grid of cells sized from the
+//    spacing; on scans it is faster than PCL's FLANN k-d tree, which it replaced (1.23 s → 0.53 s on
+//    the medium preset's 1.1 M points, 2 cores).
+// 3. Normals: PCA of the point and the non-outliers among its nearest neighbours; the normal is the
+//    eigenvector of the smallest eigenvalue, curvature the surface variation λ0 / (λ0 + λ1 + λ2). The
+//    sign of a normal is arbitrary: the method only uses unoriented normals (n and −n alike). Which
+//    neighbours are outliers is known only once step 2 has seen every point. Step 2's search keeps
+//    each point's normal neighbours for this step when they take no more than keptNeighborsMB
+//    (4 bytes a neighbour a point); beyond it (3.4 GB for the 53 M voxel points of a 100 M point
+//    scan) this step searches them again and uses each list as it is found: the same normals, a
+//    third of the stage's time more.
+// 4. Large planes (floors, walls, equipment faces) would drown the Gaussian sphere, so they go.
 //    Planes are found cell by cell: a cell is planar when its points are thin about their PCA plane,
 //    spread in two directions (not a line), most point normals agree with the plane normal, and a
 //    quadratic height fit shows no bend (thin strips along a large pipe's crest pass the thickness
@@ -28,7 +32,7 @@
 //    bands of two regions at once (the seam where a wall meets the floor, whose PCA normals are
 //    tilted). Points standing off the plane in a planar cell stay: a small pipe lying on a floor
 //    keeps its upper half.
-// 6. Tiles: cubes of tileSize from the low corner of the kept points' bounding box, each grown by
+// 5. Tiles: cubes of tileSize from the low corner of the kept points' bounding box, each grown by
 //    tileOverlap; a point belongs to every tile whose grown box contains it.
 
 #include "piperun/stages/preprocess.h"
@@ -69,7 +73,7 @@ constexpr std::size_t kChunk = 4096;
 
 // Share of the progress bar at the end of each step.
 constexpr double kVoxelDone = 0.15;
-constexpr double kNeighborsDone = 0.60;
+constexpr double kOutliersDone = 0.40;
 constexpr double kNormalsDone = 0.75;
 constexpr double kPlanesDone = 0.92;
 
@@ -98,6 +102,7 @@ void validate(const PreprocessParams& params) {
   require(params.outlierNeighbors >= 0, "outlierNeighbors must be >= 0");
   require(finite(params.outlierStdRatio) && params.outlierStdRatio >= 0.0, "outlierStdRatio must be >= 0");
   require(params.normalNeighbors >= 3, "normalNeighbors must be at least 3");
+  require(finite(params.keptNeighborsMB) && params.keptNeighborsMB >= 0.0, "keptNeighborsMB must be >= 0 MB");
   require(finite(params.planeCellSize) && params.planeCellSize > 0.0, "planeCellSize must be > 0 m");
   require(finite(params.planeMaxThickness) && params.planeMaxThickness > 0.0, "planeMaxThickness must be > 0 m");
   require(finite(params.planeMinArea) && params.planeMinArea >= 0.0, "planeMinArea must be >= 0 m²");
@@ -221,23 +226,54 @@ double median(std::vector<float> values) {
   return *middle;
 }
 
-/// Step 3: flags points whose mean neighbour distance exceeds centre + stdRatio × spread over all
+/// What step 2's search measured: every point's mean distance to its outlier neighbours and, when
+/// kept for step 3, its first `keptK` neighbours.
+struct OutlierSearch {
+  std::vector<float> meanDistance;     ///< Empty when there is only one point.
+  int keptK = 0;                       ///< Neighbours kept a point (0: none kept).
+  std::vector<std::uint32_t> kept;     ///< keptK a point, nearest first.
+};
+
+/// Step 2's search: every point's mean distance to its `outlierK` nearest neighbours (at most the
+/// other points), keeping its `keepK` nearest too when keepK > 0.
+OutlierSearch searchOutlierNeighbors(const std::vector<Eigen::Vector3f>& positions, int outlierK, int keepK,
+                                     double spacing, Progress& progress) {
+  OutlierSearch search;
+  const std::size_t n = positions.size();
+  const int meanOf = neighborListSize(n, outlierK);
+  if (meanOf == 0) return search;
+  search.keptK = neighborListSize(n, keepK);
+  const auto keptK = static_cast<std::size_t>(search.keptK);
+  search.meanDistance.resize(n);
+  search.kept.resize(n * keptK);
+  visitNearestNeighbors(positions, std::max(outlierK, keepK), spacing, progress, kTask, kVoxelDone, kOutliersDone,
+                        [&](std::uint32_t point, const std::uint32_t* neighbors, const float* squaredDistances) {
+                          float sum = 0.0f;
+                          for (int j = 0; j < meanOf; ++j) sum += std::sqrt(squaredDistances[j]);
+                          search.meanDistance[point] = sum / static_cast<float>(meanOf);
+                          std::copy_n(neighbors, keptK, search.kept.begin() + static_cast<std::ptrdiff_t>(point * keptK));
+                        });
+  return search;
+}
+
+/// Step 2: flags points whose mean neighbour distance exceeds centre + stdRatio × spread over all
 /// points: mean and standard deviation, or with `robust` the median and the scaled median absolute
 /// deviation (which heavy contamination cannot inflate).
-std::vector<char> statisticalOutliers(const NeighborLists& lists, std::size_t n, double stdRatio, bool robust) {
+std::vector<char> statisticalOutliers(const std::vector<float>& meanDistance, std::size_t n, double stdRatio,
+                                      bool robust) {
   std::vector<char> outlier(n, 0);
-  if (lists.meanDistance.empty()) return outlier;
+  if (meanDistance.empty()) return outlier;
   double centre = 0.0;
   double spread = 0.0;
   if (robust) {
-    centre = median(lists.meanDistance);
+    centre = median(meanDistance);
     std::vector<float> deviations(n);
-    for (std::size_t i = 0; i < n; ++i) deviations[i] = static_cast<float>(std::abs(lists.meanDistance[i] - centre));
+    for (std::size_t i = 0; i < n; ++i) deviations[i] = static_cast<float>(std::abs(meanDistance[i] - centre));
     spread = 1.4826 * median(std::move(deviations));  // the MAD of a normal distribution is 0.6745 σ
   } else {
     double sum = 0.0;
     double squaredSum = 0.0;
-    for (float d : lists.meanDistance) {
+    for (float d : meanDistance) {
       sum += d;
       squaredSum += static_cast<double>(d) * d;
     }
@@ -245,7 +281,7 @@ std::vector<char> statisticalOutliers(const NeighborLists& lists, std::size_t n,
     spread = std::sqrt(std::max(0.0, squaredSum / static_cast<double>(n) - centre * centre));
   }
   const double threshold = centre + stdRatio * spread;
-  for (std::size_t i = 0; i < n; ++i) outlier[i] = lists.meanDistance[i] > threshold;
+  for (std::size_t i = 0; i < n; ++i) outlier[i] = meanDistance[i] > threshold;
   return outlier;
 }
 
@@ -283,43 +319,58 @@ class MomentSum {
   std::size_t count_ = 0;
 };
 
-/// Step 4: unit normal and curvature of every non-outlier point with at least two non-outlier
-/// neighbours; `valid` flags those points (the others have no defined normal).
+/// Step 3: unit normal and curvature of every non-outlier point with at least two non-outlier
+/// neighbours among its `normalK` nearest; `valid` flags those points (the others have no defined
+/// normal).
 struct SurfaceEstimates {
   std::vector<Eigen::Vector3f> normals;
   std::vector<float> curvature;
   std::vector<char> valid;
 };
 
-SurfaceEstimates estimateNormals(const PointCloud& cloud, const NeighborLists& lists, const std::vector<char>& outlier,
-                                 int normalK, Progress& progress) {
+/// PCA of point i and the non-outliers among its `count` nearest neighbours.
+void estimateNormalAt(std::uint32_t i, const std::uint32_t* neighbors, int count,
+                      const std::vector<Eigen::Vector3f>& positions, const std::vector<char>& outlier,
+                      SurfaceEstimates& estimates) {
+  if (outlier[i]) return;
+  const Eigen::Vector3d p = positions[i].cast<double>();
+  MomentSum moments(p);
+  moments.add(p);
+  for (int j = 0; j < count; ++j) {
+    if (!outlier[neighbors[j]]) moments.add(positions[neighbors[j]].cast<double>());
+  }
+  if (moments.count() < 3) return;
+  const PrincipalFrame frame = moments.frame();
+  const double total = frame.eigenvalues.sum();
+  estimates.normals[i] = frame.eigenvectors.col(0).normalized().cast<float>();
+  estimates.curvature[i] = total > 0.0 ? static_cast<float>(frame.eigenvalues[0] / total) : 0.0f;
+  estimates.valid[i] = 1;
+}
+
+/// The normals from the `normalK` nearest neighbours of each point: those step 2 kept when it kept
+/// as many, otherwise found by a search of their own.
+SurfaceEstimates estimateNormals(const PointCloud& cloud, const OutlierSearch& search, const std::vector<char>& outlier,
+                                 int normalK, double spacing, Progress& progress) {
   const std::size_t n = cloud.size();
   SurfaceEstimates estimates;
   estimates.normals.assign(n, Eigen::Vector3f::Zero());
   estimates.curvature.assign(n, 0.0f);
   estimates.valid.assign(n, 0);
-  const auto listSize = static_cast<std::size_t>(lists.k);
-  parallelChunks(n, progress, [&](std::size_t first, std::size_t last) {
-    for (std::size_t i = first; i < last; ++i) {
-      if (outlier[i]) continue;
-      const Eigen::Vector3d p = cloud.positions[i].cast<double>();
-      MomentSum moments(p);
-      moments.add(p);
-      int used = 0;
-      for (std::size_t j = 0; j < listSize && used < normalK; ++j) {
-        const std::uint32_t neighbor = lists.indices[i * listSize + j];
-        if (outlier[neighbor]) continue;
-        moments.add(cloud.positions[neighbor].cast<double>());
-        ++used;
+  const auto& positions = cloud.positions;
+  const int listSize = neighborListSize(n, normalK);
+  if (search.keptK >= listSize && !search.kept.empty()) {
+    const auto keptK = static_cast<std::size_t>(search.keptK);
+    parallelChunks(n, progress, [&](std::size_t first, std::size_t last) {
+      for (std::size_t i = first; i < last; ++i) {
+        estimateNormalAt(static_cast<std::uint32_t>(i), &search.kept[i * keptK], listSize, positions, outlier, estimates);
       }
-      if (moments.count() < 3) continue;
-      const PrincipalFrame frame = moments.frame();
-      const double total = frame.eigenvalues.sum();
-      estimates.normals[i] = frame.eigenvectors.col(0).normalized().cast<float>();
-      estimates.curvature[i] = total > 0.0 ? static_cast<float>(frame.eigenvalues[0] / total) : 0.0f;
-      estimates.valid[i] = 1;
-    }
-  });
+    });
+  } else {
+    visitNearestNeighbors(positions, listSize, spacing, progress, kTask, kOutliersDone, kNormalsDone,
+                          [&](std::uint32_t i, const std::uint32_t* neighbors, const float*) {
+                            estimateNormalAt(i, neighbors, listSize, positions, outlier, estimates);
+                          });
+  }
   return estimates;
 }
 
@@ -519,7 +570,7 @@ std::vector<std::int64_t> locateOnPlanes(const CellGrid& grid, const std::vector
   return located;
 }
 
-/// Step 5: flags the points of large planes among the points with normals. Returns the plane count.
+/// Step 4: flags the points of large planes among the points with normals. Returns the plane count.
 int findPlanePoints(const PointCloud& cloud, const SurfaceEstimates& surface, const PreprocessParams& params,
                     std::vector<char>& planePoint, Progress& progress) {
   const BoundingBox bounds = finiteBounds(cloud.positions, [&](std::size_t i) { return surface.valid[i] != 0; }).box;
@@ -611,7 +662,7 @@ void splitPoints(const PointCloud& sampled, const SurfaceEstimates& surface, con
   });
 }
 
-/// Step 6: cubic tiles from the low corner of the cloud's bounding box, grown by the overlap.
+/// Step 5: cubic tiles from the low corner of the cloud's bounding box, grown by the overlap.
 std::vector<Tile> buildTiles(const PointCloud& cloud, double size, double overlap, Progress& progress) {
   const BoundingBox bounds = cloud.boundingBox();
   if (bounds.empty()) return {};
@@ -701,19 +752,30 @@ PreprocessResult preprocess(const PointCloud& input, const PreprocessParams& par
   progress.report(kTask, kVoxelDone);
 
   stepStart = Clock::now();
-  const bool removeOutliers = params.outlierNeighbors > 0 && params.outlierStdRatio > 0.0;
-  const int outlierK = removeOutliers ? params.outlierNeighbors : 0;
-  // The cell size of the neighbour search follows the spacing of the voxel points (the leaf, or the
-  // scan's own spacing where that is wider); it changes the speed, not the lists.
+  // The cell size of the neighbour searches follows the spacing of the voxel points (the leaf, or
+  // the scan's own spacing where that is wider); it changes the speed, not the neighbours.
   const double spacing = std::max(leaf, inputSpacing);
-  const NeighborLists neighbors = findNearestNeighbors(sampled.positions, std::max(outlierK, params.normalNeighbors),
-                                                       outlierK, spacing, progress, kTask, kVoxelDone, kNeighborsDone);
-  diagnostics.neighborSeconds = secondsSince(stepStart);
+  const bool removeOutliers = params.outlierNeighbors > 0 && params.outlierStdRatio > 0.0;
+  // The normals' neighbours are kept from the outlier search when they fit the memory allowed;
+  // otherwise the normals search again (the same neighbours, so the same normals).
+  const double keptBytes = static_cast<double>(n) * params.normalNeighbors * sizeof(std::uint32_t);
+  const bool keepNeighbors = keptBytes <= params.keptNeighborsMB * 1e6;
+  diagnostics.neighborSearches = n < 2 ? 0 : removeOutliers && !keepNeighbors ? 2 : 1;
+  OutlierSearch search;
+  if (removeOutliers) {
+    search = searchOutlierNeighbors(sampled.positions, params.outlierNeighbors,
+                                    keepNeighbors ? params.normalNeighbors : 0, spacing, progress);
+  }
+  const std::vector<char> outlier =
+      statisticalOutliers(search.meanDistance, n, params.outlierStdRatio, params.outlierRobust);
+  search.meanDistance = {};
+  diagnostics.outlierSeconds = secondsSince(stepStart);
   progress.checkCancelled();
+  progress.report(kTask, kOutliersDone);
 
   stepStart = Clock::now();
-  const std::vector<char> outlier = statisticalOutliers(neighbors, n, params.outlierStdRatio, params.outlierRobust);
-  const SurfaceEstimates surface = estimateNormals(sampled, neighbors, outlier, params.normalNeighbors, progress);
+  SurfaceEstimates surface = estimateNormals(sampled, search, outlier, params.normalNeighbors, spacing, progress);
+  search.kept = {};
   // Points left without a normal (too few non-outlier neighbours) count as outliers.
   diagnostics.outliersRemoved = static_cast<std::size_t>(std::count(surface.valid.begin(), surface.valid.end(), 0));
   diagnostics.normalSeconds = secondsSince(stepStart);
@@ -730,6 +792,10 @@ PreprocessResult preprocess(const PointCloud& input, const PreprocessParams& par
   progress.report(kTask, kPlanesDone);
 
   splitPoints(sampled, surface, planePoint, result);
+  // The voxel points live on in the split: freed before the tiles' memberships are sorted.
+  sampled = PointCloud{};
+  surface = SurfaceEstimates{};
+  planePoint = {};
   diagnostics.planePoints = result.planePoints.size();
   diagnostics.keptPoints = result.points.size();
 

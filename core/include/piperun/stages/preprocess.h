@@ -18,6 +18,9 @@ struct PreprocessParams {
   double outlierStdRatio = 3.0;     ///< neighbours exceeds mean + ratio × std of all points goes; ratio 0 disables.
   bool outlierRobust = false;       ///< Median and MAD instead of mean and std: copes with 20 % outliers, but also drops sparse far-range surfaces.
   int normalNeighbors = 16;         ///< k of the k-nearest-neighbour PCA normal estimation (at least 3).
+  double keptNeighborsMB = 1000;    ///< The normals' neighbours are kept from the outlier search up to this memory
+                                    ///< (MB, 4 bytes a neighbour); beyond it they are searched again: the same normals,
+                                    ///< less memory, more time (100 M point scans).
   bool removePlanes = true;         ///< Remove large planar regions (floors, walls, equipment faces).
   double planeCellSize = 0.3;       ///< Planes are detected cell by cell at this edge length (m)...
   double planeMaxThickness = 0.006; ///< ...a cell is planar when the RMS distance to its plane is below this (m)...
@@ -52,8 +55,9 @@ struct PreprocessResult {
     int planes = 0;                   ///< Planar regions removed.
     double seconds = 0.0;             ///< Whole stage; the step times follow.
     double voxelSeconds = 0.0;
-    double neighborSeconds = 0.0;     ///< k-d tree and k-nearest-neighbour queries.
-    double normalSeconds = 0.0;       ///< Outlier removal and normals.
+    int neighborSearches = 0;         ///< 2 when the normals searched their neighbours again (keptNeighborsMB).
+    double outlierSeconds = 0.0;      ///< Outlier removal: its neighbour search and the statistics.
+    double normalSeconds = 0.0;       ///< Normals: PCA, and their own neighbour search when not kept from the first.
     double planeSeconds = 0.0;
     double tileSeconds = 0.0;
   } diagnostics;
