@@ -52,17 +52,13 @@ class CellGrid {
       : low_(bounds.min), edge_(std::max(edge, bounds.size().maxCoeff() / kMaxCellsPerAxis)) {
     if (!(edge_ > 0.0)) edge_ = 1.0;  // all points coincide: one cell
     counts_ = ((bounds.max - low_) / edge_).array().floor().cast<std::int64_t>() + 1;
-    std::vector<KeyedItem> keyed(positions.size());
-    tbb::parallel_for(std::size_t{0}, positions.size(), [&](std::size_t i) {
-      keyed[i] = {keyOf(positions[i]), static_cast<std::uint32_t>(i)};
-    });
-    stableSortByKey(keyed, keyOfItem);  // made in point order, so sorted by (key, point)
-    cells_ = groupByKey(keyed);
-    x_.resize(keyed.size());
-    y_.resize(keyed.size());
-    z_.resize(keyed.size());
-    tbb::parallel_for(std::size_t{0}, keyed.size(), [&](std::size_t i) {
-      const Eigen::Vector3f& p = positions[keyed[i].second];
+    cells_ = groupItemsByKey(positions.size(), [&](std::size_t i) { return keyOf(positions[i]); });
+    const std::size_t n = cells_.items.size();
+    x_.resize(n);
+    y_.resize(n);
+    z_.resize(n);
+    tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
+      const Eigen::Vector3f& p = positions[cells_.items[i]];
       x_[i] = p.x();
       y_[i] = p.y();
       z_[i] = p.z();

@@ -124,4 +124,114 @@ inline KeyGroups groupByKey(const std::vector<KeyedItem>& sorted) {
   return groups;
 }
 
+/// Marks an item left out of groupItemsByKey's groups (a point with no cell).
+inline constexpr std::uint64_t kNoKey = ~std::uint64_t{0};
+
+namespace sort_detail {
+/// groupItemsByKey sorts about this many (key, item) pairs at a time by default (16 bytes each, and
+/// as many again for the sort's buffer)...
+constexpr std::size_t kSlabItems = std::size_t{1} << 22;
+/// ...in slabs made of slices of the key range: keyOf >> shift for this many bits at most.
+constexpr int kSliceBits = 12;
+}  // namespace sort_detail
+
+/// Items 0 … count − 1 grouped by keyOf(item) in (key, item) order, items whose key is kNoKey left
+/// out: the groups of the stably sorted (key, item) pairs, found a slab of the key range at a time so
+/// that beside the 4 bytes an item of the result only a slab's pairs are held (every pair of a
+/// 100 million point scan and the sort's buffer took 3.2 GB). keyOf is called a few times an item.
+template <typename KeyOf>
+KeyGroups groupItemsByKey(std::size_t count, KeyOf keyOf, std::size_t slabItems = sort_detail::kSlabItems) {
+  using sort_detail::kChunk;
+  KeyGroups groups;
+  const std::uint64_t noKeys = 0;
+  const auto [maxKey, keyed] = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, count, kChunk), std::pair{noKeys, std::size_t{0}},
+      [&](const tbb::blocked_range<std::size_t>& range, std::pair<std::uint64_t, std::size_t> found) {
+        for (std::size_t i = range.begin(); i < range.end(); ++i) {
+          const std::uint64_t key = keyOf(i);
+          if (key == kNoKey) continue;
+          found.first = std::max(found.first, key);
+          ++found.second;
+        }
+        return found;
+      },
+      [](auto a, auto b) { return std::pair{std::max(a.first, b.first), a.second + b.second}; });
+  if (keyed == 0) {
+    groups.begins = {0};
+    return groups;
+  }
+  int bits = 0;
+  while (bits < 64 && (maxKey >> bits) != 0) ++bits;
+  const int shift = std::max(0, bits - sort_detail::kSliceBits);
+  const std::size_t slices = static_cast<std::size_t>(maxKey >> shift) + 1;
+
+  // Slices joined into slabs of about kSlabItems, in key order.
+  const std::size_t chunks = (count + kChunk - 1) / kChunk;
+  std::vector<std::uint32_t> perSlice(chunks * slices, 0);  // chunk c's slice s at c · slices + s
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    std::uint32_t* counts = perSlice.data() + c * slices;
+    for (std::size_t i = c * kChunk, last = std::min(count, (c + 1) * kChunk); i < last; ++i) {
+      const std::uint64_t key = keyOf(i);
+      if (key != kNoKey) ++counts[key >> shift];
+    }
+  });
+  std::vector<std::uint32_t> slabOfSlice(slices);
+  std::vector<std::size_t> slabBegins = {0};
+  std::size_t inSlab = 0;
+  for (std::size_t s = 0; s < slices; ++s) {
+    std::size_t sliceItems = 0;
+    for (std::size_t c = 0; c < chunks; ++c) sliceItems += perSlice[c * slices + s];
+    if (inSlab > 0 && inSlab + sliceItems > slabItems) {
+      slabBegins.push_back(slabBegins.back() + inSlab);
+      inSlab = 0;
+    }
+    slabOfSlice[s] = static_cast<std::uint32_t>(slabBegins.size() - 1);
+    inSlab += sliceItems;
+  }
+  slabBegins.push_back(keyed);
+  const std::size_t slabs = slabBegins.size() - 1;
+
+  // The items by slab, each slab's in item order: chunk by chunk, where each chunk's go.
+  std::vector<std::size_t> next(chunks * slabs, 0);
+  for (std::size_t c = 0; c < chunks; ++c) {
+    for (std::size_t s = 0; s < slices; ++s) next[c * slabs + slabOfSlice[s]] += perSlice[c * slices + s];
+  }
+  perSlice = {};
+  for (std::size_t b = 0, total = 0; b < slabs; ++b) {
+    for (std::size_t c = 0; c < chunks; ++c) {
+      const std::size_t items = next[c * slabs + b];
+      next[c * slabs + b] = total;
+      total += items;
+    }
+  }
+  groups.items.resize(keyed);
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    std::size_t* slot = next.data() + c * slabs;
+    for (std::size_t i = c * kChunk, last = std::min(count, (c + 1) * kChunk); i < last; ++i) {
+      const std::uint64_t key = keyOf(i);
+      if (key != kNoKey) groups.items[slot[slabOfSlice[key >> shift]]++] = static_cast<std::uint32_t>(i);
+    }
+  });
+
+  // Each slab sorted by (key, item) on its own: its keys all lie below the next slab's.
+  std::vector<KeyedItem> pairs;
+  for (std::size_t b = 0; b < slabs; ++b) {
+    const std::size_t first = slabBegins[b], size = slabBegins[b + 1] - first;
+    pairs.resize(size);
+    tbb::parallel_for(std::size_t{0}, size, [&](std::size_t j) {
+      const std::uint32_t item = groups.items[first + j];
+      pairs[j] = {keyOf(item), item};
+    });
+    stableSortByKey(pairs, keyOfItem);
+    tbb::parallel_for(std::size_t{0}, size, [&](std::size_t j) { groups.items[first + j] = pairs[j].second; });
+    for (const std::uint32_t start : runStarts(pairs, keyOfItem)) {
+      if (start == size) break;
+      groups.begins.push_back(static_cast<std::uint32_t>(first + start));
+      groups.keys.push_back(pairs[start].first);
+    }
+  }
+  groups.begins.push_back(static_cast<std::uint32_t>(keyed));
+  return groups;
+}
+
 }  // namespace piperun

@@ -195,24 +195,19 @@ PointCloud voxelCentroids(const PointCloud& input, double leaf, Progress& progre
   }
 
   const CubeGrid grid(input.origin, leaf, bounds);
-  std::vector<KeyedPoint> entries(input.size());
-  parallelChunks(input.size(), progress, [&](std::size_t first, std::size_t last) {
-    for (std::size_t i = first; i < last; ++i) {
-      const Eigen::Vector3f& p = input.positions[i];
-      entries[i] = {p.allFinite() ? grid.key(grid.cubeOf(p)) : kNoCube, static_cast<std::uint32_t>(i)};
-    }
+  const KeyGroups voxels = groupItemsByKey(input.size(), [&](std::size_t i) {
+    const Eigen::Vector3f& p = input.positions[i];
+    return p.allFinite() ? grid.key(grid.cubeOf(p)) : kNoKey;
   });
-  progress.report(kTask, 0.3 * kVoxelDone);
-  const std::vector<std::uint32_t> starts = groupByCube(entries);
   progress.checkCancelled();
   progress.report(kTask, 0.8 * kVoxelDone);
 
-  const std::size_t voxels = starts.size() - 1;
-  output.positions.resize(voxels);
-  parallelChunks(voxels, progress, [&](std::size_t first, std::size_t last) {
+  const std::vector<std::uint32_t>& starts = voxels.begins;
+  output.positions.resize(voxels.keys.size());
+  parallelChunks(voxels.keys.size(), progress, [&](std::size_t first, std::size_t last) {
     for (std::size_t v = first; v < last; ++v) {
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      for (std::uint32_t e = starts[v]; e < starts[v + 1]; ++e) sum += input.positions[entries[e].point].cast<double>();
+      for (std::uint32_t e = starts[v]; e < starts[v + 1]; ++e) sum += input.positions[voxels.items[e]].cast<double>();
       output.positions[v] = (sum / static_cast<double>(starts[v + 1] - starts[v])).cast<float>();
     }
   });
