@@ -465,10 +465,18 @@ int runReconstruct(const ReconstructOptions& options) {
   ReadReport report;
   auto cloud = std::make_shared<const PointCloud>(readPointCloud(options.input, readOptions, &report));
   const double readSeconds = secondsSince(start);
+  const std::size_t inputPoints = cloud->size();
   bar.finish();
   for (const auto& warning : report.warnings) warn(warning);
 
   Pipeline pipeline(cloud, params);
+  pipeline.run(bar.progress(), Stage::Preprocess);
+  // Past the preprocessing the scan is read only by an evaluation over its labels: freed otherwise
+  // (20 bytes a point with colours and intensity, the largest part of a site scan's run).
+  if (options.truth.empty() || !cloud->hasLabels()) {
+    cloud.reset();
+    pipeline.releaseInput();
+  }
   pipeline.run(bar.progress(), stageFromName(options.until).value_or(Stage::Joints));
   const PipeNetwork network = pipeline.network();
   writeNetwork(options.output, network,
@@ -495,7 +503,7 @@ int runReconstruct(const ReconstructOptions& options) {
       segments += round.extents.segments.size();
     }
   }
-  std::printf("input: %zu points from %s, %d thread(s)  [read %.2f s]\n", cloud->size(), options.input.c_str(), threads,
+  std::printf("input: %zu points from %s, %d thread(s)  [read %.2f s]\n", inputPoints, options.input.c_str(), threads,
               readSeconds);
   std::printf("preprocess: %zu after voxel grid (leaf %.1f mm), %zu outliers removed, %zu plane points in %d planes, "
               "%zu kept, %zu tiles  [%.2f s]\n",
@@ -568,10 +576,10 @@ int runReconstruct(const ReconstructOptions& options) {
     EvaluationParams params;
     params.nominalSizes = &sizes;
     const EvaluationResult figures =
-        evaluateNetwork(readNetworkOrProject(options.truth), network, params, cloud->hasLabels() ? cloud.get() : nullptr);
+        evaluateNetwork(readNetworkOrProject(options.truth), network, params, cloud.get());  // kept when labelled
     std::printf("evaluation against %s: %s\n", options.truth.c_str(), formatEvaluation(figures).c_str());
   }
-  std::printf("points=%zu kept=%zu directions=%zu pipes=%zu joints=%zu runs=%zu seconds=%.2f\n", cloud->size(),
+  std::printf("points=%zu kept=%zu directions=%zu pipes=%zu joints=%zu runs=%zu seconds=%.2f\n", inputPoints,
               d.keptPoints, directions, network.pipes.size(), network.joints.size(), network.runs.size(),
               secondsSince(start));
   return kExitOk;

@@ -109,7 +109,13 @@ void Pipeline::run(Progress& progress, Stage last) {
   }
 }
 
+void Pipeline::releaseInput() {
+  if (!fresh_[index(Stage::Preprocess)]) throw std::logic_error("Pipeline: the input is released only once preprocessed");
+  input_.reset();
+}
+
 void Pipeline::runPreprocess(Progress& progress) {
+  if (!input_) throw std::logic_error("Pipeline: the input cloud was released; the preprocessing cannot run again");
   const auto started = std::chrono::steady_clock::now();
   invalidate(Stage::Preprocess);
   auto result = std::make_shared<const PreprocessResult>(preprocess(*input_, params_.preprocess, progress));

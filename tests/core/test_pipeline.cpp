@@ -66,6 +66,26 @@ TEST(Pipeline, RefusesParametersOutsideTheirRangesAndKeepsItsOwn) {
   EXPECT_TRUE(pipeline.isFresh(Stage::Preprocess));
 }
 
+TEST(Pipeline, ReleasedInputGivesTheSameNetworkAndNoSecondPreprocessing) {
+  Pipeline whole(sceneCloud());
+  whole.run();
+  Pipeline released(sceneCloud());
+  EXPECT_THROW(released.releaseInput(), std::logic_error);  // not preprocessed yet
+  released.run(Progress::none(), Stage::Preprocess);
+  released.releaseInput();
+  EXPECT_EQ(released.input(), nullptr);
+  released.run();
+  EXPECT_EQ(networkToJson(released.network()), networkToJson(whole.network()));
+
+  PipelineParams params = released.params();
+  params.placement.minInliers += 10;  // later stages run again without the input
+  released.setParams(params);
+  EXPECT_NO_THROW(released.run());
+  params.preprocess.planeMinArea += 0.1;
+  released.setParams(params);
+  EXPECT_THROW(released.run(), std::logic_error);
+}
+
 TEST(Pipeline, JointsStageConnectsThePipesIntoRunsAndRerunsAlone) {
   Pipeline pipeline(sceneCloud());
   pipeline.run();

@@ -78,7 +78,12 @@ class Pipeline {
   /// stay stale.
   void run(Progress& progress = Progress::none(), Stage last = Stage::Joints);
 
+  /// The input cloud; null once released.
   std::shared_ptr<const PointCloud> input() const { return input_; }
+  /// Lets go of the input cloud once the preprocessing is fresh, for a batch run that needs it no
+  /// more (no later stage reads it; a site scan's points outweigh every later result). The
+  /// preprocessing cannot run again: run() then throws std::logic_error where it would.
+  void releaseInput();
   /// Latest results (null before the stage first ran). A stale stage keeps its previous result
   /// until it runs again, so a viewer can go on showing it.
   std::shared_ptr<const PreprocessResult> preprocessResult() const { return preprocess_; }
