@@ -469,14 +469,12 @@ int runReconstruct(const ReconstructOptions& options) {
   bar.finish();
   for (const auto& warning : report.warnings) warn(warning);
 
-  Pipeline pipeline(cloud, params);
-  pipeline.run(bar.progress(), Stage::Preprocess);
-  // Past the preprocessing the scan is read only by an evaluation over its labels: freed otherwise
+  // Past the voxel grid the scan is read only by an evaluation over its labels: freed otherwise
   // (20 bytes a point with colours and intensity, the largest part of a site scan's run).
-  if (options.truth.empty() || !cloud->hasLabels()) {
-    cloud.reset();
-    pipeline.releaseInput();
-  }
+  std::shared_ptr<const PointCloud> labelledScan;
+  if (!options.truth.empty() && cloud->hasLabels()) labelledScan = cloud;
+  Pipeline pipeline(std::move(cloud), params);
+  if (!labelledScan) pipeline.releaseInput();
   pipeline.run(bar.progress(), stageFromName(options.until).value_or(Stage::Joints));
   const PipeNetwork network = pipeline.network();
   writeNetwork(options.output, network,
@@ -576,7 +574,7 @@ int runReconstruct(const ReconstructOptions& options) {
     EvaluationParams params;
     params.nominalSizes = &sizes;
     const EvaluationResult figures =
-        evaluateNetwork(readNetworkOrProject(options.truth), network, params, cloud.get());  // kept when labelled
+        evaluateNetwork(readNetworkOrProject(options.truth), network, params, labelledScan.get());
     std::printf("evaluation against %s: %s\n", options.truth.c_str(), formatEvaluation(figures).c_str());
   }
   std::printf("points=%zu kept=%zu directions=%zu pipes=%zu joints=%zu runs=%zu seconds=%.2f\n", inputPoints,

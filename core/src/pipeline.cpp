@@ -110,15 +110,18 @@ void Pipeline::run(Progress& progress, Stage last) {
 }
 
 void Pipeline::releaseInput() {
-  if (!fresh_[index(Stage::Preprocess)]) throw std::logic_error("Pipeline: the input is released only once preprocessed");
-  input_.reset();
+  releaseInput_ = true;
+  if (fresh_[index(Stage::Preprocess)]) input_.reset();
 }
 
 void Pipeline::runPreprocess(Progress& progress) {
   if (!input_) throw std::logic_error("Pipeline: the input cloud was released; the preprocessing cannot run again");
   const auto started = std::chrono::steady_clock::now();
   invalidate(Stage::Preprocess);
-  auto result = std::make_shared<const PreprocessResult>(preprocess(*input_, params_.preprocess, progress));
+  // Handing over the last share lets the stage free the input once it has read it.
+  std::shared_ptr<const PointCloud> input = input_;
+  if (releaseInput_) input_.reset();
+  auto result = std::make_shared<const PreprocessResult>(preprocess(std::move(input), params_.preprocess, progress));
   preprocess_ = std::move(result);
   seconds_[index(Stage::Preprocess)] = secondsSince(started);
   fresh_[index(Stage::Preprocess)] = true;

@@ -69,21 +69,28 @@ TEST(Pipeline, RefusesParametersOutsideTheirRangesAndKeepsItsOwn) {
 TEST(Pipeline, ReleasedInputGivesTheSameNetworkAndNoSecondPreprocessing) {
   Pipeline whole(sceneCloud());
   whole.run();
-  Pipeline released(sceneCloud());
-  EXPECT_THROW(released.releaseInput(), std::logic_error);  // not preprocessed yet
-  released.run(Progress::none(), Stage::Preprocess);
-  released.releaseInput();
-  EXPECT_EQ(released.input(), nullptr);
-  released.run();
-  EXPECT_EQ(networkToJson(released.network()), networkToJson(whole.network()));
+  // Released before the first run: the preprocessing frees it once read.
+  Pipeline early(std::make_shared<const PointCloud>(sceneCloud()->clone()));
+  const std::weak_ptr<const PointCloud> earlyInput = early.input();
+  early.releaseInput();
+  early.run();
+  EXPECT_TRUE(earlyInput.expired());
+  EXPECT_EQ(networkToJson(early.network()), networkToJson(whole.network()));
+  // Released once preprocessed: at once.
+  Pipeline late(sceneCloud());
+  late.run(Progress::none(), Stage::Preprocess);
+  late.releaseInput();
+  EXPECT_EQ(late.input(), nullptr);
+  late.run();
+  EXPECT_EQ(networkToJson(late.network()), networkToJson(whole.network()));
 
-  PipelineParams params = released.params();
+  PipelineParams params = late.params();
   params.placement.minInliers += 10;  // later stages run again without the input
-  released.setParams(params);
-  EXPECT_NO_THROW(released.run());
+  late.setParams(params);
+  EXPECT_NO_THROW(late.run());
   params.preprocess.planeMinArea += 0.1;
-  released.setParams(params);
-  EXPECT_THROW(released.run(), std::logic_error);
+  late.setParams(params);
+  EXPECT_THROW(late.run(), std::logic_error);
 }
 
 TEST(Pipeline, JointsStageConnectsThePipesIntoRunsAndRerunsAlone) {

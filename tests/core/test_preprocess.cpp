@@ -475,6 +475,23 @@ TEST(PreprocessNormals, TheSameWhetherTheNeighboursAreKeptOrSearchedAgain) {
   }
 }
 
+TEST(PreprocessInput, AHandedOverInputIsFreedOnceTheVoxelGridIsMade) {
+  const RoomScene room(41, 0.015, 500);
+  const PreprocessResult kept = preprocess(room.cloud, PreprocessParams{});
+  auto input = std::make_shared<const PointCloud>(room.cloud.clone());
+  const std::weak_ptr<const PointCloud> watched = input;
+  bool freedBeforeTheEnd = false;
+  Progress progress([&](const std::string&, double fraction) {
+    if (fraction < 1.0 && watched.expired()) freedBeforeTheEnd = true;
+  });
+  const PreprocessResult handed = preprocess(std::move(input), PreprocessParams{}, progress);
+  EXPECT_TRUE(freedBeforeTheEnd);
+  EXPECT_EQ(handed.points.positions, kept.points.positions);
+  EXPECT_EQ(handed.points.normals, kept.points.normals);
+  EXPECT_EQ(handed.diagnostics.inputPoints, room.cloud.size());
+  EXPECT_THROW(preprocess(std::shared_ptr<const PointCloud>(), PreprocessParams{}), std::invalid_argument);
+}
+
 TEST(PreprocessProgress, ReportsToTheEndAndCanBeCancelled) {
   const RoomScene room(29, 0.015);
   std::vector<double> fractions;

@@ -80,8 +80,9 @@ class Pipeline {
 
   /// The input cloud; null once released.
   std::shared_ptr<const PointCloud> input() const { return input_; }
-  /// Lets go of the input cloud once the preprocessing is fresh, for a batch run that needs it no
-  /// more (no later stage reads it; a site scan's points outweigh every later result). The
+  /// Lets go of the input cloud, for a batch run that needs it no more (no stage after the
+  /// preprocessing reads it; a site scan's points outweigh every later result): at once when the
+  /// preprocessing is fresh, otherwise as soon as its next run has made the voxel grid. The
   /// preprocessing cannot run again: run() then throws std::logic_error where it would.
   void releaseInput();
   /// Latest results (null before the stage first ran). A stale stage keeps its previous result
@@ -104,6 +105,7 @@ class Pipeline {
   void runJoints(Progress& progress);
 
   std::shared_ptr<const PointCloud> input_;
+  bool releaseInput_ = false;
   PipelineParams params_;
   std::array<bool, kStageCount> fresh_{};
   std::array<double, kStageCount> seconds_{};

@@ -6,6 +6,7 @@
 #include "piperun/progress.h"
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace piperun {
@@ -65,6 +66,12 @@ struct PreprocessResult {
 
 /// Pure function of its inputs; deterministic for any thread count.
 PreprocessResult preprocess(const PointCloud& input, const PreprocessParams& params,
+                            Progress& progress = Progress::none());
+
+/// The same, holding its share of the input only until the voxel grid is made: a caller that hands
+/// over its last reference has the scan freed before the rest of the stage (a site scan's points
+/// outweigh everything the stage makes from them).
+PreprocessResult preprocess(std::shared_ptr<const PointCloud> input, const PreprocessParams& params,
                             Progress& progress = Progress::none());
 
 }  // namespace piperun
