@@ -429,7 +429,7 @@ int runConvert(const ConvertOptions& options) {
   std::uint64_t dropped = 0;
   while (reader->read(chunk, 1u << 20) > 0) {
     dropped += dropNonFinite(chunk);
-    keepAttributes(chunk, attributes);
+    chunk.keepAttributes(attributes);
     writer->write(chunk);
     written += chunk.size();
     bar.progress().report("convert", reader->progress());
@@ -462,6 +462,8 @@ int runReconstruct(const ReconstructOptions& options) {
   ProgressBar bar(options.quiet);
   ReadOptions readOptions;
   readOptions.progress = &bar.progress();
+  // The pipeline reads positions alone; labels only for an evaluation over what the scan shows.
+  readOptions.attributes = options.truth.empty() ? kNoAttributes : kLabels;
   ReadReport report;
   auto cloud = std::make_shared<const PointCloud>(readPointCloud(options.input, readOptions, &report));
   const double readSeconds = secondsSince(start);
@@ -470,7 +472,7 @@ int runReconstruct(const ReconstructOptions& options) {
   for (const auto& warning : report.warnings) warn(warning);
 
   // Past the voxel grid the scan is read only by an evaluation over its labels: freed otherwise
-  // (20 bytes a point with colours and intensity, the largest part of a site scan's run).
+  // (12 bytes a point, the largest part of a site scan's run).
   std::shared_ptr<const PointCloud> labelledScan;
   if (!options.truth.empty() && cloud->hasLabels()) labelledScan = cloud;
   Pipeline pipeline(std::move(cloud), params);

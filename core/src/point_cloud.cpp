@@ -39,6 +39,13 @@ void PointChunk::clear() {
   labels.clear();
 }
 
+void PointChunk::keepAttributes(unsigned kept) {
+  if (!(kept & kNormals)) normals.clear();
+  if (!(kept & kColors)) colors.clear();
+  if (!(kept & kIntensity)) intensities.clear();
+  if (!(kept & kLabels)) labels.clear();
+}
+
 void PointChunk::checkConsistent() const {
   const std::size_t n = positions.size();
   checkLength(normals, n, "normals");

@@ -88,6 +88,30 @@ TEST(ReadPointCloud, ChunkSizeDoesNotChangeTheResult) {
   EXPECT_EQ(a.positions, b.positions);
 }
 
+TEST(ReadPointCloud, KeepsOnlyTheAttributesAskedFor) {
+  TempDir dir;
+  PointChunk chunk;
+  chunk.positions = {{0, 0, 0}, {1, 2, 3}, {4, 5, 6}};
+  chunk.colors = {Color(1, 2, 3), Color(4, 5, 6), Color(7, 8, 9)};
+  chunk.intensities = {0.1f, 0.2f, 0.3f};
+  chunk.labels = {4, 5, 6};
+  PointCloud written;
+  written.append(chunk);
+  writePointCloud(dir / "scan.ply", written);
+
+  EXPECT_EQ(readPointCloud(dir / "scan.ply").attributes(), kColors | kIntensity | kLabels);
+  ReadOptions positionsOnly;
+  positionsOnly.attributes = kNoAttributes;
+  const PointCloud bare = readPointCloud(dir / "scan.ply", positionsOnly);
+  EXPECT_EQ(bare.attributes(), kNoAttributes);
+  EXPECT_EQ(bare.positions, written.positions);
+  ReadOptions labelsOnly;
+  labelsOnly.attributes = kLabels | kNormals;  // the file has no normals: none come
+  const PointCloud labelled = readPointCloud(dir / "scan.ply", labelsOnly);
+  EXPECT_EQ(labelled.attributes(), kLabels);
+  EXPECT_EQ(labelled.labels, written.labels);
+}
+
 TEST(ReadPointCloud, CancelStopsReading) {
   TempDir dir;
   writeFile(dir / "line.xyz", "0 0 0\n1 1 1\n2 2 2\n");

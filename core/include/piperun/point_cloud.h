@@ -55,6 +55,8 @@ struct PointChunk {
   unsigned attributes() const;
   /// Empties every array, keeping capacity so a reader can refill the chunk without reallocating.
   void clear();
+  /// Empties the attribute arrays not in the PointAttribute bit set `kept`.
+  void keepAttributes(unsigned kept);
   /// Throws std::logic_error when an attribute array's length differs from the position count.
   void checkConsistent() const;
 };

@@ -129,6 +129,7 @@ PointCloud readPointCloud(const std::filesystem::path& path, const ReadOptions& 
   while (reader->read(chunk, std::max<std::size_t>(1, options.chunkPoints)) > 0) {
     progress.checkCancelled();
     dropped += dropNonFinite(chunk);
+    chunk.keepAttributes(options.attributes);
     if (chunk.empty()) continue;
     if (first) {
       cloud.origin = chooseOrigin(chunk);

@@ -103,13 +103,6 @@ class TextPointWriter final : public PointWriter {
 
 }  // namespace
 
-void keepAttributes(PointChunk& chunk, unsigned attributes) {
-  if (!(attributes & kNormals)) chunk.normals.clear();
-  if (!(attributes & kColors)) chunk.colors.clear();
-  if (!(attributes & kIntensity)) chunk.intensities.clear();
-  if (!(attributes & kLabels)) chunk.labels.clear();
-}
-
 std::unique_ptr<PointWriter> openTextWriter(const std::filesystem::path& path, unsigned attributes) {
   const bool csv = lowerExtension(path) == ".csv";
   // A header line names the columns whenever there is more than x y z (and always in CSV),
@@ -140,7 +133,7 @@ void writePointCloud(const std::filesystem::path& path, const PointCloud& cloud,
   PointChunk chunk;
   for (std::size_t first = 0; first < cloud.size(); first += kChunkPoints) {
     cloud.copyTo(chunk, first, std::min(kChunkPoints, cloud.size() - first));
-    keepAttributes(chunk, kept);
+    chunk.keepAttributes(kept);
     writer->write(chunk);
   }
   writer->close();

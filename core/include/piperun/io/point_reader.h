@@ -48,6 +48,9 @@ std::unique_ptr<PointReader> openPointReader(const std::filesystem::path& path);
 struct ReadOptions {
   std::size_t chunkPoints = 1u << 20;   ///< Points per read() call.
   Progress* progress = nullptr;         ///< Reports "read" progress and allows cancelling.
+  /// Attributes kept (PointAttribute bits, where the file has them); the others are dropped chunk
+  /// by chunk, so they never take memory.
+  unsigned attributes = kNormals | kColors | kIntensity | kLabels;
 };
 
 struct ReadReport {

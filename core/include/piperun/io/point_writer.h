@@ -37,9 +37,6 @@ std::unique_ptr<PointWriter> openTextWriter(const std::filesystem::path& path, u
 std::unique_ptr<PointWriter> openPointWriter(const std::filesystem::path& path, unsigned attributes,
                                              const PointWriteOptions& options = {});
 
-/// Clears the attribute arrays of `chunk` that are not in the PointAttribute bit set `attributes`.
-void keepAttributes(PointChunk& chunk, unsigned attributes);
-
 /// Writes a whole cloud (attributes limited by options.attributes).
 void writePointCloud(const std::filesystem::path& path, const PointCloud& cloud,
                      const PointWriteOptions& options = {});
