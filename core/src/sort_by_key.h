@@ -124,7 +124,8 @@ inline KeyGroups groupByKey(const std::vector<KeyedItem>& sorted) {
   return groups;
 }
 
-/// Marks an item left out of groupItemsByKey's groups (a point with no cell).
+/// The key of an item with no cell (a non-finite point, a point without a normal): grouping leaves
+/// it out.
 inline constexpr std::uint64_t kNoKey = ~std::uint64_t{0};
 
 namespace sort_detail {

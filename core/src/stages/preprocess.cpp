@@ -167,14 +167,12 @@ struct KeyedPoint {
   std::uint32_t point;
 };
 
-/// Marks points with no cube (non-finite positions, points without a normal).
-constexpr std::uint64_t kNoCube = std::numeric_limits<std::uint64_t>::max();
 
 /// Groups entries made in point order by cube: those with no cube leave, the rest are sorted by
 /// (key, point). Returns the starts of the cubes' runs, plus the end.
 std::vector<std::uint32_t> groupByCube(std::vector<KeyedPoint>& entries) {
   const auto keyOf = [](const KeyedPoint& entry) { return entry.key; };
-  entries.erase(std::remove_if(entries.begin(), entries.end(), [](const KeyedPoint& e) { return e.key == kNoCube; }),
+  entries.erase(std::remove_if(entries.begin(), entries.end(), [](const KeyedPoint& e) { return e.key == kNoKey; }),
                 entries.end());
   stableSortByKey(entries, keyOf);
   return runStarts(entries, keyOf);
@@ -471,7 +469,7 @@ CellGrid groupIntoCells(const PointCloud& cloud, const std::vector<char>& valid,
   CellGrid cells{CubeGrid(cloud.origin, cellSize, bounds), {}, {}, {}};
   cells.entries.resize(cloud.size());
   tbb::parallel_for(std::size_t{0}, cloud.size(), [&](std::size_t i) {
-    const std::uint64_t key = valid[i] ? cells.grid.key(cells.grid.cubeOf(cloud.positions[i])) : kNoCube;
+    const std::uint64_t key = valid[i] ? cells.grid.key(cells.grid.cubeOf(cloud.positions[i])) : kNoKey;
     cells.entries[i] = {key, static_cast<std::uint32_t>(i)};
   });
   const std::vector<std::uint32_t> starts = groupByCube(cells.entries);
