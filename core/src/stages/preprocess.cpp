@@ -160,24 +160,6 @@ class CubeGrid {
   Index3 counts_;
 };
 
-/// A point tagged with the key of its cube; sorting these by key groups points by cube in a fixed
-/// order.
-struct KeyedPoint {
-  std::uint64_t key;
-  std::uint32_t point;
-};
-
-
-/// Groups entries made in point order by cube: those with no cube leave, the rest are sorted by
-/// (key, point). Returns the starts of the cubes' runs, plus the end.
-std::vector<std::uint32_t> groupByCube(std::vector<KeyedPoint>& entries) {
-  const auto keyOf = [](const KeyedPoint& entry) { return entry.key; };
-  entries.erase(std::remove_if(entries.begin(), entries.end(), [](const KeyedPoint& e) { return e.key == kNoKey; }),
-                entries.end());
-  stableSortByKey(entries, keyOf);
-  return runStarts(entries, keyOf);
-}
-
 /// Step 1: one point per occupied voxel, the centroid of its points; non-finite points are dropped.
 PointCloud voxelCentroids(const PointCloud& input, double leaf, Progress& progress) {
   PointCloud output;
@@ -370,7 +352,7 @@ SurfaceEstimates estimateNormals(const PointCloud& cloud, const OutlierSearch& s
 /// A cell of the plane grid and the plane fitted to its points.
 struct PlaneCell {
   Index3 cube;
-  std::uint32_t first = 0;  ///< Range of the cell's entries in the sorted (key, point) list.
+  std::uint32_t first = 0;  ///< Range of the cell's points in the grid's points by cell.
   std::uint32_t last = 0;
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();  ///< Offset coordinates.
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
@@ -380,7 +362,7 @@ struct PlaneCell {
 
 /// Largest absolute principal curvature (1/m) of the quadratic height field fitted to a cell's
 /// points over their PCA plane: w = A u² + B uv + C v² + D u + E v + F.
-double heightFieldCurvature(const PlaneCell& cell, const PrincipalFrame& frame, const std::vector<KeyedPoint>& entries,
+double heightFieldCurvature(const PlaneCell& cell, const PrincipalFrame& frame, const std::vector<std::uint32_t>& points,
                             const PointCloud& cloud, double cellSize) {
   using Vector6d = Eigen::Matrix<double, 6, 1>;
   using Matrix6d = Eigen::Matrix<double, 6, 6>;
@@ -389,7 +371,7 @@ double heightFieldCurvature(const PlaneCell& cell, const PrincipalFrame& frame, 
   for (std::uint32_t e = cell.first; e < cell.last; ++e) {
     // Coordinates in cell-size units keep the normal equations well conditioned.
     const Eigen::Vector3d local =
-        frame.eigenvectors.transpose() * (cloud.positions[entries[e].point].cast<double>() - frame.centroid) / cellSize;
+        frame.eigenvectors.transpose() * (cloud.positions[points[e]].cast<double>() - frame.centroid) / cellSize;
     const double w = local[0], u = local[1], v = local[2];  // height along the normal, in-plane axes
     Vector6d basis;
     basis << u * u, u * v, v * v, u, v, 1.0;
@@ -403,11 +385,11 @@ double heightFieldCurvature(const PlaneCell& cell, const PrincipalFrame& frame, 
 }
 
 /// Fits the cell's plane and decides whether it is a piece of a flat surface.
-void classifyCell(PlaneCell& cell, const std::vector<KeyedPoint>& entries, const PointCloud& cloud,
+void classifyCell(PlaneCell& cell, const std::vector<std::uint32_t>& points, const PointCloud& cloud,
                   const std::vector<Eigen::Vector3f>& normals, const PreprocessParams& params) {
   const std::uint32_t count = cell.last - cell.first;
-  MomentSum moments(cloud.positions[entries[cell.first].point].cast<double>());
-  for (std::uint32_t e = cell.first; e < cell.last; ++e) moments.add(cloud.positions[entries[e].point].cast<double>());
+  MomentSum moments(cloud.positions[points[cell.first]].cast<double>());
+  for (std::uint32_t e = cell.first; e < cell.last; ++e) moments.add(cloud.positions[points[e]].cast<double>());
   const PrincipalFrame frame = moments.frame();
   cell.centroid = frame.centroid;
   cell.normal = frame.eigenvectors.col(0).normalized();
@@ -420,10 +402,10 @@ void classifyCell(PlaneCell& cell, const std::vector<KeyedPoint>& entries, const
   const double cosParallel = std::cos(radians(kParallelAngleDeg));
   std::uint32_t agreeing = 0;
   for (std::uint32_t e = cell.first; e < cell.last; ++e) {
-    if (std::abs(normals[entries[e].point].cast<double>().dot(cell.normal)) >= cosParallel) ++agreeing;
+    if (std::abs(normals[points[e]].cast<double>().dot(cell.normal)) >= cosParallel) ++agreeing;
   }
   if (agreeing < kMinAgreement * count) return;
-  if (heightFieldCurvature(cell, frame, entries, cloud, params.planeCellSize) > params.planeMaxCurvature) return;
+  if (heightFieldCurvature(cell, frame, points, cloud, params.planeCellSize) > params.planeMaxCurvature) return;
   cell.planar = true;
 }
 
@@ -452,7 +434,7 @@ std::array<Index3, 26> neighborOffsets() {
 /// The points with normals grouped by the cells of the plane grid, sorted by cell key.
 struct CellGrid {
   CubeGrid grid;
-  std::vector<KeyedPoint> entries;
+  std::vector<std::uint32_t> points;  ///< Point indices by cell (a cell's in index order).
   std::vector<PlaneCell> cells;
   std::vector<std::uint64_t> keys;  ///< Key of each cell, ascending.
 
@@ -467,19 +449,16 @@ struct CellGrid {
 
 CellGrid groupIntoCells(const PointCloud& cloud, const std::vector<char>& valid, double cellSize, const BoundingBox& bounds) {
   CellGrid cells{CubeGrid(cloud.origin, cellSize, bounds), {}, {}, {}};
-  cells.entries.resize(cloud.size());
-  tbb::parallel_for(std::size_t{0}, cloud.size(), [&](std::size_t i) {
-    const std::uint64_t key = valid[i] ? cells.grid.key(cells.grid.cubeOf(cloud.positions[i])) : kNoKey;
-    cells.entries[i] = {key, static_cast<std::uint32_t>(i)};
+  KeyGroups groups = groupItemsByKey(cloud.size(), [&](std::size_t i) {
+    return valid[i] ? cells.grid.key(cells.grid.cubeOf(cloud.positions[i])) : kNoKey;
   });
-  const std::vector<std::uint32_t> starts = groupByCube(cells.entries);
-  cells.cells.resize(starts.size() - 1);
-  cells.keys.resize(cells.cells.size());
+  cells.points = std::move(groups.items);
+  cells.keys = std::move(groups.keys);
+  cells.cells.resize(cells.keys.size());
   for (std::size_t c = 0; c < cells.cells.size(); ++c) {
-    cells.cells[c].first = starts[c];
-    cells.cells[c].last = starts[c + 1];
-    cells.cells[c].cube = cells.grid.cubeOf(cloud.positions[cells.entries[starts[c]].point]);
-    cells.keys[c] = cells.entries[starts[c]].key;
+    cells.cells[c].first = groups.begins[c];
+    cells.cells[c].last = groups.begins[c + 1];
+    cells.cells[c].cube = cells.grid.cubeOf(cloud.positions[cells.points[groups.begins[c]]]);
   }
   return cells;
 }
@@ -540,7 +519,7 @@ std::vector<std::int64_t> locateOnPlanes(const CellGrid& grid, const std::vector
         }
       }
       for (std::uint32_t e = cells[c].first; e < cells[c].last; ++e) {
-        const std::uint32_t i = grid.entries[e].point;
+        const std::uint32_t i = grid.points[e];
         const Eigen::Vector3d p = cloud.positions[i].cast<double>();
         const Eigen::Vector3d normal = normals[i].cast<double>();
         std::int64_t firstBand = -1;
@@ -573,7 +552,7 @@ int findPlanePoints(const PointCloud& cloud, const SurfaceEstimates& surface, co
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grid.cells.size(), 16), [&](const tbb::blocked_range<std::size_t>& range) {
     progress.checkCancelled();
     for (std::size_t c = range.begin(); c < range.end(); ++c) {
-      classifyCell(grid.cells[c], grid.entries, cloud, surface.normals, params);
+      classifyCell(grid.cells[c], grid.points, cloud, surface.normals, params);
     }
   });
   progress.report(kTask, kNormalsDone + 0.5 * (kPlanesDone - kNormalsDone));
@@ -671,7 +650,7 @@ std::vector<Tile> buildTiles(const PointCloud& cloud, double size, double overla
 
   // (tile key, point) for every tile whose grown box contains the point; the axes are independent,
   // so the candidates along each axis are checked on their own and combined.
-  std::vector<KeyedPoint> memberships;
+  std::vector<KeyedItem> memberships;
   memberships.reserve(cloud.size());
   std::array<std::vector<std::int64_t>, 3> along;
   for (std::size_t i = 0; i < cloud.size(); ++i) {
@@ -698,11 +677,12 @@ std::vector<Tile> buildTiles(const PointCloud& cloud, double size, double overla
       }
     }
   }
-  const std::vector<std::uint32_t> starts = groupByCube(memberships);  // tiles are cubes too
+  stableSortByKey(memberships, keyOfItem);  // made in point order, so sorted by (tile, point)
+  const std::vector<std::uint32_t> starts = runStarts(memberships, keyOfItem);
 
   std::vector<Tile> tiles;
   for (std::size_t t = 0; t + 1 < starts.size(); ++t) {
-    const std::uint64_t key = memberships[starts[t]].key;
+    const std::uint64_t key = memberships[starts[t]].first;
     const auto perX = static_cast<std::uint64_t>(counts.y() * counts.z());
     const Index3 index(static_cast<std::int64_t>(key / perX), static_cast<std::int64_t>(key % perX) / counts.z(),
                        static_cast<std::int64_t>(key % static_cast<std::uint64_t>(counts.z())));
@@ -715,7 +695,7 @@ std::vector<Tile> buildTiles(const PointCloud& cloud, double size, double overla
       tile.box.max[axis] = high(axis, index[axis], overlap);
     }
     tile.points.reserve(starts[t + 1] - starts[t]);
-    for (std::uint32_t e = starts[t]; e < starts[t + 1]; ++e) tile.points.push_back(memberships[e].point);
+    for (std::uint32_t e = starts[t]; e < starts[t + 1]; ++e) tile.points.push_back(memberships[e].second);
     tiles.push_back(std::move(tile));
   }
   return tiles;
