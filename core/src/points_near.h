@@ -101,12 +101,7 @@ class PointCells {
     const BoundingBox box = finiteBounds(cloud.positions).box;
     low_ = cellOf(box.min);
     size_ = (cellOf(box.max) - low_).cast<std::int64_t>().array() + 1;
-    std::vector<KeyedItem> keyed(cloud.size());
-    tbb::parallel_for(std::size_t{0}, cloud.size(), [&](std::size_t i) {
-      keyed[i] = {numberOf(cellOf(cloud.positions[i].cast<double>())), static_cast<std::uint32_t>(i)};
-    });
-    stableSortByKey(keyed, keyOfItem);
-    cells_ = groupByKey(keyed);
+    cells_ = groupItemsByKey(cloud.size(), [&](std::size_t i) { return numberOf(cellOf(cloud.positions[i].cast<double>())); });
   }
 
   const PointCloud& cloud() const { return *cloud_; }
