@@ -90,36 +90,66 @@ class HashGrid {
   std::vector<Eigen::Vector3i> cells_;               // the cell of each bucket
 };
 
-/// The points of a cloud filed by cell once, for searches that each look at a few places: a scan's
-/// millions of points are passed over once, not once a search. Cells are numbered row by row over
-/// the cloud's bounding box, so a row of cells is one range of the sorted numbers.
-class PointCells {
+/// Cubic cells over the bounding box of a set of points, numbered row by row along x, then y, then z:
+/// a row of cells is one range of numbers, and grouping by number splits the box along z.
+class CellNumbering {
  public:
-  PointCells(const PointCloud& cloud, double cellSize) : cloud_(&cloud), cell_(cellSize) {
-    if (cloud.size() == 0) return;
+  CellNumbering(const std::vector<Eigen::Vector3f>& positions, double cellSize) : cell_(cellSize) {
+    if (positions.empty()) return;
     // The cells of the box's corners bound every point's cell (floor is monotonic).
-    const BoundingBox box = finiteBounds(cloud.positions).box;
+    const BoundingBox box = finiteBounds(positions).box;
     low_ = cellOf(box.min);
     size_ = (cellOf(box.max) - low_).cast<std::int64_t>().array() + 1;
-    cells_ = groupItemsByKey(cloud.size(), [&](std::size_t i) { return numberOf(cellOf(cloud.positions[i].cast<double>())); });
+  }
+
+  double cellSize() const { return cell_; }
+  Eigen::Vector3i cellOf(const Eigen::Vector3d& p) const { return (p / cell_).array().floor().cast<int>(); }
+  /// The box's lowest and highest cells.
+  Eigen::Vector3i lowest() const { return low_; }
+  Eigen::Vector3i highest() const { return (low_.cast<std::int64_t>().array() + size_ - 1).matrix().cast<int>(); }
+  bool contains(const Eigen::Vector3i& cell) const {
+    const Eigen::Array3<std::int64_t> offset = (cell - low_).cast<std::int64_t>().array();
+    return (offset >= 0).all() && (offset < size_).all();
+  }
+  std::uint64_t numberOf(const Eigen::Vector3i& cell) const {
+    const Eigen::Array3<std::int64_t> offset = (cell - low_).cast<std::int64_t>().array();
+    return static_cast<std::uint64_t>((offset.z() * size_.y() + offset.y()) * size_.x() + offset.x());
+  }
+
+ private:
+  double cell_;
+  Eigen::Vector3i low_ = Eigen::Vector3i::Zero();                           // the box's lowest cell
+  Eigen::Array3<std::int64_t> size_ = Eigen::Array3<std::int64_t>::Zero();  // cells along each axis
+};
+
+/// The points of a cloud filed by cell once, for searches that each look at a few places: a scan's
+/// millions of points are passed over once, not once a search. Cells are numbered row by row over
+/// the cloud's bounding box (CellNumbering), so a row of cells is one range of the sorted numbers.
+class PointCells {
+ public:
+  PointCells(const PointCloud& cloud, double cellSize) : cloud_(&cloud), numbering_(cloud.positions, cellSize) {
+    if (cloud.size() == 0) return;
+    cells_ = groupItemsByKey(cloud.size(), [&](std::size_t i) {
+      return numbering_.numberOf(numbering_.cellOf(cloud.positions[i].cast<double>()));
+    });
   }
 
   const PointCloud& cloud() const { return *cloud_; }
-  double cellSize() const { return cell_; }
-  Eigen::Vector3i cellOf(const Eigen::Vector3d& p) const { return (p / cell_).array().floor().cast<int>(); }
+  double cellSize() const { return numbering_.cellSize(); }
+  Eigen::Vector3i cellOf(const Eigen::Vector3d& p) const { return numbering_.cellOf(p); }
 
   /// Calls visit(i) for every point in the cells from `low` to `high` (inclusive), row by row.
   template <class Visit>
   void forEachInCells(Eigen::Vector3i low, Eigen::Vector3i high, Visit&& visit) const {
     if (cells_.keys.empty()) return;
-    low = low.cwiseMax(low_);
-    high = high.cwiseMin((low_.cast<std::int64_t>().array() + size_ - 1).matrix().cast<int>());
+    low = low.cwiseMax(numbering_.lowest());
+    high = high.cwiseMin(numbering_.highest());
     if ((low.array() > high.array()).any()) return;
     const auto& numbers = cells_.keys;
     for (int z = low.z(); z <= high.z(); ++z) {
       for (int y = low.y(); y <= high.y(); ++y) {
-        const std::uint64_t last = numberOf(Eigen::Vector3i(high.x(), y, z));
-        auto cell = std::lower_bound(numbers.begin(), numbers.end(), numberOf(Eigen::Vector3i(low.x(), y, z)));
+        const std::uint64_t last = numbering_.numberOf(Eigen::Vector3i(high.x(), y, z));
+        auto cell = std::lower_bound(numbers.begin(), numbers.end(), numbering_.numberOf(Eigen::Vector3i(low.x(), y, z)));
         for (; cell != numbers.end() && *cell <= last; ++cell) {
           const auto g = static_cast<std::size_t>(cell - numbers.begin());
           for (std::uint32_t j = cells_.begins[g]; j < cells_.begins[g + 1]; ++j) visit(cells_.items[j]);
@@ -129,15 +159,8 @@ class PointCells {
   }
 
  private:
-  std::uint64_t numberOf(const Eigen::Vector3i& cell) const {
-    const Eigen::Array3<std::int64_t> offset = (cell - low_).cast<std::int64_t>().array();
-    return static_cast<std::uint64_t>((offset.z() * size_.y() + offset.y()) * size_.x() + offset.x());
-  }
-
   const PointCloud* cloud_;
-  double cell_;
-  Eigen::Vector3i low_ = Eigen::Vector3i::Zero();                           // the bounding box's lowest cell
-  Eigen::Array3<std::int64_t> size_ = Eigen::Array3<std::int64_t>::Zero();  // cells along each axis
+  CellNumbering numbering_;
   KeyGroups cells_;  // the points by cell number, in index order within a cell
 };
 

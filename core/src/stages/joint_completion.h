@@ -3,7 +3,6 @@
 // missed, found beyond an end or off a pipe's body.
 
 #include "stages/joint_resolution.h"
-#include "bounds.h"
 #include "points_near.h"
 #include "sort_by_key.h"
 
@@ -17,7 +16,7 @@ namespace piperun::joints {
 
 /// The 1 cm cells holding points removed as large planes: a point lies by a plane when a cell within
 /// one of its own holds one (within 1–2 cm of a plane point). Kept as the sorted numbers of the
-/// filled cells (row by row over the plane points' bounding box), built once per joining: a large
+/// filled cells (CellNumbering over the plane points' bounding box), built once per joining: a large
 /// scan's floors hold millions of points, too many to file again each round. They are grouped a slab
 /// of numbers at a time, so that only 4 bytes a plane point are held besides (a 100 million point
 /// scan's 36 million plane points, sorted whole, took 0.6 GB).
@@ -25,38 +24,30 @@ class PlaneCells {
  public:
   explicit PlaneCells(const PointCloud* planes) {
     if (!planes || planes->empty()) return;
-    const BoundingBox box = finiteBounds(planes->positions).box;
-    low_ = cellOf(box.min);
-    size_ = (cellOf(box.max) - low_).cast<std::int64_t>().array() + 1;
+    numbering_ = CellNumbering(planes->positions, kCellSize);
     numbers_ = groupItemsByKey(planes->size(), [&](std::size_t i) {
-                 return numberOf(cellOf(planes->positions[i].cast<double>()));
+                 return numbering_.numberOf(numbering_.cellOf(planes->positions[i].cast<double>()));
                }).keys;
   }
 
   bool by(const Eigen::Vector3d& p) const {
     if (numbers_.empty()) return false;
-    const Eigen::Vector3i cell = cellOf(p);
+    const Eigen::Vector3i cell = numbering_.cellOf(p);
     for (int k = 0; k < 27; ++k) {
       const Eigen::Vector3i near = cell + Eigen::Vector3i(k % 3 - 1, k / 3 % 3 - 1, k / 9 - 1);
-      const Eigen::Array3<std::int64_t> offset = (near - low_).cast<std::int64_t>().array();
-      if ((offset < 0).any() || (offset >= size_).any()) continue;
-      if (std::binary_search(numbers_.begin(), numbers_.end(), numberOf(near))) return true;
+      if (numbering_.contains(near) &&
+          std::binary_search(numbers_.begin(), numbers_.end(), numbering_.numberOf(near))) {
+        return true;
+      }
     }
     return false;
   }
 
  private:
   static constexpr double kCellSize = 0.01;
-  static Eigen::Vector3i cellOf(const Eigen::Vector3d& p) { return (p / kCellSize).array().floor().cast<int>(); }
-  /// Row by row along x, then y, then z (x numbers the cells within a row, so slabs split along z).
-  std::uint64_t numberOf(const Eigen::Vector3i& cell) const {
-    const Eigen::Array3<std::int64_t> offset = (cell - low_).cast<std::int64_t>().array();
-    return static_cast<std::uint64_t>((offset.z() * size_.y() + offset.y()) * size_.x() + offset.x());
-  }
 
-  Eigen::Vector3i low_ = Eigen::Vector3i::Zero();                           // the bounding box's lowest cell
-  Eigen::Array3<std::int64_t> size_ = Eigen::Array3<std::int64_t>::Zero();  // cells along each axis
-  std::vector<std::uint64_t> numbers_;                                      // the filled cells, ascending
+  CellNumbering numbering_{{}, kCellSize};
+  std::vector<std::uint64_t> numbers_;  // the filled cells, ascending
 };
 
 /// A pipe the earlier stages missed, found beyond a free end: short legs between elbows and tails
