@@ -4,6 +4,8 @@
 // comparison sort of (key, index) pairs would give, but in a few linear passes over the digits the
 // keys actually use. The order is the same for any thread count (a stable sort's result is unique).
 
+#include "free_storage.h"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
@@ -197,7 +199,7 @@ KeyGroups groupItemsByKey(std::size_t count, KeyOf keyOf, std::size_t slabItems 
   for (std::size_t c = 0; c < chunks; ++c) {
     for (std::size_t s = 0; s < slices; ++s) next[c * slabs + slabOfSlice[s]] += perSlice[c * slices + s];
   }
-  perSlice = {};
+  freeStorage(perSlice);
   for (std::size_t b = 0, total = 0; b < slabs; ++b) {
     for (std::size_t c = 0; c < chunks; ++c) {
       const std::size_t items = next[c * slabs + b];

@@ -79,8 +79,9 @@ PointCells filePointCells(const std::vector<Eigen::Vector3f>& positions, float m
   std::vector<std::uint32_t> next(start.begin(), start.end() - 1);
   for (std::size_t i = 0; i < cellOf.size(); ++i)
     if (cellOf[i] != kNoCell) filed.order[next[cellOf[i]]++] = static_cast<std::uint32_t>(i);
-  cellOf = {};
-  next = {};
+  // Assigning {} would keep their memory.
+  cellOf = std::vector<std::uint32_t>();
+  next = std::vector<std::uint32_t>();
 
   for (std::size_t c = 0; c + 1 < start.size(); ++c)
     if (start[c + 1] > start[c]) {

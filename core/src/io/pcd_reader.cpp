@@ -2,6 +2,7 @@
 // binary_compressed (LZF). Written from the format description rather than with PCL's loader,
 // which holds the whole file twice.
 
+#include "free_storage.h"
 #include "io/binary_file.h"
 #include "io/readers.h"
 #include "io/text_lines.h"
@@ -455,7 +456,7 @@ class PcdReader final : public PointReader {
           store(chunk);
           ++delivered_;
         }
-        if (delivered_ == header_.points) columns_ = {};  // release the decompressed data early
+        if (delivered_ == header_.points) freeStorage(columns_);  // the decompressed data, no longer needed
         break;
     }
     return n;

@@ -43,6 +43,7 @@
 
 #include "angles.h"
 #include "bounds.h"
+#include "free_storage.h"
 #include "nearest_neighbors.h"
 #include "sort_by_key.h"
 #include "union_find.h"
@@ -747,16 +748,17 @@ PreprocessResult preprocess(std::shared_ptr<const PointCloud> input, const Prepr
     search = searchOutlierNeighbors(sampled.positions, params.outlierNeighbors,
                                     keepNeighbors ? params.normalNeighbors : 0, spacing, progress);
   }
-  const std::vector<char> outlier =
+  std::vector<char> outlier =
       statisticalOutliers(search.meanDistance, n, params.outlierStdRatio, params.outlierRobust);
-  search.meanDistance = {};
+  freeStorage(search.meanDistance);
   diagnostics.outlierSeconds = secondsSince(stepStart);
   progress.checkCancelled();
   progress.report(kTask, kOutliersDone);
 
   stepStart = Clock::now();
   SurfaceEstimates surface = estimateNormals(sampled, search, outlier, params.normalNeighbors, spacing, progress);
-  search.kept = {};
+  freeStorage(search.kept);
+  freeStorage(outlier);
   // Points left without a normal (too few non-outlier neighbours) count as outliers.
   diagnostics.outliersRemoved = static_cast<std::size_t>(std::count(surface.valid.begin(), surface.valid.end(), 0));
   diagnostics.normalSeconds = secondsSince(stepStart);
@@ -776,7 +778,7 @@ PreprocessResult preprocess(std::shared_ptr<const PointCloud> input, const Prepr
   // The voxel points live on in the split: freed before the tiles' memberships are sorted.
   sampled = PointCloud{};
   surface = SurfaceEstimates{};
-  planePoint = {};
+  freeStorage(planePoint);
   diagnostics.planePoints = result.planePoints.size();
   diagnostics.keptPoints = result.points.size();
 
