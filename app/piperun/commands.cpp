@@ -477,6 +477,9 @@ int runReconstruct(const ReconstructOptions& options) {
   if (!options.truth.empty() && cloud->hasLabels()) labelledScan = cloud;
   Pipeline pipeline(std::move(cloud), params);
   if (!labelledScan) pipeline.releaseInput();
+  // What the tiles keep for views (sphere samples, stripes, circle candidates) is read here only
+  // by the stage dump.
+  if (options.dumpDirectory.empty()) pipeline.releaseTileDetails();
   pipeline.run(bar.progress(), stageFromName(options.until).value_or(Stage::Joints));
   const PipeNetwork network = pipeline.network();
   writeNetwork(options.output, network,

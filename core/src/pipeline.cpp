@@ -9,6 +9,7 @@
 #include "piperun/error.h"
 #include "piperun/params.h"
 
+#include "free_storage.h"
 #include "random.h"
 
 #include <tbb/parallel_for.h>
@@ -42,6 +43,16 @@ std::vector<std::uint32_t> unexplainedPoints(const std::vector<std::uint32_t>& p
 }
 
 int index(Stage stage) { return static_cast<int>(stage); }
+
+// See Pipeline::releaseTileDetails.
+void dropDetails(TileRound& round) {
+  freeStorage(round.points);
+  freeStorage(round.directions.samples);
+  freeStorage(round.directions.sampleDirection);
+  for (auto& direction : round.directions.directions) freeStorage(direction.stripe);
+  for (auto& projection : round.placement.projections) freeStorage(projection.candidates);
+  for (auto& cylinder : round.placement.cylinders) freeStorage(cylinder.inliers);
+}
 
 }  // namespace
 
@@ -130,8 +141,9 @@ void Pipeline::runPreprocess(Progress& progress) {
 void Pipeline::runTiles(Stage first, Stage last, Progress& progress) {
   const PreprocessResult& prepared = *preprocess_;
   const std::vector<Tile>& tiles = prepared.tiles;
-  // Earlier first-round results can be reused only when they belong to the current tiles.
-  const bool reuse = first != Stage::Directions && tiles_ && tiles_->size() == tiles.size();
+  // Earlier first-round results can be reused only when they belong to the current tiles and
+  // kept what the later stages read.
+  const bool reuse = first != Stage::Directions && tiles_ && tiles_->size() == tiles.size() && tilesHaveDetails_;
   const auto previous = tiles_;
   auto results = std::make_shared<std::vector<TileReconstruction>>(tiles.size());
   const int rounds = last == Stage::Extents ? std::max(1, params_.rounds) : 1;
@@ -168,6 +180,7 @@ void Pipeline::runTiles(Stage first, Stage last, Progress& progress) {
       }
       const bool foundPipes = !current.extents.segments.empty();
       if (foundPipes) remaining = unexplainedPoints(remaining, current.extents);
+      if (releaseTileDetails_) dropDetails(current);
       out.rounds.push_back(std::move(current));
       if (!foundPipes) break;
     }
@@ -175,6 +188,7 @@ void Pipeline::runTiles(Stage first, Stage last, Progress& progress) {
   });
 
   tiles_ = std::move(results);
+  tilesHaveDetails_ = !releaseTileDetails_;
   for (Stage stage : {Stage::Directions, Stage::Placement, Stage::Extents}) {
     if (index(stage) > index(last)) break;
     double seconds = 0.0;

@@ -93,6 +93,42 @@ TEST(Pipeline, ReleasedInputGivesTheSameNetworkAndNoSecondPreprocessing) {
   EXPECT_THROW(late.run(), std::logic_error);
 }
 
+TEST(Pipeline, ReleasedTileDetailsGiveTheSameNetworkAndReRunsFromTheDirections) {
+  Pipeline whole(sceneCloud());
+  whole.run();
+  Pipeline slim(sceneCloud());
+  slim.releaseTileDetails();
+  slim.run();
+  EXPECT_EQ(networkToJson(slim.network()), networkToJson(whole.network()));
+  std::size_t directions = 0, cylinders = 0, pieces = 0;
+  for (const auto& tile : *slim.tileResults()) {
+    for (const auto& round : tile.rounds) {
+      EXPECT_TRUE(round.points.empty());
+      EXPECT_TRUE(round.directions.samples.empty());
+      EXPECT_TRUE(round.directions.sampleDirection.empty());
+      for (const auto& direction : round.directions.directions) EXPECT_TRUE(direction.stripe.empty());
+      for (const auto& projection : round.placement.projections) EXPECT_TRUE(projection.candidates.empty());
+      for (const auto& cylinder : round.placement.cylinders) EXPECT_TRUE(cylinder.inliers.empty());
+      directions += round.directions.directions.size();
+      cylinders += round.placement.cylinders.size();
+      pieces += round.extents.segments.size();
+    }
+  }
+  EXPECT_GT(directions, 0u);
+  EXPECT_GT(cylinders, 0u);
+  EXPECT_GT(pieces, 0u);
+
+  // A placement change cannot start from directions without their stripes: the same network as a
+  // pipeline that kept them.
+  PipelineParams params = whole.params();
+  params.placement.minInliers += 10;
+  whole.setParams(params);
+  slim.setParams(params);
+  whole.run();
+  slim.run();
+  EXPECT_EQ(networkToJson(slim.network()), networkToJson(whole.network()));
+}
+
 TEST(Pipeline, JointsStageConnectsThePipesIntoRunsAndRerunsAlone) {
   Pipeline pipeline(sceneCloud());
   pipeline.run();

@@ -85,6 +85,12 @@ class Pipeline {
   /// preprocessing is fresh, otherwise as soon as its next run has made the voxel grid. The
   /// preprocessing cannot run again: run() then throws std::logic_error where it would.
   void releaseInput();
+  /// Lets each tile round drop, as it finishes, what only a viewer, the stage dump and a re-run of
+  /// a single per-tile stage read: the points it analysed, the sphere samples, the directions'
+  /// stripes, the circle candidates and the cylinders' inliers (most of a site scan's per-tile
+  /// results). The directions, cylinders and pipe pieces stay, so the network is the same. From
+  /// the next run on; a later re-run of the per-tile stages then starts from the directions.
+  void releaseTileDetails() { releaseTileDetails_ = true; }
   /// Latest results (null before the stage first ran). A stale stage keeps its previous result
   /// until it runs again, so a viewer can go on showing it.
   std::shared_ptr<const PreprocessResult> preprocessResult() const { return preprocess_; }
@@ -106,6 +112,8 @@ class Pipeline {
 
   std::shared_ptr<const PointCloud> input_;
   bool releaseInput_ = false;
+  bool releaseTileDetails_ = false;
+  bool tilesHaveDetails_ = false;  ///< tiles_ kept their details, so a re-run may reuse them.
   PipelineParams params_;
   std::array<bool, kStageCount> fresh_{};
   std::array<double, kStageCount> seconds_{};
