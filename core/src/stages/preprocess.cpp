@@ -593,46 +593,56 @@ int findPlanePoints(const PointCloud& cloud, const SurfaceEstimates& surface, co
   return planes;
 }
 
-/// The points with normals, kept or set aside as plane points, in point order: chunks are counted,
-/// then each writes its points from its offsets.
-void splitPoints(const PointCloud& sampled, const SurfaceEstimates& surface, const std::vector<char>& planePoint,
+/// The points with normals, kept or set aside as plane points, in point order. The kept points are
+/// copied out, chunk by chunk in parallel; then the plane points (most of a site scan's) move up
+/// in the voxel points' own arrays, which become theirs, so that the voxel points and a copy of
+/// all of them are never held at once. Takes the voxel points, their estimates and the flags.
+void splitPoints(PointCloud& sampled, SurfaceEstimates& surface, std::vector<char>& planePoint,
                  PreprocessResult& result) {
   constexpr std::size_t kSplitChunk = std::size_t{1} << 16;
   const std::size_t n = sampled.size();
   const std::size_t chunks = (n + kSplitChunk - 1) / kSplitChunk;
-  std::vector<std::size_t> keptBefore(chunks + 1, 0), planesBefore(chunks + 1, 0);
+  const auto isKept = [&](std::size_t i) { return surface.valid[i] && !planePoint[i]; };
+  std::vector<std::size_t> keptBefore(chunks + 1, 0);
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
     for (std::size_t i = c * kSplitChunk, last = std::min(n, (c + 1) * kSplitChunk); i < last; ++i) {
-      if (!surface.valid[i]) continue;
-      ++(planePoint[i] ? planesBefore : keptBefore)[c + 1];
+      if (isKept(i)) ++keptBefore[c + 1];
     }
   });
-  for (std::size_t c = 0; c < chunks; ++c) {
-    keptBefore[c + 1] += keptBefore[c];
-    planesBefore[c + 1] += planesBefore[c];
-  }
+  for (std::size_t c = 0; c < chunks; ++c) keptBefore[c + 1] += keptBefore[c];
   PointCloud& kept = result.points;
-  PointCloud& planes = result.planePoints;
-  kept.origin = planes.origin = sampled.origin;
+  kept.origin = sampled.origin;
   kept.positions.resize(keptBefore[chunks]);
   kept.normals.resize(keptBefore[chunks]);
   result.curvature.resize(keptBefore[chunks]);
-  planes.positions.resize(planesBefore[chunks]);
-  planes.normals.resize(planesBefore[chunks]);
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
-    std::size_t nextKept = keptBefore[c], nextPlane = planesBefore[c];
+    std::size_t next = keptBefore[c];
     for (std::size_t i = c * kSplitChunk, last = std::min(n, (c + 1) * kSplitChunk); i < last; ++i) {
-      if (!surface.valid[i]) continue;
-      if (planePoint[i]) {
-        planes.positions[nextPlane] = sampled.positions[i];
-        planes.normals[nextPlane++] = surface.normals[i];
-      } else {
-        kept.positions[nextKept] = sampled.positions[i];
-        kept.normals[nextKept] = surface.normals[i];
-        result.curvature[nextKept++] = surface.curvature[i];
-      }
+      if (!isKept(i)) continue;
+      kept.positions[next] = sampled.positions[i];
+      kept.normals[next] = surface.normals[i];
+      result.curvature[next++] = surface.curvature[i];
     }
   });
+  freeStorage(surface.curvature);
+
+  // In order, so a point is read before a later one overwrites it.
+  std::size_t planes = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!surface.valid[i] || !planePoint[i]) continue;
+    sampled.positions[planes] = sampled.positions[i];
+    surface.normals[planes++] = surface.normals[i];
+  }
+  freeStorage(surface.valid);
+  freeStorage(planePoint);
+  PointCloud& planePoints = result.planePoints;
+  planePoints.origin = sampled.origin;
+  planePoints.positions = std::move(sampled.positions);
+  planePoints.normals = std::move(surface.normals);
+  for (auto* values : {&planePoints.positions, &planePoints.normals}) {
+    values->resize(planes);
+    values->shrink_to_fit();  // one array at a time
+  }
 }
 
 /// Step 5: cubic tiles from the low corner of the cloud's bounding box, grown by the overlap.
@@ -775,10 +785,6 @@ PreprocessResult preprocess(std::shared_ptr<const PointCloud> input, const Prepr
   progress.report(kTask, kPlanesDone);
 
   splitPoints(sampled, surface, planePoint, result);
-  // The voxel points live on in the split: freed before the tiles' memberships are sorted.
-  sampled = PointCloud{};
-  surface = SurfaceEstimates{};
-  freeStorage(planePoint);
   diagnostics.planePoints = result.planePoints.size();
   diagnostics.keptPoints = result.points.size();
 
