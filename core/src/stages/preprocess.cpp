@@ -176,16 +176,18 @@ PointCloud voxelCentroids(const PointCloud& input, double leaf, Progress& progre
   }
 
   const CubeGrid grid(input.origin, leaf, bounds);
-  const KeyGroups voxels = groupItemsByKey(input.size(), [&](std::size_t i) {
+  KeyGroups voxels = groupItemsByKey(input.size(), [&](std::size_t i) {
     const Eigen::Vector3f& p = input.positions[i];
     return p.allFinite() ? grid.key(grid.cubeOf(p)) : kNoKey;
   });
+  const std::size_t voxelCount = voxels.keys.size();
+  freeStorage(voxels.keys);  // 8 bytes a voxel, held beside the scan: only the voxels' points are needed
   progress.checkCancelled();
   progress.report(kTask, 0.8 * kVoxelDone);
 
   const std::vector<std::uint32_t>& starts = voxels.begins;
-  output.positions.resize(voxels.keys.size());
-  parallelChunks(voxels.keys.size(), progress, [&](std::size_t first, std::size_t last) {
+  output.positions.resize(voxelCount);
+  parallelChunks(voxelCount, progress, [&](std::size_t first, std::size_t last) {
     for (std::size_t v = first; v < last; ++v) {
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();
       for (std::uint32_t e = starts[v]; e < starts[v + 1]; ++e) sum += input.positions[voxels.items[e]].cast<double>();
