@@ -3,6 +3,7 @@
 
 #include "osmesa_context.h"
 
+#include "piperun/edit/project.h"
 #include "piperun/error.h"
 #include "piperun/progress.h"
 #include "piperun/ui/studio.h"
@@ -91,7 +92,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "piperun-render: warning: %s is newer than the project (not opened; open it to recover)\n",
                    document.newerAutosave()->string().c_str());
     }
-    if (document.hasPipeline() && !noRun && !piperun::ui::isProjectFile(input)) studio.command("run");
+    if (document.hasPipeline() && !noRun && !piperun::isProjectFile(input)) studio.command("run");
     if (view != "all") {
       studio.command("widgets off");
       studio.command("view " + view);

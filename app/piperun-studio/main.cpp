@@ -2,6 +2,7 @@
 // them to ui::Studio through a vtkGenericOpenGLRenderWindow, and forwards GLFW's input events to
 // VTK's interactor. Everything the user sees and does lives in ui/.
 
+#include "piperun/edit/project.h"
 #include "piperun/ui/studio.h"
 
 #include <CLI/CLI.hpp>
@@ -56,7 +57,7 @@ struct StudioWindow {
   void open(const std::string& path) {
     try {
       studio->command("open " + path);
-      if (studio->document().hasPipeline() && !piperun::ui::isProjectFile(path)) studio->command("run");
+      if (studio->document().hasPipeline() && !piperun::isProjectFile(path)) studio->command("run");
     } catch (const std::exception& error) {
       std::fprintf(stderr, "piperun-studio: error: %s\n", error.what());
     }

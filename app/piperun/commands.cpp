@@ -23,7 +23,6 @@
 #include <tbb/info.h>
 
 #include <algorithm>
-#include <cctype>
 #include <chrono>
 #include <cstdio>
 
@@ -32,16 +31,6 @@ namespace piperun::cli {
 namespace {
 
 using nlohmann::json;
-
-std::string lowerExtension(const std::string& path) {
-  std::string extension = std::filesystem::path(path).extension().string();
-  std::transform(extension.begin(), extension.end(), extension.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return extension;
-}
-
-bool isProjectFile(const std::string& path) { return lowerExtension(path) == ".piperun"; }
-bool isNetworkFile(const std::string& path) { return lowerExtension(path) == ".json" || isProjectFile(path); }
 
 /// A network file's network, or the reviewed network of a project (.piperun), whose metadata
 /// then names the project's scan.
@@ -141,7 +130,7 @@ ExportTarget parseExportTarget(const std::string& spec) {
 }  // namespace
 
 int runInfo(const InfoOptions& options) {
-  if (isNetworkFile(options.input)) return networkInfo(options);
+  if (isNetworkFile(options.input) || isProjectFile(options.input)) return networkInfo(options);
 
   const auto start = std::chrono::steady_clock::now();
   ProgressBar bar(options.quiet);

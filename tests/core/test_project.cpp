@@ -71,6 +71,17 @@ Project reviewedProject(const std::filesystem::path& scan) {
   return project;
 }
 
+TEST(ProjectFile, IsNamedByItsExtensionInAnyCase) {
+  EXPECT_TRUE(isProjectFile("site/pump room.piperun"));
+  EXPECT_TRUE(isProjectFile("PUMP.PipeRun"));
+  EXPECT_FALSE(isProjectFile("pump.piperun.autosave"));
+  EXPECT_FALSE(isProjectFile("pump.json"));
+  EXPECT_FALSE(isProjectFile("piperun"));
+  EXPECT_TRUE(isNetworkFile("out/NET.JSON"));
+  EXPECT_FALSE(isNetworkFile("pump.piperun"));
+  EXPECT_FALSE(isNetworkFile("scan.ply"));
+}
+
 TEST(ProjectFile, ReopensExactlyWithHistoryParametersAndStages) {
   test::TempDir dir;
   Project project = reviewedProject(dir / "scan.ply");

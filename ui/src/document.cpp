@@ -2,19 +2,9 @@
 
 #include "piperun/io/point_reader.h"
 
-#include <algorithm>
-#include <cctype>
-
 namespace piperun::ui {
 
 namespace {
-
-std::string lowerExtension(const std::filesystem::path& path) {
-  std::string extension = path.extension().string();
-  std::transform(extension.begin(), extension.end(), extension.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return extension;
-}
 
 std::shared_ptr<const PointCloud> readScan(const std::filesystem::path& path, Progress& progress) {
   ReadOptions options;
@@ -24,11 +14,9 @@ std::shared_ptr<const PointCloud> readScan(const std::filesystem::path& path, Pr
 
 }  // namespace
 
-bool isProjectFile(const std::filesystem::path& path) { return lowerExtension(path) == ".piperun"; }
-
 Document Document::open(const std::filesystem::path& path, Progress& progress) {
   if (isProjectFile(path)) return fromProject(openProject(path), path, progress);
-  if (lowerExtension(path) == ".json") return fromNetwork(readNetwork(path), path);
+  if (isNetworkFile(path)) return fromNetwork(readNetwork(path), path);
   return fromScan(readScan(path, progress), path);
 }
 

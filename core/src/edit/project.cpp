@@ -1,6 +1,7 @@
 #include "piperun/edit/project.h"
 
 #include "io/atomic_file.h"
+#include "io/file_extension.h"
 #include "io/network_json.h"
 #include "json_text.h"
 #include "piperun/error.h"
@@ -254,6 +255,8 @@ std::string projectText(const std::filesystem::path& path) {
 }
 
 }  // namespace
+
+bool isProjectFile(const std::filesystem::path& path) { return io::lowerExtension(path) == ".piperun"; }
 
 Project readProject(const std::filesystem::path& path) {
   Project project = projectFromJson(projectText(path), path);

@@ -1,6 +1,7 @@
 #include "piperun/io/network_io.h"
 
 #include "io/atomic_file.h"
+#include "io/file_extension.h"
 #include "io/network_json.h"
 #include "json_text.h"
 #include "piperun/error.h"
@@ -318,6 +319,8 @@ PipeNetwork networkFromJsonValue(const json& document, const std::filesystem::pa
 void writeNetwork(const std::filesystem::path& path, const PipeNetwork& network, const NetworkMetadata& metadata) {
   io::writeFileAtomically(path, networkToJson(network, metadata));
 }
+
+bool isNetworkFile(const std::filesystem::path& path) { return io::lowerExtension(path) == ".json"; }
 
 PipeNetwork readNetwork(const std::filesystem::path& path, NetworkMetadata* metadata) {
   std::error_code error;

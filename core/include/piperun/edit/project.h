@@ -63,6 +63,8 @@ OpenedProject openProject(const std::filesystem::path& path);
 /// Reads a project as it was saved, looking neither at its scan nor at an autosave (for exports
 /// and figures of its reviewed network). Throws InputError as openProject does.
 Project readProject(const std::filesystem::path& path);
+/// Whether the path names a project file (`.piperun`, any case).
+bool isProjectFile(const std::filesystem::path& path);
 Project projectFromJson(const std::string& text, const std::filesystem::path& source, std::vector<std::string>* warnings = nullptr);
 
 }  // namespace piperun

@@ -29,6 +29,8 @@ void writeNetwork(const std::filesystem::path& path, const PipeNetwork& network,
                   const NetworkMetadata& metadata = {});
 
 PipeNetwork readNetwork(const std::filesystem::path& path, NetworkMetadata* metadata = nullptr);
+/// Whether the path names a network file (`.json`, any case).
+bool isNetworkFile(const std::filesystem::path& path);
 
 /// Total axis length of a run's pipes and joints (m).
 double runLength(const PipeNetwork& network, const Run& run);

@@ -69,7 +69,4 @@ class Document {
   std::optional<std::filesystem::path> newerAutosave_;
 };
 
-/// Whether the file is a project (`.piperun`, any case).
-bool isProjectFile(const std::filesystem::path& path);
-
 }  // namespace piperun::ui
