@@ -67,7 +67,7 @@ struct Field {
   const char* section;  // "" for top-level keys
   const char* key;
   const char* unit;
-  Stage stage;
+  std::optional<Stage> stage;  // the first stage whose result it changes; none: it trades memory for time only
   Range range;
   const char* description;
   FieldRef (*ref)(PipelineParams&);
@@ -87,7 +87,7 @@ const std::vector<Field>& fields() {
       PIPERUN_FIELD("preprocess", "outlier_std_ratio", "", Stage::Preprocess, preprocess.outlierStdRatio, atLeast(0), "Remove points whose mean neighbour distance exceeds mean + ratio x std (0 disables)"),
       PIPERUN_FIELD("preprocess", "outlier_robust", "", Stage::Preprocess, preprocess.outlierRobust, anyValue(), "Median and MAD instead of mean and std (holds at heavy contamination, drops sparse far surfaces)"),
       PIPERUN_FIELD("preprocess", "normal_neighbors", "", Stage::Preprocess, preprocess.normalNeighbors, atLeast(3), "Neighbours of the PCA normal estimation"),
-      PIPERUN_FIELD("preprocess", "kept_neighbors_mb", "MB", Stage::Preprocess, preprocess.keptNeighborsMB, atLeast(0), "The normals' neighbours are kept from the outlier search up to this memory, else searched again (same normals, less memory)"),
+      PIPERUN_FIELD("preprocess", "kept_neighbors_mb", "MB", std::nullopt, preprocess.keptNeighborsMB, atLeast(0), "The normals' neighbours are kept from the outlier search up to this memory, else searched again (the same normals, less memory: a change re-runs no stage)"),
       PIPERUN_FIELD("preprocess", "remove_planes", "", Stage::Preprocess, preprocess.removePlanes, anyValue(), "Remove large planar regions (floors, walls, equipment faces)"),
       PIPERUN_FIELD("preprocess", "plane_cell_size", "m", Stage::Preprocess, preprocess.planeCellSize, above(0), "Edge of the cells in which planes are detected"),
       PIPERUN_FIELD("preprocess", "plane_max_thickness", "m", Stage::Preprocess, preprocess.planeMaxThickness, above(0), "A cell is planar when the RMS distance to its plane is below this"),
@@ -314,9 +314,8 @@ std::optional<Stage> firstChangedStage(const PipelineParams& a, const PipelinePa
   PipelineParams right = b;
   std::optional<Stage> earliest;
   for (const Field& field : fields()) {
-    if (valueJson(field.ref(left)) != valueJson(field.ref(right))) {
-      if (!earliest || static_cast<int>(field.stage) < static_cast<int>(*earliest)) earliest = field.stage;
-    }
+    if (!field.stage || valueJson(field.ref(left)) == valueJson(field.ref(right))) continue;
+    if (!earliest || static_cast<int>(*field.stage) < static_cast<int>(*earliest)) earliest = field.stage;
   }
   return earliest;
 }

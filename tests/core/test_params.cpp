@@ -141,6 +141,8 @@ TEST(Params, FirstChangedStage) {
   PipelineParams a;
   PipelineParams b = a;
   EXPECT_FALSE(firstChangedStage(a, b));
+  b.preprocess.keptNeighborsMB = 0;  // the same normals, searched again: no result changes
+  EXPECT_FALSE(firstChangedStage(a, b));
   b.extents.minArcDeg += 10;
   EXPECT_EQ(firstChangedStage(a, b), Stage::Extents);
   b.placement.minInliers += 1;

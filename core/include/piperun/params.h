@@ -32,7 +32,8 @@ PipelineParams paramsFromJson(const std::string& text, const std::filesystem::pa
 PipelineParams readParams(const std::filesystem::path& path, const PipelineParams& base = {});
 
 /// The earliest stage whose parameters differ between `a` and `b` (seed and rounds belong to the
-/// directions stage, the first per-tile stage); nullopt when they are equal.
+/// directions stage, the first per-tile stage); nullopt when they are equal, or differ only in
+/// parameters that change no result (preprocess.kept_neighbors_mb).
 std::optional<Stage> firstChangedStage(const PipelineParams& a, const PipelineParams& b);
 
 /// Applies one "section.key=value" assignment (as typed on a command line or in a script);
