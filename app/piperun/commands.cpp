@@ -19,6 +19,7 @@
 #include "piperun/synth/scene_generator.h"
 
 #include <nlohmann/json.hpp>
+#include <sys/resource.h>
 #include <tbb/global_control.h>
 #include <tbb/info.h>
 
@@ -42,6 +43,13 @@ PipeNetwork readNetworkOrProject(const std::string& path, NetworkMetadata* metad
     if (!project.scanPath.empty()) (*metadata)["scan"] = project.scanPath.string();
   }
   return project.edits.network();
+}
+
+/// The process's peak resident memory so far (MB), as /usr/bin/time reports it.
+double peakResidentMegabytes() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_maxrss) / 1024.0;  // kilobytes on Linux
 }
 
 json vectorJson(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
@@ -571,9 +579,9 @@ int runReconstruct(const ReconstructOptions& options) {
         evaluateNetwork(readNetworkOrProject(options.truth), network, params, labelledScan.get());
     std::printf("evaluation against %s: %s\n", options.truth.c_str(), formatEvaluation(figures).c_str());
   }
-  std::printf("points=%zu kept=%zu directions=%zu pipes=%zu joints=%zu runs=%zu seconds=%.2f\n", inputPoints,
-              d.keptPoints, directions, network.pipes.size(), network.joints.size(), network.runs.size(),
-              secondsSince(start));
+  std::printf("points=%zu kept=%zu directions=%zu pipes=%zu joints=%zu runs=%zu seconds=%.2f peak_mb=%.0f\n",
+              inputPoints, d.keptPoints, directions, network.pipes.size(), network.joints.size(), network.runs.size(),
+              secondsSince(start), peakResidentMegabytes());
   return kExitOk;
 }
 
