@@ -45,12 +45,13 @@ std::vector<std::uint32_t> unexplainedPoints(const std::vector<std::uint32_t>& p
 int index(Stage stage) { return static_cast<int>(stage); }
 
 // See Pipeline::releaseTileDetails.
-void dropDetails(TileRound& round) {
-  freeStorage(round.points);
+void dropDetails(TileRound& round, TileDetails details) {
   freeStorage(round.directions.samples);
   freeStorage(round.directions.sampleDirection);
-  for (auto& direction : round.directions.directions) freeStorage(direction.stripe);
   for (auto& projection : round.placement.projections) freeStorage(projection.candidates);
+  if (details == TileDetails::ViewSamples) return;
+  freeStorage(round.points);
+  for (auto& direction : round.directions.directions) freeStorage(direction.stripe);
   for (auto& cylinder : round.placement.cylinders) freeStorage(cylinder.inliers);
 }
 
@@ -134,6 +135,7 @@ void Pipeline::runPreprocess(Progress& progress) {
   if (releaseInput_) input_.reset();
   auto result = std::make_shared<const PreprocessResult>(preprocess(std::move(input), params_.preprocess, progress));
   preprocess_ = std::move(result);
+  ++preprocessings_;
   seconds_[index(Stage::Preprocess)] = secondsSince(started);
   fresh_[index(Stage::Preprocess)] = true;
 }
@@ -143,7 +145,7 @@ void Pipeline::runTiles(Stage first, Stage last, Progress& progress) {
   const std::vector<Tile>& tiles = prepared.tiles;
   // Earlier first-round results can be reused only when they belong to the current tiles and
   // kept what the later stages read.
-  const bool reuse = first != Stage::Directions && tiles_ && tiles_->size() == tiles.size() && tilesHaveDetails_;
+  const bool reuse = first != Stage::Directions && tiles_ && tiles_->size() == tiles.size() && tilesHaveStripes_;
   const auto previous = tiles_;
   auto results = std::make_shared<std::vector<TileReconstruction>>(tiles.size());
   const int rounds = last == Stage::Extents ? std::max(1, params_.rounds) : 1;
@@ -180,7 +182,7 @@ void Pipeline::runTiles(Stage first, Stage last, Progress& progress) {
       }
       const bool foundPipes = !current.extents.segments.empty();
       if (foundPipes) remaining = unexplainedPoints(remaining, current.extents);
-      if (releaseTileDetails_) dropDetails(current);
+      if (releasedDetails_) dropDetails(current, *releasedDetails_);
       out.rounds.push_back(std::move(current));
       if (!foundPipes) break;
     }
@@ -188,7 +190,9 @@ void Pipeline::runTiles(Stage first, Stage last, Progress& progress) {
   });
 
   tiles_ = std::move(results);
-  tilesHaveDetails_ = !releaseTileDetails_;
+  tilesHaveStripes_ = releasedDetails_ != TileDetails::All;
+  tileParams_ = params_;
+  tilesPreprocessing_ = preprocessings_;
   for (Stage stage : {Stage::Directions, Stage::Placement, Stage::Extents}) {
     if (index(stage) > index(last)) break;
     double seconds = 0.0;
@@ -226,6 +230,21 @@ void Pipeline::runJoints(Progress& progress) {
       connectPipes({preprocess_->points, merge_->segments, &preprocess_->planePoints}, params_.joints, progress));
   seconds_[index(Stage::Joints)] = secondsSince(started);
   fresh_[index(Stage::Joints)] = true;
+}
+
+TileRound withViewSamples(const PreprocessResult& prepared, const TileReconstruction& tile, std::size_t round,
+                          const PipelineParams& params) {
+  TileRound result = tile.rounds.at(round);
+  const std::uint64_t seed = mixSeed(params.seed, static_cast<std::uint64_t>(tile.tileId), round);
+  DirectionsResult directions = detectDirections({prepared.points, result.points, seed}, params.directions);
+  if (!result.placement.projections.empty()) {
+    PlacementResult placement = placeCylinders({prepared.points, directions, seed}, params.placement);
+    for (std::size_t k = 0; k < placement.projections.size() && k < result.placement.projections.size(); ++k)
+      result.placement.projections[k].candidates = std::move(placement.projections[k].candidates);
+  }
+  result.directions.samples = std::move(directions.samples);
+  result.directions.sampleDirection = std::move(directions.sampleDirection);
+  return result;
 }
 
 PipeNetwork Pipeline::network() const {

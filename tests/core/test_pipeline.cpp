@@ -129,6 +129,69 @@ TEST(Pipeline, ReleasedTileDetailsGiveTheSameNetworkAndReRunsFromTheDirections) 
   EXPECT_EQ(networkToJson(slim.network()), networkToJson(whole.network()));
 }
 
+TEST(Pipeline, ReleasedViewSamplesAreMadeAgainAsTheyWere) {
+  Pipeline whole(sceneCloud());
+  whole.run();
+  Pipeline slim(sceneCloud());
+  slim.releaseTileDetails(TileDetails::ViewSamples);
+  slim.run();
+  EXPECT_EQ(networkToJson(slim.network()), networkToJson(whole.network()));
+  const auto& wholeTiles = *whole.tileResults();
+  const auto& slimTiles = *slim.tileResults();
+  ASSERT_EQ(slimTiles.size(), wholeTiles.size());
+  std::size_t samples = 0, candidates = 0;
+  for (std::size_t t = 0; t < slimTiles.size(); ++t) {
+    ASSERT_EQ(slimTiles[t].rounds.size(), wholeTiles[t].rounds.size());
+    for (std::size_t r = 0; r < slimTiles[t].rounds.size(); ++r) {
+      const TileRound& kept = wholeTiles[t].rounds[r];
+      const TileRound& released = slimTiles[t].rounds[r];
+      EXPECT_TRUE(released.directions.samples.empty());
+      EXPECT_EQ(released.points, kept.points);  // what re-runs read stays
+      const TileRound made = withViewSamples(*slim.preprocessResult(), slimTiles[t], r, slim.tileParams());
+      EXPECT_EQ(made.directions.samples, kept.directions.samples);
+      EXPECT_EQ(made.directions.sampleDirection, kept.directions.sampleDirection);
+      ASSERT_EQ(made.placement.projections.size(), kept.placement.projections.size());
+      for (std::size_t k = 0; k < kept.placement.projections.size(); ++k) {
+        EXPECT_TRUE(released.placement.projections[k].candidates.empty());
+        EXPECT_EQ(released.directions.directions[k].stripe, kept.directions.directions[k].stripe);
+        const auto& madeCandidates = made.placement.projections[k].candidates;
+        const auto& keptCandidates = kept.placement.projections[k].candidates;
+        ASSERT_EQ(madeCandidates.size(), keptCandidates.size());
+        for (std::size_t c = 0; c < keptCandidates.size(); ++c) {
+          EXPECT_EQ(madeCandidates[c].center, keptCandidates[c].center);
+          EXPECT_EQ(madeCandidates[c].radius, keptCandidates[c].radius);
+          EXPECT_EQ(madeCandidates[c].circle, keptCandidates[c].circle);
+        }
+        candidates += keptCandidates.size();
+      }
+      samples += kept.directions.samples.size();
+    }
+  }
+  EXPECT_GT(samples, 0u);
+  EXPECT_GT(candidates, 0u);
+
+  // After a placement change the directions are reused, and their samples are still made again
+  // with the parameters of the run that made them.
+  PipelineParams params = whole.params();
+  params.placement.minInliers += 10;
+  whole.setParams(params);
+  slim.setParams(params);
+  whole.run();
+  slim.run();
+  EXPECT_EQ(networkToJson(slim.network()), networkToJson(whole.network()));
+  const TileRound made = withViewSamples(*slim.preprocessResult(), slim.tileResults()->front(), 0, slim.tileParams());
+  EXPECT_EQ(made.directions.samples, whole.tileResults()->front().rounds.front().directions.samples);
+
+  // A new preprocessing leaves the tiles with point indices into the old points until they run again.
+  EXPECT_TRUE(slim.tilesMatchPreprocessing());
+  params.preprocess.planeMinArea += 0.1;
+  slim.setParams(params);
+  slim.run(Progress::none(), Stage::Preprocess);
+  EXPECT_FALSE(slim.tilesMatchPreprocessing());
+  slim.run();
+  EXPECT_TRUE(slim.tilesMatchPreprocessing());
+}
+
 TEST(Pipeline, JointsStageConnectsThePipesIntoRunsAndRerunsAlone) {
   Pipeline pipeline(sceneCloud());
   pipeline.run();

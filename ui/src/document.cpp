@@ -6,6 +6,14 @@ namespace piperun::ui {
 
 namespace {
 
+/// The studio's pipeline: its tiles drop their sphere samples and circle candidates, which the
+/// views make again for the one tile they show (most of a site scan's per-tile results).
+std::shared_ptr<Pipeline> studioPipeline(std::shared_ptr<const PointCloud> cloud, const PipelineParams& params) {
+  auto pipeline = std::make_shared<Pipeline>(std::move(cloud), params);
+  pipeline->releaseTileDetails(TileDetails::ViewSamples);
+  return pipeline;
+}
+
 std::shared_ptr<const PointCloud> readScan(const std::filesystem::path& path, Progress& progress) {
   ReadOptions options;
   options.progress = &progress;
@@ -24,7 +32,7 @@ Document Document::fromScan(std::shared_ptr<const PointCloud> cloud, const std::
   Document document;
   document.path_ = path;
   document.input_ = cloud;
-  document.pipeline_ = std::make_shared<Pipeline>(std::move(cloud));
+  document.pipeline_ = studioPipeline(std::move(cloud), {});
   document.project_ = newProject(path, *document.pipeline_);
   return document;
 }
@@ -46,7 +54,7 @@ Document Document::fromProject(OpenedProject opened, const std::filesystem::path
   std::error_code error;
   if (!scan.empty() && std::filesystem::is_regular_file(scan, error)) {
     document.input_ = readScan(scan, progress);
-    document.pipeline_ = std::make_shared<Pipeline>(document.input_, document.project_.params);
+    document.pipeline_ = studioPipeline(document.input_, document.project_.params);
   }
   return document;
 }

@@ -271,6 +271,10 @@ void Studio::Impl::takeResults() {
   const Pipeline* pipeline = document.pipeline();
   preprocessed = pipeline ? pipeline->preprocessResult() : nullptr;
   tiles = pipeline ? pipeline->tileResults() : nullptr;
+  if (pipeline) tileParams = pipeline->tileParams();
+  tilesMatchPreprocessed = pipeline && pipeline->tilesMatchPreprocessing();
+  viewSamplesTile = -1;
+  viewSamplesRounds.clear();
   inputDistances.reset();
   inputToKept.clear();
   segmentCache.clear();
@@ -342,6 +346,18 @@ const DirectionsResult* Studio::Impl::directionsOf(const DirectionRef& ref) cons
 
 const PlacementResult* Studio::Impl::placementOf(const DirectionRef& ref) const {
   return &(*tiles)[static_cast<std::size_t>(ref.tile)].rounds[static_cast<std::size_t>(ref.round)].placement;
+}
+
+const TileRound& Studio::Impl::viewRound(int tile, int round) const {
+  const TileReconstruction& reconstruction = (*tiles)[static_cast<std::size_t>(tile)];
+  if (!tilesMatchPreprocessed) return reconstruction.rounds[static_cast<std::size_t>(round)];
+  if (viewSamplesTile != tile) {
+    viewSamplesRounds.clear();
+    for (std::size_t r = 0; r < reconstruction.rounds.size(); ++r)
+      viewSamplesRounds.push_back(withViewSamples(*preprocessed, reconstruction, r, tileParams));
+    viewSamplesTile = tile;
+  }
+  return viewSamplesRounds[static_cast<std::size_t>(round)];
 }
 
 const PrincipalDirection& Studio::Impl::direction(const DirectionRef& ref) const {

@@ -214,6 +214,9 @@ struct Studio::Impl {
   void rebuildAll();
   const DirectionsResult* directionsOf(const DirectionRef& ref) const;
   const PlacementResult* placementOf(const DirectionRef& ref) const;
+  /// Round `round` of tile `tile` with its sphere samples and circle candidates (without them when
+  /// the tiles are stale, made from a preprocessing since replaced).
+  const TileRound& viewRound(int tile, int round) const;
   const PrincipalDirection& direction(const DirectionRef& ref) const;
   std::vector<int> keptPointSegments() const;
   int pipeOfCylinder(const DirectionRef& ref, int cylinder) const;
@@ -381,6 +384,12 @@ struct Studio::Impl {
   std::pair<float, float> inputIntensities{0.0f, 0.0f};
   std::shared_ptr<const PreprocessResult> preprocessed;
   std::shared_ptr<const std::vector<TileReconstruction>> tiles;
+  PipelineParams tileParams;  ///< What `tiles` were made with...
+  bool tilesMatchPreprocessed = false;  ///< ...and whether from `preprocessed` (or from the one it replaced).
+  /// The rounds of one tile with the sphere samples and circle candidates the pipeline let go of,
+  /// made again for the views when they show that tile.
+  mutable int viewSamplesTile = -1;
+  mutable std::vector<TileRound> viewSamplesRounds;
   std::vector<DirectionRef> directions;
   std::optional<SurfaceDistances> inputDistances;
   std::vector<int> inputToKept;

@@ -504,8 +504,10 @@ void Studio::Impl::buildSphereLayers() {
   std::vector<Eigen::Vector3f> samples;
   for (std::size_t t = 0; t < tiles->size(); ++t)
     if (shownTile < 0 || static_cast<int>(t) == shownTile)
-      for (const auto& round : (*tiles)[t].rounds)
-        samples.insert(samples.end(), round.directions.samples.begin(), round.directions.samples.end());
+      for (std::size_t r = 0; r < (*tiles)[t].rounds.size(); ++r) {
+        const auto& drawn = viewRound(static_cast<int>(t), static_cast<int>(r)).directions.samples;
+        samples.insert(samples.end(), drawn.begin(), drawn.end());
+      }
   auto cellOf = [&](const Eigen::Vector3f& s) {
     const int zCell = std::clamp(static_cast<int>(s.z() * kZCells), 0, kZCells - 1);
     const double longitude = std::atan2(s.y(), s.x()) + M_PI;
@@ -574,7 +576,7 @@ void Studio::Impl::buildPlaneLayers() {
   }
   const DirectionRef& ref = directions[static_cast<std::size_t>(selectedDirection)];
   const PrincipalDirection& chosen = direction(ref);
-  const PlacementResult* placement = placementOf(ref);
+  const PlacementResult* placement = &viewRound(ref.tile, ref.round).placement;  // with its candidates
   const PointCloud& kept = preprocessed->points;
 
   std::vector<Eigen::Vector3f> projected;

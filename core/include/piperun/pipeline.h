@@ -56,6 +56,12 @@ struct TileReconstruction {
   std::vector<TileRound> rounds;
 };
 
+/// What tile rounds may drop as they finish (Pipeline::releaseTileDetails).
+enum class TileDetails {
+  ViewSamples,  ///< The sphere samples and circle candidates, which only views draw (withViewSamples makes them again).
+  All,          ///< Those, and the analysed points, stripes and cylinder inliers, which re-runs of single stages read.
+};
+
 struct StageTiming {
   double seconds = 0.0;
 };
@@ -85,16 +91,22 @@ class Pipeline {
   /// preprocessing is fresh, otherwise as soon as its next run has made the voxel grid. The
   /// preprocessing cannot run again: run() then throws std::logic_error where it would.
   void releaseInput();
-  /// Lets each tile round drop, as it finishes, what only a viewer, the stage dump and a re-run of
-  /// a single per-tile stage read: the points it analysed, the sphere samples, the directions'
-  /// stripes, the circle candidates and the cylinders' inliers (most of a site scan's per-tile
-  /// results). The directions, cylinders and pipe pieces stay, so the network is the same. From
-  /// the next run on; a later re-run of the per-tile stages then starts from the directions.
-  void releaseTileDetails() { releaseTileDetails_ = true; }
+  /// Lets each tile round drop, as it finishes, what only a viewer and the stage dump read, the
+  /// sphere samples and circle candidates (most of a site scan's per-tile results), and with
+  /// TileDetails::All also what only a re-run of a single per-tile stage reads: the points it
+  /// analysed, the directions' stripes and the cylinders' inliers. The directions, cylinders and
+  /// pipe pieces stay, so the network is the same. From the next run on; after TileDetails::All a
+  /// later re-run of the per-tile stages starts from the directions.
+  void releaseTileDetails(TileDetails details = TileDetails::All) { releasedDetails_ = details; }
   /// Latest results (null before the stage first ran). A stale stage keeps its previous result
   /// until it runs again, so a viewer can go on showing it.
   std::shared_ptr<const PreprocessResult> preprocessResult() const { return preprocess_; }
   std::shared_ptr<const std::vector<TileReconstruction>> tileResults() const { return tiles_; }
+  /// The parameters the tile results were made with (withViewSamples needs them).
+  const PipelineParams& tileParams() const { return tileParams_; }
+  /// Whether the tile results were made from the current preprocessing result (not from one that
+  /// a later preprocessing replaced: their point indices refer to that one's points).
+  bool tilesMatchPreprocessing() const { return tiles_ && tilesPreprocessing_ == preprocessings_; }
   std::shared_ptr<const MergeResult> mergeResult() const { return merge_; }
   std::shared_ptr<const JointsResult> jointsResult() const { return joints_; }
   double stageSeconds(Stage stage) const { return seconds_[static_cast<int>(stage)]; }
@@ -112,8 +124,11 @@ class Pipeline {
 
   std::shared_ptr<const PointCloud> input_;
   bool releaseInput_ = false;
-  bool releaseTileDetails_ = false;
-  bool tilesHaveDetails_ = false;  ///< tiles_ kept their details, so a re-run may reuse them.
+  std::optional<TileDetails> releasedDetails_;
+  bool tilesHaveStripes_ = false;  ///< tiles_ kept what later stages read, so a re-run may reuse them.
+  PipelineParams tileParams_;
+  std::uint64_t preprocessings_ = 0;      ///< Preprocessing results made so far...
+  std::uint64_t tilesPreprocessing_ = 0;  ///< ...and the one the tile results were made from.
   PipelineParams params_;
   std::array<bool, kStageCount> fresh_{};
   std::array<double, kStageCount> seconds_{};
@@ -122,5 +137,12 @@ class Pipeline {
   std::shared_ptr<const MergeResult> merge_;
   std::shared_ptr<const JointsResult> joints_;
 };
+
+/// A round of tile `tile` (the index into tileResults() and preprocessed.tiles) as it was made,
+/// with the sphere samples and circle candidates that releaseTileDetails(TileDetails::ViewSamples)
+/// dropped made again: its directions and placement are run again on the points it analysed, with
+/// the parameters and seed it was made with (tileParams()), which gives the same results.
+TileRound withViewSamples(const PreprocessResult& prepared, const TileReconstruction& tile, std::size_t round,
+                          const PipelineParams& params);
 
 }  // namespace piperun
