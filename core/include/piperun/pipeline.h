@@ -138,10 +138,10 @@ class Pipeline {
   std::shared_ptr<const JointsResult> joints_;
 };
 
-/// A round of tile `tile` (the index into tileResults() and preprocessed.tiles) as it was made,
-/// with the sphere samples and circle candidates that releaseTileDetails(TileDetails::ViewSamples)
-/// dropped made again: its directions and placement are run again on the points it analysed, with
-/// the parameters and seed it was made with (tileParams()), which gives the same results.
+/// Round `round` of `tile` (one of tileResults(), made from `prepared`) as it was made, with the
+/// sphere samples and circle candidates that releaseTileDetails(TileDetails::ViewSamples) dropped
+/// made again: its directions and placement run again on the points it analysed, with the
+/// parameters it was made with (tileParams()) and its seed, which gives the same results.
 TileRound withViewSamples(const PreprocessResult& prepared, const TileReconstruction& tile, std::size_t round,
                           const PipelineParams& params);
 
