@@ -93,6 +93,19 @@ TEST(Pipeline, ReleasedInputGivesTheSameNetworkAndNoSecondPreprocessing) {
   EXPECT_THROW(late.run(), std::logic_error);
 }
 
+/// Changes a placement parameter of both pipelines and runs them again: the same network. Returns
+/// the new parameters.
+PipelineParams changePlacementOfBoth(Pipeline& whole, Pipeline& slim) {
+  PipelineParams params = whole.params();
+  params.placement.minInliers += 10;
+  whole.setParams(params);
+  slim.setParams(params);
+  whole.run();
+  slim.run();
+  EXPECT_EQ(networkToJson(slim.network()), networkToJson(whole.network()));
+  return params;
+}
+
 TEST(Pipeline, ReleasedTileDetailsGiveTheSameNetworkAndReRunsFromTheDirections) {
   Pipeline whole(sceneCloud());
   whole.run();
@@ -120,13 +133,7 @@ TEST(Pipeline, ReleasedTileDetailsGiveTheSameNetworkAndReRunsFromTheDirections) 
 
   // A placement change cannot start from directions without their stripes: the same network as a
   // pipeline that kept them.
-  PipelineParams params = whole.params();
-  params.placement.minInliers += 10;
-  whole.setParams(params);
-  slim.setParams(params);
-  whole.run();
-  slim.run();
-  EXPECT_EQ(networkToJson(slim.network()), networkToJson(whole.network()));
+  changePlacementOfBoth(whole, slim);
 }
 
 TEST(Pipeline, ReleasedViewSamplesAreMadeAgainAsTheyWere) {
@@ -172,13 +179,7 @@ TEST(Pipeline, ReleasedViewSamplesAreMadeAgainAsTheyWere) {
 
   // After a placement change the directions are reused, and their samples are still made again
   // with the parameters of the run that made them.
-  PipelineParams params = whole.params();
-  params.placement.minInliers += 10;
-  whole.setParams(params);
-  slim.setParams(params);
-  whole.run();
-  slim.run();
-  EXPECT_EQ(networkToJson(slim.network()), networkToJson(whole.network()));
+  PipelineParams params = changePlacementOfBoth(whole, slim);
   const TileRound made = withViewSamples(*slim.preprocessResult(), slim.tileResults()->front(), 0, slim.tileParams());
   EXPECT_EQ(made.directions.samples, whole.tileResults()->front().rounds.front().directions.samples);
 
