@@ -7,6 +7,7 @@
 #include "piperun/error.h"
 #include "piperun/progress.h"
 #include "piperun/ui/studio.h"
+#include "studio_options.h"
 
 #include <CLI/CLI.hpp>
 
@@ -39,16 +40,10 @@ int main(int argc, char** argv) {
                "Show the scan without running the pipeline (a project: without recomputing its fresh stages)");
   app.add_option("-o,--output", output, "PNG to write");
   app.add_option("--text", textOutput, "Also write the texts drawn over the views (titles, status, info) to this file");
-  long long pointBudget = static_cast<long long>(piperun::ui::StudioOptions{}.pointBudget);
-  app.add_option("--point-budget", pointBudget,
-                 "Most points the 3-D scene's point layers draw when the camera is still; over it they draw "
-                 "those in view, the near ones densest (the points budget command changes it)")
-      ->capture_default_str();
+  long long pointBudget = 0;
+  piperun::app::addPointBudgetOption(app, pointBudget);
   CLI11_PARSE(app, argc, argv);
-  if (pointBudget < 1) {
-    std::fprintf(stderr, "piperun-render: error: --point-budget: expected at least 1 point\n");
-    return 1;
-  }
+  if (!piperun::app::checkPointBudget(pointBudget, "piperun-render")) return 1;
   if (!listCommands && (input.empty() || output.empty())) {
     std::fprintf(stderr, "piperun-render: error: INPUT and -o OUT.png are required (see --help)\n");
     return 1;

@@ -4,6 +4,7 @@
 
 #include "piperun/edit/project.h"
 #include "piperun/ui/studio.h"
+#include "studio_options.h"
 
 #include <CLI/CLI.hpp>
 #include <GLFW/glfw3.h>
@@ -173,16 +174,10 @@ int main(int argc, char** argv) {
   CLI::Option* sizeOption = app.add_option("--size", size,
                                            "Window size WIDTHxHEIGHT in screen units (default: 1400x860, shrunk to fit "
                                            "the screen's work area)");
-  long long pointBudget = static_cast<long long>(piperun::ui::StudioOptions{}.pointBudget);
-  app.add_option("--point-budget", pointBudget,
-                 "Most points the 3-D scene's point layers draw when the camera is still; over it they draw "
-                 "those in view, the near ones densest (the points budget command changes it)")
-      ->capture_default_str();
+  long long pointBudget = 0;
+  piperun::app::addPointBudgetOption(app, pointBudget);
   CLI11_PARSE(app, argc, argv);
-  if (pointBudget < 1) {
-    std::fprintf(stderr, "piperun-studio: error: --point-budget: expected at least 1 point\n");
-    return 1;
-  }
+  if (!piperun::app::checkPointBudget(pointBudget, "piperun-studio")) return 1;
   std::smatch match;
   if (!std::regex_match(size, match, std::regex("([0-9]+)x([0-9]+)")) || std::stoi(match[1]) < 320 ||
       std::stoi(match[2]) < 240) {
