@@ -143,9 +143,9 @@ void Pipeline::runPreprocess(Progress& progress) {
 void Pipeline::runTiles(Stage first, Stage last, Progress& progress) {
   const PreprocessResult& prepared = *preprocess_;
   const std::vector<Tile>& tiles = prepared.tiles;
-  // Earlier first-round results can be reused only when they belong to the current tiles and
+  // Earlier first-round results can be reused only when they were made from the current tiles and
   // kept what the later stages read.
-  const bool reuse = first != Stage::Directions && tiles_ && tiles_->size() == tiles.size() && tilesHaveStripes_;
+  const bool reuse = first != Stage::Directions && tilesMatchPreprocessing() && tilesHaveStripes_;
   const auto previous = tiles_;
   auto results = std::make_shared<std::vector<TileReconstruction>>(tiles.size());
   const int rounds = last == Stage::Extents ? std::max(1, params_.rounds) : 1;

@@ -605,6 +605,7 @@ void splitPoints(PointCloud& sampled, SurfaceEstimates& surface, std::vector<cha
   const std::size_t n = sampled.size();
   const std::size_t chunks = (n + kSplitChunk - 1) / kSplitChunk;
   const auto isKept = [&](std::size_t i) { return surface.valid[i] && !planePoint[i]; };
+  const auto isPlane = [&](std::size_t i) { return surface.valid[i] && planePoint[i]; };
   std::vector<std::size_t> keptBefore(chunks + 1, 0);
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
     for (std::size_t i = c * kSplitChunk, last = std::min(n, (c + 1) * kSplitChunk); i < last; ++i) {
@@ -631,7 +632,7 @@ void splitPoints(PointCloud& sampled, SurfaceEstimates& surface, std::vector<cha
   // In order, so a point is read before a later one overwrites it.
   std::size_t planes = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    if (!surface.valid[i] || !planePoint[i]) continue;
+    if (!isPlane(i)) continue;
     sampled.positions[planes] = sampled.positions[i];
     surface.normals[planes++] = surface.normals[i];
   }
