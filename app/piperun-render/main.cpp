@@ -7,6 +7,7 @@
 #include "piperun/error.h"
 #include "piperun/progress.h"
 #include "piperun/ui/studio.h"
+#include "parse_arguments.h"
 #include "studio_options.h"
 
 #include <CLI/CLI.hpp>
@@ -42,7 +43,7 @@ int main(int argc, char** argv) {
   app.add_option("--text", textOutput, "Also write the texts drawn over the views (titles, status, info) to this file");
   long long pointBudget = 0;
   piperun::app::addPointBudgetOption(app, pointBudget);
-  CLI11_PARSE(app, argc, argv);
+  if (const auto exitCode = piperun::app::parseArguments(app, argc, argv, "piperun-render")) return *exitCode;
   if (!piperun::app::checkPointBudget(pointBudget, "piperun-render")) return 1;
   if (!listCommands && (input.empty() || output.empty())) {
     std::fprintf(stderr, "piperun-render: error: INPUT and -o OUT.png are required (see --help)\n");

@@ -4,6 +4,7 @@
 
 #include "piperun/edit/project.h"
 #include "piperun/ui/studio.h"
+#include "parse_arguments.h"
 #include "studio_options.h"
 
 #include <CLI/CLI.hpp>
@@ -176,7 +177,7 @@ int main(int argc, char** argv) {
                                            "the screen's work area)");
   long long pointBudget = 0;
   piperun::app::addPointBudgetOption(app, pointBudget);
-  CLI11_PARSE(app, argc, argv);
+  if (const auto exitCode = piperun::app::parseArguments(app, argc, argv, "piperun-studio")) return *exitCode;
   if (!piperun::app::checkPointBudget(pointBudget, "piperun-studio")) return 1;
   std::smatch match;
   if (!std::regex_match(size, match, std::regex("([0-9]+)x([0-9]+)")) || std::stoi(match[1]) < 320 ||

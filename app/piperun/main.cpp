@@ -1,6 +1,7 @@
 // piperun: the command-line tool. Parses arguments and hands over to the subcommands.
 
 #include "commands.h"
+#include "parse_arguments.h"
 #include "piperun/error.h"
 
 #include <CLI/CLI.hpp>
@@ -156,18 +157,7 @@ int main(int argc, char** argv) {
   paramsCommand->add_flag("--json", paramsOptions.json, "Print the defaults as a parameter document");
   paramsCommand->add_flag("--markdown", paramsOptions.markdown, "Print a Markdown table (docs/PARAMETERS.md)");
 
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::CallForHelp& help) {
-    return app.exit(help);
-  } catch (const CLI::CallForAllHelp& help) {
-    return app.exit(help);
-  } catch (const CLI::CallForVersion& version) {
-    return app.exit(version);
-  } catch (const CLI::ParseError& error) {
-    std::fprintf(stderr, "piperun: error: %s (see piperun --help)\n", error.what());
-    return kExitUsage;
-  }
+  if (const auto exitCode = piperun::app::parseArguments(app, argc, argv, "piperun")) return *exitCode;
 
   info.quiet = generate.quiet = convert.quiet = reconstruct.quiet = quiet;
   try {

@@ -36,4 +36,5 @@ expect 2 "piperun-render: error: .*/no-such-dir/texts\.txt: cannot write" "$rend
 expect 1 "--size: expected WIDTHxHEIGHT" "$render" "$scene" --size 12 -o "$work/out.png"
 expect 1 "--point-budget: expected at least 1 point" "$render" "$scene" --point-budget 0 -o "$work/out.png"
 expect 1 "INPUT and -o OUT.png are required" "$render" "$scene"
+expect 1 "^piperun-render: error: --view: bogus not in \\{all,scene,sphere,plane\\} \\(see piperun-render --help\\)$" "$render" "$scene" --view bogus -o "$work/out.png"
 exit $((failures > 0))
