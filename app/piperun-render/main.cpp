@@ -9,6 +9,7 @@
 #include "piperun/ui/studio.h"
 #include "parse_arguments.h"
 #include "studio_options.h"
+#include "units_option.h"
 
 #include <CLI/CLI.hpp>
 
@@ -43,6 +44,8 @@ int main(int argc, char** argv) {
   app.add_option("--text", textOutput, "Also write the texts drawn over the views (titles, status, info) to this file");
   long long pointBudget = 0;
   piperun::app::addPointBudgetOption(app, pointBudget);
+  std::string scanUnits = "m";
+  piperun::app::addUnitsOption(app, scanUnits);
   if (const auto exitCode = piperun::app::parseArguments(app, argc, argv, "piperun-render")) return *exitCode;
   if (!piperun::app::checkPointBudget(pointBudget, "piperun-render")) return 1;
   if (!listCommands && (input.empty() || output.empty())) {
@@ -70,6 +73,7 @@ int main(int argc, char** argv) {
 
     piperun::ui::StudioOptions options;
     options.pointBudget = static_cast<std::size_t>(pointBudget);
+    options.scanUnits = scanUnits;
     options.autosaveEdits = 0;  // A batch run saves when its script says so.
     options.restoreStages = !noRun;
     piperun::ui::Studio studio(window, interactor, options);

@@ -6,6 +6,7 @@
 #include "piperun/ui/studio.h"
 #include "parse_arguments.h"
 #include "studio_options.h"
+#include "units_option.h"
 
 #include <CLI/CLI.hpp>
 #include <GLFW/glfw3.h>
@@ -177,6 +178,8 @@ int main(int argc, char** argv) {
                                            "the screen's work area)");
   long long pointBudget = 0;
   piperun::app::addPointBudgetOption(app, pointBudget);
+  std::string scanUnits = "m";
+  piperun::app::addUnitsOption(app, scanUnits);
   if (const auto exitCode = piperun::app::parseArguments(app, argc, argv, "piperun-studio")) return *exitCode;
   if (!piperun::app::checkPointBudget(pointBudget, "piperun-studio")) return 1;
   std::smatch match;
@@ -249,6 +252,7 @@ int main(int argc, char** argv) {
     glfwGetWindowContentScale(window, &scaleX, &scaleY);
     piperun::ui::StudioOptions options;
     options.pointBudget = static_cast<std::size_t>(pointBudget);
+    options.scanUnits = scanUnits;
     options.backgroundStages = true;
     options.uiScale = std::max(1.0f, scaleX);
     options.runFinished = [](const std::string& message) {

@@ -26,6 +26,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <optional>
+#include <stdexcept>
+#include <string>
 
 namespace piperun::cli {
 
@@ -120,6 +123,13 @@ int networkInfo(const InfoOptions& options) {
   return kExitOk;
 }
 
+/// Metres per unit of a scan's coordinates, from the --units option's name.
+double unitScale(const std::string& unit) {
+  const std::optional<double> scale = metresPerUnit(unit);
+  if (!scale) throw std::invalid_argument("--units " + unit + ": not a length unit this tool knows");
+  return *scale;
+}
+
 struct ExportTarget {
   ExportFormat format;
   std::string path;
@@ -144,6 +154,7 @@ int runInfo(const InfoOptions& options) {
   ProgressBar bar(options.quiet);
   ReadOptions readOptions;
   readOptions.progress = &bar.progress();
+  readOptions.metresPerUnit = unitScale(options.units);
   ReadReport report;
   const PointCloud cloud = readPointCloud(options.input, readOptions, &report);
   const double readSeconds = secondsSince(start);
@@ -152,6 +163,7 @@ int runInfo(const InfoOptions& options) {
 
   const BoundingBox box = cloud.boundingBox();
   const double spacing = estimatePointSpacing(cloud);
+  if (const auto sparse = sparseScanWarning(spacing)) warn(options.input + ": " + *sparse);
   std::string fields;
   for (const auto& field : report.info.fields) fields += (fields.empty() ? "" : " ") + field;
 
@@ -412,7 +424,7 @@ int runEval(const EvalOptions& options) {
 int runConvert(const ConvertOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   ProgressBar bar(options.quiet);
-  auto reader = openPointReader(options.input);
+  auto reader = openPointReader(options.input, unitScale(options.units));
   unsigned attributes = reader->info().attributes;
   if (options.noNormals) attributes &= ~kNormals;
   if (options.noColors) attributes &= ~kColors;
@@ -459,6 +471,7 @@ int runReconstruct(const ReconstructOptions& options) {
   ProgressBar bar(options.quiet);
   ReadOptions readOptions;
   readOptions.progress = &bar.progress();
+  readOptions.metresPerUnit = unitScale(options.units);
   // The pipeline reads positions alone; labels only for an evaluation over what the scan shows.
   readOptions.attributes = options.truth.empty() ? kNoAttributes : kLabels;
   ReadReport report;
@@ -505,6 +518,7 @@ int runReconstruct(const ReconstructOptions& options) {
   }
   std::printf("input: %zu points from %s, %d thread(s)  [read %.2f s]\n", inputPoints, options.input.c_str(), threads,
               readSeconds);
+  if (const auto sparse = sparseScanWarning(d.inputSpacing)) warn(options.input + ": " + *sparse);
   std::printf("preprocess: %zu after voxel grid (leaf %.1f mm), %zu outliers removed, %zu plane points in %d planes, "
               "%zu kept, %zu tiles  [%.2f s]\n",
               d.afterVoxel, d.voxelSize * 1000.0, d.outliersRemoved, d.planePoints, d.planes, d.keptPoints, prepared.tiles.size(),

@@ -11,6 +11,7 @@ enum ExitCode { kExitOk = 0, kExitUsage = 1, kExitBadInput = 2, kExitInternal = 
 
 struct InfoOptions {
   std::string input;
+  std::string units = "m";  ///< The scan's coordinate unit (lengthUnitNames()).
   bool json = false;
   bool runs = false;  ///< For a network: one line per run.
   bool quiet = false;
@@ -46,6 +47,7 @@ int runEval(const EvalOptions& options);
 struct ConvertOptions {
   std::string input;
   std::string output;
+  std::string units = "m";  ///< The input's coordinate unit; the output is written in metres.
   bool noNormals = false;
   bool noColors = false;
   bool noIntensity = false;
@@ -57,6 +59,7 @@ int runConvert(const ConvertOptions& options);
 struct ReconstructOptions {
   std::string input;
   std::string output;
+  std::string units = "m";               ///< The scan's coordinate unit (lengthUnitNames()).
   std::string paramsFile;
   std::vector<std::string> assignments;  ///< "section.key=value"
   int threads = 0;                       ///< 0: all cores

@@ -3,6 +3,7 @@
 #include "commands.h"
 #include "parse_arguments.h"
 #include "piperun/error.h"
+#include "units_option.h"
 
 #include <CLI/CLI.hpp>
 
@@ -41,6 +42,7 @@ int main(int argc, char** argv) {
       ->add_option("file", info.input,
                    "Point cloud (.ply .pcd .xyz .txt .csv .pts .las .e57), network .json or project .piperun")
       ->required();
+  piperun::app::addUnitsOption(*infoCommand, info.units);
   infoCommand->add_flag("--json", info.json, "Print the figures as JSON");
   infoCommand->add_flag("--runs", info.runs,
                         "For a network: each run's length, nominal size, pipes, elbows, tees and proposed elements");
@@ -100,6 +102,7 @@ int main(int argc, char** argv) {
   addVersion(*convertCommand);
   convertCommand->add_option("input", convert.input, "Point cloud to read")->required();
   convertCommand->add_option("output", convert.output, "Point cloud to write (.ply, .xyz, .txt, .csv)")->required();
+  piperun::app::addUnitsOption(*convertCommand, convert.units);
   convertCommand->add_flag("--no-normals", convert.noNormals, "Leave normals out");
   convertCommand->add_flag("--no-colors", convert.noColors, "Leave colours out");
   convertCommand->add_flag("--no-intensity", convert.noIntensity, "Leave intensity out");
@@ -111,6 +114,7 @@ int main(int argc, char** argv) {
   addVersion(*reconstructCommand);
   reconstructCommand->add_option("scan", reconstruct.input, "Point cloud to reconstruct")->required();
   reconstructCommand->add_option("-o,--output", reconstruct.output, "Network to write (.json)")->required();
+  piperun::app::addUnitsOption(*reconstructCommand, reconstruct.units);
   reconstructCommand->add_option("--params", reconstruct.paramsFile,
                                  "Parameter document (JSON, possibly partial; see `piperun params --json`)");
   reconstructCommand->add_option("--set", reconstruct.assignments,

@@ -1,6 +1,7 @@
 #include "piperun/spacing.h"
 
 #include "cell_table.h"
+#include "piperun/io/point_reader.h"
 
 #include <tbb/parallel_for.h>
 
@@ -8,6 +9,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <limits>
 #include <utility>
 #include <vector>
@@ -96,6 +98,19 @@ double estimatePointSpacing(const PointCloud& cloud, std::size_t samples) {
   const auto middle = distances.begin() + static_cast<std::ptrdiff_t>(distances.size() / 2);
   std::nth_element(distances.begin(), middle, distances.end());
   return *middle;
+}
+
+std::optional<std::string> sparseScanWarning(double spacing) {
+  if (!(spacing > kMaxPlausibleSpacing)) return std::nullopt;
+  std::string units;
+  for (const std::string& unit : lengthUnitNames()) {
+    if (unit != "m") units += (units.empty() ? "" : ", ") + unit;
+  }
+  char distance[32];
+  std::snprintf(distance, sizeof distance, "%.3g", spacing);
+  return std::string("the scan's points lie ") + distance +
+         " m apart (median nearest-neighbour distance), far too sparse to show pipes: if its coordinates are not "
+         "in metres, give their unit with --units (" + units + ")";
 }
 
 }  // namespace piperun

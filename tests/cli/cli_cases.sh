@@ -102,6 +102,33 @@ case "$CASE" in
     expect_out "^points: 155201$"
     expect_out "^attributes: intensity$"
     ;;
+  units)
+    # The pump room in millimetres: warned of as far too sparse when read as metres; read with
+    # --units mm it is the scan in metres, and gives the same network.
+    run 0 convert --no-colors --no-intensity "$DATA/pumpA_pump_station.pcd" "$WORK/m.xyz"
+    awk '{ printf "%.9g %.9g %.9g\n", $1 * 1000, $2 * 1000, $3 * 1000 }' "$WORK/m.xyz" >"$WORK/mm.xyz"
+    run 0 info "$WORK/mm.xyz"
+    expect_err "^piperun: warning: .*mm.xyz: the scan's points lie 4\.[0-9]+ m apart .*--units \(cm, mm, in, ft, us-ft\)$"
+    run 0 info --units mm "$WORK/mm.xyz"
+    [ -z "$ERR" ] || fail "warned of a scan read in its unit: $ERR"
+    expect_out "^size: 4\.6[0-9]* x 4\.5[0-9]* x 3\.7[0-9]* m$"
+    expect_out "^spacing: 4\.[0-9] mm"
+    run 0 reconstruct "$WORK/mm.xyz" --units mm -o "$WORK/mm.json"
+    run 0 reconstruct "$WORK/m.xyz" -o "$WORK/m.json"
+    expect_out "pipes=[1-9][0-9]* joints=[1-9]"
+    cmp -s <(grep -v '"source"' "$WORK/m.json") <(grep -v '"source"' "$WORK/mm.json") ||
+      fail "the scan in millimetres gave another network than in metres"
+    run 0 reconstruct "$WORK/mm.xyz" -o "$WORK/wrong.json"
+    expect_err "far too sparse to show pipes"
+    expect_out "pipes=0 "
+    run 0 convert --units mm "$WORK/mm.xyz" "$WORK/back.ply"
+    run 0 info "$WORK/back.ply"
+    expect_out "^size: 4\.6[0-9]* x 4\.5[0-9]* x 3\.7[0-9]* m$"
+    run 1 reconstruct "$WORK/mm.xyz" --units furlong -o "$WORK/f.json"
+    expect_one_line_error "--units: furlong not in \{m,cm,mm,in,ft,us-ft\}"
+    run 0 reconstruct --help
+    expect_out "--units"
+    ;;
   generate-eval)
     run 0 generate --preset small --seed 3 --density 0.25 -o "$WORK/scene.ply" --truth "$WORK/truth.json"
     expect_out "^points=[0-9]+ pipes=[0-9]+ elbows=[0-9]+ tees=[0-9]+ runs=[0-9]+"

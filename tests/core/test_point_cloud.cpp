@@ -3,6 +3,9 @@
 
 #include <gtest/gtest.h>
 
+#include <optional>
+#include <string>
+
 #include <type_traits>
 
 namespace piperun {
@@ -77,6 +80,17 @@ TEST(PointSpacing, RegularGridGivesItsStep) {
   PointCloud cloud;
   cloud.append(gridChunk(200, 200, 0.005, Eigen::Vector3d(1, 2, 3)));
   EXPECT_NEAR(estimatePointSpacing(cloud), 0.005, 1e-5);
+}
+
+TEST(PointSpacing, SpacingTooWideForPipesIsWarnedOfWithTheUnitsOption) {
+  EXPECT_FALSE(sparseScanWarning(0.0));
+  EXPECT_FALSE(sparseScanWarning(0.005));
+  EXPECT_FALSE(sparseScanWarning(kMaxPlausibleSpacing));
+  // A scan in millimetres read as metres: its 4.6 mm spacing reads as 4.6 m.
+  const std::optional<std::string> warning = sparseScanWarning(4.62);
+  ASSERT_TRUE(warning);
+  EXPECT_NE(warning->find("4.62 m apart"), std::string::npos) << *warning;
+  EXPECT_NE(warning->find("--units (cm, mm, in, ft, us-ft)"), std::string::npos) << *warning;
 }
 
 TEST(PointSpacing, DegenerateClouds) {

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <stdexcept>
 #include <limits>
 
 namespace piperun {
@@ -73,6 +74,44 @@ TEST(ReadPointCloud, FarCoordinatesKeepPrecisionThroughOrigin) {
   EXPECT_NEAR(cloud.worldPosition(0).x(), 512345.6781, 1e-6);
   EXPECT_NEAR(cloud.worldPosition(1).y(), 5412346.9999, 1e-6);
   EXPECT_NEAR(cloud.worldPosition(0).z(), 312.0011, 1e-6);
+}
+
+TEST(ReadPointCloud, CoordinatesInAnotherUnitAreReadAsMetres) {
+  TempDir dir;
+  // The same two points in metres and in millimetres, far enough out (4 km) to move the origin,
+  // which must be chosen from the scaled coordinates, and with a normal, which no unit scales.
+  writeFile(dir / "m.xyz", "x y z nx ny nz\n4000.1234 -2.4 1.25 0 0 1\n4000.2 -2.75 1.5 0 1 0\n");
+  writeFile(dir / "mm.xyz", "x y z nx ny nz\n4000123.4 -2400 1250 0 0 1\n4000200 -2750 1500 0 1 0\n");
+  ReadOptions millimetres;
+  millimetres.metresPerUnit = *metresPerUnit("mm");
+  const PointCloud metric = readPointCloud(dir / "m.xyz");
+  const PointCloud scaled = readPointCloud(dir / "mm.xyz", millimetres);
+  ASSERT_EQ(scaled.size(), 2u);
+  EXPECT_EQ(scaled.origin, metric.origin);
+  EXPECT_EQ(scaled.origin, Eigen::Vector3d(4000, -2, 1));
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_TRUE(scaled.worldPosition(i).isApprox(metric.worldPosition(i), 1e-12)) << i;
+    EXPECT_EQ(scaled.normals[i], metric.normals[i]);
+  }
+  // The streaming reader delivers metres too (what `piperun convert --units` writes).
+  auto reader = openPointReader(dir / "mm.xyz", 0.001);
+  PointChunk chunk;
+  ASSERT_EQ(reader->read(chunk, 10), 2u);
+  EXPECT_NEAR(chunk.positions[1].y(), -2.75, 1e-12);
+  EXPECT_THROW(openPointReader(dir / "mm.xyz", 0.0), std::invalid_argument);
+}
+
+TEST(LengthUnits, EveryNamedUnitHasItsLengthInMetres) {
+  EXPECT_EQ(*metresPerUnit("m"), 1.0);
+  EXPECT_EQ(*metresPerUnit("cm"), 0.01);
+  EXPECT_EQ(*metresPerUnit("mm"), 0.001);
+  EXPECT_EQ(*metresPerUnit("in"), 0.0254);
+  EXPECT_EQ(*metresPerUnit("ft"), 0.3048);
+  EXPECT_NEAR(*metresPerUnit("us-ft"), 0.3048006096, 1e-10);
+  for (const std::string& name : lengthUnitNames()) EXPECT_TRUE(metresPerUnit(name)) << name;
+  EXPECT_FALSE(metresPerUnit("M"));
+  EXPECT_FALSE(metresPerUnit("yd"));
+  EXPECT_FALSE(metresPerUnit(""));
 }
 
 TEST(ReadPointCloud, ChunkSizeDoesNotChangeTheResult) {

@@ -107,6 +107,31 @@ TEST(ProjectFile, ReopensExactlyWithHistoryParametersAndStages) {
   EXPECT_EQ(b.network().findPipe(5)->radius, 0.0333);
 }
 
+TEST(ProjectFile, KeepsTheScansUnitAndReadsProjectsWithoutOneAsMetres) {
+  test::TempDir dir;
+  Project project = reviewedProject(dir / "scan.ply");
+  project.scanUnits = "us-ft";
+  saveProject(dir / "review.piperun", project);
+  EXPECT_EQ(openProject(dir / "review.piperun").project.scanUnits, "us-ft");
+
+  // Projects saved before scans had a unit hold none: their scans were read as metres.
+  std::string text = projectToJson(project);
+  const std::size_t units = text.find(",\n  \"units\": \"us-ft\"");
+  ASSERT_NE(units, std::string::npos) << text;
+  text.erase(units, std::string(",\n  \"units\": \"us-ft\"").size());
+  EXPECT_EQ(projectFromJson(text, "old.piperun").scanUnits, "m");
+
+  std::string unknown = projectToJson(project);
+  unknown.replace(unknown.find("\"us-ft\""), 7, "\"yards\"");
+  try {
+    projectFromJson(unknown, "p.piperun");
+    FAIL() << "accepted an unknown unit";
+  } catch (const InputError& error) {
+    EXPECT_EQ(error.location(), "/scan/units") << error.what();
+    EXPECT_NE(std::string(error.what()).find("\"mm\""), std::string::npos) << error.what();
+  }
+}
+
 TEST(ProjectFile, ChangedOrMissingScanWarnsAndStillOpens) {
   test::TempDir dir;
   Project project = reviewedProject(dir / "scan.ply");

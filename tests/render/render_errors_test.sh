@@ -37,4 +37,5 @@ expect 1 "--size: expected WIDTHxHEIGHT" "$render" "$scene" --size 12 -o "$work/
 expect 1 "--point-budget: expected at least 1 point" "$render" "$scene" --point-budget 0 -o "$work/out.png"
 expect 1 "INPUT and -o OUT.png are required" "$render" "$scene"
 expect 1 "^piperun-render: error: --view: bogus not in \\{all,scene,sphere,plane\\} \\(see piperun-render --help\\)$" "$render" "$scene" --view bogus -o "$work/out.png"
+expect 1 "--units: furlong not in \\{m,cm,mm,in,ft,us-ft\\}" "$render" "$scene" --units furlong -o "$work/out.png"
 exit $((failures > 0))

@@ -19,7 +19,7 @@ std::filesystem::path temporaryPath(const std::string& name) {
 std::filesystem::path writeSmallScan(const std::string& name) {
   PointCloud cloud;
   PointChunk chunk;
-  chunk.positions = {{1.0, 2.0, 3.0}, {1.5, 2.0, 3.0}, {1.0, 2.5, 3.0}};
+  chunk.positions = {{1.0, 2.0, 3.0}, {1.005, 2.0, 3.0}, {1.0, 2.005, 3.0}};
   cloud.append(chunk);
   const auto path = temporaryPath(name);
   writePointCloud(path, cloud);
@@ -115,6 +115,34 @@ TEST(Document, ProjectWithItsScanRecomputesTheStagesThatWereFresh) {
   EXPECT_EQ(reopened.pipeline()->params().placement.centerBandwidth, 0.02);
   EXPECT_EQ(reopened.freshThrough(), Stage::Directions);
   EXPECT_TRUE(reopened.warnings().empty());
+  std::filesystem::remove(path);
+  std::filesystem::remove(scan);
+}
+
+TEST(Document, AScanInMillimetresIsReadAsMetresAndItsProjectKeepsTheUnit) {
+  // The small scan written in millimetres: read as metres its points lie 5 m apart.
+  PointCloud cloud;
+  PointChunk chunk;
+  chunk.positions = {{1000.0, 2000.0, 3000.0}, {1005.0, 2000.0, 3000.0}, {1000.0, 2005.0, 3000.0}};
+  cloud.append(chunk);
+  const auto scan = temporaryPath("scan_mm.ply");
+  writePointCloud(scan, cloud);
+
+  const Document asMetres = Document::open(scan);
+  ASSERT_EQ(asMetres.warnings().size(), 1u);
+  EXPECT_NE(asMetres.warnings()[0].find("give their unit with --units"), std::string::npos) << asMetres.warnings()[0];
+
+  Document document = Document::open(scan, Progress::none(), "mm");
+  EXPECT_TRUE(document.warnings().empty());
+  EXPECT_TRUE(document.input()->worldPosition(1).isApprox(Eigen::Vector3d(1.005, 2.0, 3.0), 1e-6));
+  EXPECT_EQ(document.project().scanUnits, "mm");
+  const auto path = temporaryPath("scan_mm.piperun");
+  saveProject(path, document.project());
+
+  const Document reopened = Document::open(path);
+  EXPECT_TRUE(reopened.warnings().empty());
+  EXPECT_TRUE(reopened.input()->worldPosition(2).isApprox(Eigen::Vector3d(1.0, 2.005, 3.0), 1e-6));
+  EXPECT_THROW(Document::open(scan, Progress::none(), "furlong"), InputError);
   std::filesystem::remove(path);
   std::filesystem::remove(scan);
 }

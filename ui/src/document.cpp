@@ -1,6 +1,8 @@
 #include "piperun/ui/document.h"
 
+#include "piperun/error.h"
 #include "piperun/io/point_reader.h"
+#include "piperun/spacing.h"
 
 namespace piperun::ui {
 
@@ -14,26 +16,40 @@ std::shared_ptr<Pipeline> studioPipeline(std::shared_ptr<const PointCloud> cloud
   return pipeline;
 }
 
-std::shared_ptr<const PointCloud> readScan(const std::filesystem::path& path, Progress& progress) {
+/// Reads the scan at `path` in `units`; what reading reported, and a spacing that says the unit is
+/// wrong, go to `warnings`.
+std::shared_ptr<const PointCloud> readScan(const std::filesystem::path& path, const std::string& units,
+                                           Progress& progress, std::vector<std::string>& warnings) {
+  const std::optional<double> scale = metresPerUnit(units);
+  if (!scale) throw InputError(path, "", "unknown length unit \"" + units + "\"");
   ReadOptions options;
   options.progress = &progress;
-  return std::make_shared<PointCloud>(readPointCloud(path, options));
+  options.metresPerUnit = *scale;
+  ReadReport report;
+  auto cloud = std::make_shared<PointCloud>(readPointCloud(path, options, &report));
+  warnings.insert(warnings.end(), report.warnings.begin(), report.warnings.end());
+  if (const auto sparse = sparseScanWarning(estimatePointSpacing(*cloud))) warnings.push_back(path.string() + ": " + *sparse);
+  return cloud;
 }
 
 }  // namespace
 
-Document Document::open(const std::filesystem::path& path, Progress& progress) {
+Document Document::open(const std::filesystem::path& path, Progress& progress, const std::string& scanUnits) {
   if (isProjectFile(path)) return fromProject(openProject(path), path, progress);
   if (isNetworkFile(path)) return fromNetwork(readNetwork(path), path);
-  return fromScan(readScan(path, progress), path);
+  std::vector<std::string> warnings;
+  Document document = fromScan(readScan(path, scanUnits, progress, warnings), path, scanUnits);
+  document.warnings_ = std::move(warnings);
+  return document;
 }
 
-Document Document::fromScan(std::shared_ptr<const PointCloud> cloud, const std::filesystem::path& path) {
+Document Document::fromScan(std::shared_ptr<const PointCloud> cloud, const std::filesystem::path& path,
+                            const std::string& scanUnits) {
   Document document;
   document.path_ = path;
   document.input_ = cloud;
   document.pipeline_ = studioPipeline(std::move(cloud), {});
-  document.project_ = newProject(path, *document.pipeline_);
+  document.project_ = newProject(path, *document.pipeline_, scanUnits);
   return document;
 }
 
@@ -53,7 +69,7 @@ Document Document::fromProject(OpenedProject opened, const std::filesystem::path
   const std::filesystem::path& scan = document.project_.scanPath;
   std::error_code error;
   if (!scan.empty() && std::filesystem::is_regular_file(scan, error)) {
-    document.input_ = readScan(scan, progress);
+    document.input_ = readScan(scan, document.project_.scanUnits, progress, document.warnings_);
     document.pipeline_ = studioPipeline(document.input_, document.project_.params);
   }
   return document;

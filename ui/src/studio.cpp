@@ -53,6 +53,30 @@ double parameterValue(const PipelineParams& params, const std::string& key) {
   return value.is_boolean() ? (value.get<bool>() ? 1.0 : 0.0) : value.get<double>();
 }
 
+/// `text` with each line broken at blanks into lines of at most `columns` characters (a longer
+/// word keeps a line of its own).
+std::string wrapLines(const std::string& text, std::size_t columns) {
+  std::string wrapped;
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);) {
+    if (!wrapped.empty()) wrapped += '\n';
+    std::size_t used = 0;
+    std::istringstream words(line);
+    for (std::string word; words >> word;) {
+      if (used > 0 && used + 1 + word.size() > columns) {
+        wrapped += '\n';
+        used = 0;
+      } else if (used > 0) {
+        wrapped += ' ';
+        ++used;
+      }
+      wrapped += word;
+      used += word.size();
+    }
+  }
+  return wrapped;
+}
+
 }  // namespace
 
 Studio::Impl::Impl(Studio& owner, vtkRenderWindow* window, vtkRenderWindowInteractor* interactor,
@@ -519,6 +543,10 @@ void Studio::Impl::layout() {
   reviewText->GetTextProperty()->SetFontSize(static_cast<int>(13 * scale));
   noticeText->SetPosition(0.5 * (textRect.x0 + textRect.x1) * width, textRect.y1 * height - 70.0 * scale);
   noticeText->GetTextProperty()->SetFontSize(static_cast<int>(14 * scale));
+  // Characters of the notice's font (about 0.6 of its size wide) across the view, less the padding.
+  noticeColumns = static_cast<std::size_t>(
+      std::max(20.0, ((textRect.x1 - textRect.x0) * width - 4.0 * pad) / (0.6 * 14.0 * scale)));
+  showNotice();
   helpCommandsText->SetPosition(pad * 2, height - 84.0 * scale);  // Below the status lines.
   placeKeysHelp();
 
@@ -672,6 +700,17 @@ std::string Studio::Impl::sceneCaption() const {
   return caption;
 }
 
+void Studio::Impl::showNotice() {
+  noticeText->SetVisibility(noticeShown);
+  if (!noticeShown) return;
+  std::string notice;
+  for (const auto& warning : document.warnings()) notice += warning + "\n";
+  if (document.newerAutosave())
+    notice += "An autosave newer than this project exists: " + document.newerAutosave()->filename().string() +
+              "\nCtrl+R recovers it (then Ctrl+S saves it over the project)";
+  noticeText->SetInput(wrapLines(notice, noticeColumns).c_str());
+}
+
 void Studio::Impl::updateOverlays() {
   const Pipeline* pipeline = document.pipeline();
   const PipeNetwork& network = document.network();
@@ -748,16 +787,7 @@ void Studio::Impl::updateOverlays() {
     review << "\nN/P next/previous  A accept  R reject\nDel delete pipe  Ins restore  Ctrl+Z undo";
     reviewText->SetInput(review.str().c_str());
   }
-  noticeText->SetVisibility(noticeShown);
-  if (noticeShown) {
-    std::string notice;
-    for (const auto& warning : document.warnings()) notice += warning + "\n";
-    if (document.newerAutosave())
-      notice += "An autosave newer than this project exists: " + document.newerAutosave()->filename().string() +
-                "\nCtrl+R recovers it (then Ctrl+S saves it over the project)";
-    while (!notice.empty() && notice.back() == '\n') notice.pop_back();
-    noticeText->SetInput(notice.c_str());
-  }
+  showNotice();
 
   if (document.hasPipeline() && stageBar->enabled()) stageBar->setStates(stageStates());
   for (auto& line : jointLegend)
@@ -1168,7 +1198,9 @@ Studio::~Studio() = default;
 
 void Studio::open(Document document) { impl_->open(std::move(document)); }
 
-void Studio::open(const std::filesystem::path& path) { impl_->open(Document::open(path)); }
+void Studio::open(const std::filesystem::path& path) {
+  impl_->open(Document::open(path, Progress::none(), impl_->options.scanUnits));
+}
 
 const Document& Studio::document() const { return impl_->document; }
 

@@ -629,7 +629,7 @@ void Studio::Impl::registerCommands() {
                  std::string path = args[0];
                  for (std::size_t i = 1; i < args.size(); ++i) path += " " + args[i];  // Names with blanks.
                  try {
-                   open(Document::open(path));
+                   open(Document::open(path, Progress::none(), options.scanUnits));
                  } catch (const InputError& error) {
                    throw CommandError(error.what());
                  }

@@ -299,6 +299,8 @@ struct Studio::Impl {
   void resetPlaneCamera();
   void flyTo(const Eigen::Vector3d& world, double size);
   void updateOverlays();
+  /// The notice (warnings from opening, an autosave to recover), wrapped to the view's width.
+  void showNotice();
   /// The 3-D scene's title: colours, clip, points drawn.
   std::string sceneCaption() const;
   void placeKeysHelp();
@@ -439,6 +441,7 @@ struct Studio::Impl {
   std::vector<vtkSmartPointer<vtkTextActor>> jointLegend;  ///< One line per joint status.
   std::unique_ptr<StageBar> stageBar;
   int laidOutWidth = 0, laidOutHeight = 0;
+  std::size_t noticeColumns = 120;  ///< Characters a notice line holds across the view (layout()).
 
   // Background run: the worker thread alone touches the pipeline until `finished`.
   std::thread worker;

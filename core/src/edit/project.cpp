@@ -5,6 +5,7 @@
 #include "io/network_json.h"
 #include "json_text.h"
 #include "piperun/error.h"
+#include "piperun/io/point_reader.h"
 #include "piperun/params.h"
 
 #include <nlohmann/json.hpp>
@@ -123,10 +124,11 @@ void recordPipelineState(Project& project, const Pipeline& pipeline) {
   for (Stage stage : kAllStages) project.freshStages[static_cast<std::size_t>(stage)] = pipeline.isFresh(stage);
 }
 
-Project newProject(const std::filesystem::path& scanPath, const Pipeline& pipeline) {
+Project newProject(const std::filesystem::path& scanPath, const Pipeline& pipeline, const std::string& scanUnits) {
   Project project;
   project.scanPath = std::filesystem::absolute(scanPath).lexically_normal();
   project.scanHash = hashFile(project.scanPath);
+  project.scanUnits = scanUnits;
   recordPipelineState(project, pipeline);
   project.edits = EditSession(pipeline.network());
   return project;
@@ -138,7 +140,9 @@ std::string projectToJson(const Project& project) {
   document["format"] = kProjectFormatName;
   document["version"] = kProjectFormatVersion;
   document["scan"] = project.scanPath.empty() ? json(nullptr)
-                                              : json{{"path", project.scanPath.string()}, {"hash", project.scanHash}};
+                                              : json{{"path", project.scanPath.string()},
+                                                     {"hash", project.scanHash},
+                                                     {"units", project.scanUnits}};
   document["parameters"] = json::parse(paramsToJson(project.params, -1));
   nlohmann::ordered_json stages;
   for (Stage stage : kAllStages) stages[stageName(stage)] = project.freshStages[static_cast<std::size_t>(stage)] ? "fresh" : "stale";
@@ -174,6 +178,16 @@ Project projectFromJson(const std::string& text, const std::filesystem::path& so
     if (!hash.is_string()) fail(source, "/scan/hash", "expected a string");
     project.scanPath = path.get<std::string>();
     project.scanHash = hash.get<std::string>();
+    // Projects saved before scans had a unit were all in metres.
+    if (scan.contains("units")) {
+      const json& units = scan["units"];
+      if (!units.is_string() || !metresPerUnit(units.get<std::string>())) {
+        std::string names;
+        for (const std::string& name : lengthUnitNames()) names += (names.empty() ? "\"" : ", \"") + name + "\"";
+        fail(source, "/scan/units", "expected one of " + names);
+      }
+      project.scanUnits = units.get<std::string>();
+    }
   }
   project.params = paramsFromJson(member(document, source, "", "parameters").dump(), source);
   const json& stages = member(document, source, "", "stages");

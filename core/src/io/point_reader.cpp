@@ -5,9 +5,11 @@
 #include "piperun/error.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <stdexcept>
 
 namespace piperun {
 
@@ -64,6 +66,36 @@ void reserveTotal(std::vector<T>& values, std::size_t total) {
   if (total > values.capacity()) values.reserve(total);
 }
 
+/// A reader whose coordinates are in another unit than metres: each chunk scaled as it is read.
+class ScaledReader final : public PointReader {
+ public:
+  ScaledReader(std::unique_ptr<PointReader> reader, double metresPerUnit)
+      : reader_(std::move(reader)), scale_(metresPerUnit) {}
+  const CloudInfo& info() const override { return reader_->info(); }
+  std::size_t read(PointChunk& chunk, std::size_t maxPoints) override {
+    const std::size_t count = reader_->read(chunk, maxPoints);
+    for (Eigen::Vector3d& p : chunk.positions) p *= scale_;
+    return count;
+  }
+  double progress() const override { return reader_->progress(); }
+
+ private:
+  std::unique_ptr<PointReader> reader_;
+  double scale_;
+};
+
+std::unique_ptr<PointReader> openFormatReader(const std::filesystem::path& path) {
+  switch (detectPointFormat(path)) {
+    case PointFormat::Ply: return io::openPlyReader(path);
+    case PointFormat::Pcd: return io::openPcdReader(path);
+    case PointFormat::Xyz: return io::openXyzReader(path);
+    case PointFormat::Pts: return io::openPtsReader(path);
+    case PointFormat::Las: return io::openLasReader(path);
+    case PointFormat::E57: return io::openE57Reader(path);
+  }
+  throw InputError(path, "", "unknown point-cloud format");
+}
+
 void reserveCloud(PointCloud& cloud, std::size_t total) {
   reserveTotal(cloud.positions, total);
   if (cloud.hasNormals()) reserveTotal(cloud.normals, total);
@@ -86,18 +118,42 @@ PointFormat detectPointFormat(const std::filesystem::path& path) {
   return formatFromContent(path);
 }
 
-std::unique_ptr<PointReader> openPointReader(const std::filesystem::path& path) {
+namespace {
+
+struct LengthUnit {
+  const char* name;
+  double metres;
+};
+constexpr std::array<LengthUnit, 6> kLengthUnits = {{
+    {"m", 1.0}, {"cm", 0.01}, {"mm", 0.001}, {"in", 0.0254}, {"ft", 0.3048}, {"us-ft", 1200.0 / 3937.0}}};
+
+}  // namespace
+
+const std::vector<std::string>& lengthUnitNames() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> all;
+    for (const LengthUnit& unit : kLengthUnits) all.emplace_back(unit.name);
+    return all;
+  }();
+  return names;
+}
+
+std::optional<double> metresPerUnit(std::string_view unit) {
+  for (const LengthUnit& known : kLengthUnits) {
+    if (unit == known.name) return known.metres;
+  }
+  return std::nullopt;
+}
+
+std::unique_ptr<PointReader> openPointReader(const std::filesystem::path& path, double metresPerUnit) {
+  if (!(metresPerUnit > 0.0 && std::isfinite(metresPerUnit))) {
+    throw std::invalid_argument("openPointReader: the unit must be a positive length in metres");
+  }
   std::error_code error;
   if (!std::filesystem::exists(path, error)) throw InputError(path, "", "no such file");
-  switch (detectPointFormat(path)) {
-    case PointFormat::Ply: return io::openPlyReader(path);
-    case PointFormat::Pcd: return io::openPcdReader(path);
-    case PointFormat::Xyz: return io::openXyzReader(path);
-    case PointFormat::Pts: return io::openPtsReader(path);
-    case PointFormat::Las: return io::openLasReader(path);
-    case PointFormat::E57: return io::openE57Reader(path);
-  }
-  throw InputError(path, "", "unknown point-cloud format");
+  std::unique_ptr<PointReader> reader = openFormatReader(path);
+  if (metresPerUnit == 1.0) return reader;
+  return std::make_unique<ScaledReader>(std::move(reader), metresPerUnit);
 }
 
 std::size_t dropNonFinite(PointChunk& chunk) {
@@ -118,7 +174,7 @@ std::size_t dropNonFinite(PointChunk& chunk) {
 }
 
 PointCloud readPointCloud(const std::filesystem::path& path, const ReadOptions& options, ReadReport* report) {
-  auto reader = openPointReader(path);
+  auto reader = openPointReader(path, options.metresPerUnit);
   const CloudInfo& info = reader->info();
   Progress& progress = options.progress ? *options.progress : Progress::none();
 

@@ -735,6 +735,7 @@ PreprocessResult preprocess(std::shared_ptr<const PointCloud> input, const Prepr
 
   Clock::time_point stepStart = Clock::now();
   const double inputSpacing = estimatePointSpacing(*input);
+  diagnostics.inputSpacing = inputSpacing;
   const double leaf =
       params.autoVoxel ? std::min(params.voxelSize, std::max(kMinAutoVoxel, 2.0 * inputSpacing)) : params.voxelSize;
   diagnostics.voxelSize = leaf;

@@ -21,13 +21,15 @@ struct Project {
   std::filesystem::path file;      ///< Where it was last opened from or saved to; empty for a new project.
   std::filesystem::path scanPath;  ///< The scan it reconstructs (absolute); empty when it holds only a network.
   std::string scanHash;            ///< hashFile(scanPath) when the project was made; empty without a scan.
+  std::string scanUnits = "m";     ///< The unit of the scan's coordinates (lengthUnitNames()), read as metres.
   PipelineParams params;
   std::array<bool, kStageCount> freshStages{};  ///< Which stages were fresh when the network was made.
   EditSession edits;               ///< The network, its base and the history.
 };
 
-/// A project reviewing what `pipeline` made of the scan at `scanPath` (made absolute and hashed).
-Project newProject(const std::filesystem::path& scanPath, const Pipeline& pipeline);
+/// A project reviewing what `pipeline` made of the scan at `scanPath` (made absolute and hashed),
+/// whose coordinates are in `scanUnits`.
+Project newProject(const std::filesystem::path& scanPath, const Pipeline& pipeline, const std::string& scanUnits = "m");
 /// Records the pipeline's parameters and fresh stages in the project.
 void recordPipelineState(Project& project, const Pipeline& pipeline);
 

@@ -9,6 +9,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace piperun {
@@ -41,9 +42,17 @@ enum class PointFormat { Ply, Pcd, Xyz, Pts, Las, E57 };
 /// with how to decompress it) and for unknown formats.
 PointFormat detectPointFormat(const std::filesystem::path& path);
 
+/// The length units a scan's coordinates may be given in (everything PipeRun computes is in
+/// metres): "m", "cm", "mm", "in", "ft" (the international foot, 0.3048 m) and "us-ft" (the US
+/// survey foot, 1200/3937 m, of many state-plane LAS files).
+const std::vector<std::string>& lengthUnitNames();
+/// Metres per one of those units; nullopt for any other name.
+std::optional<double> metresPerUnit(std::string_view unit);
+
 /// Opens a streaming reader for `path`; throws InputError when the file cannot be opened or its
-/// header is malformed.
-std::unique_ptr<PointReader> openPointReader(const std::filesystem::path& path);
+/// header is malformed. Coordinates in another unit than metres (`metresPerUnit` ≠ 1) are
+/// delivered scaled to metres.
+std::unique_ptr<PointReader> openPointReader(const std::filesystem::path& path, double metresPerUnit = 1.0);
 
 struct ReadOptions {
   std::size_t chunkPoints = 1u << 20;   ///< Points per read() call.
@@ -51,6 +60,7 @@ struct ReadOptions {
   /// Attributes kept (PointAttribute bits, where the file has them); the others are dropped chunk
   /// by chunk, so they never take memory.
   unsigned attributes = kNormals | kColors | kIntensity | kLabels;
+  double metresPerUnit = 1.0;           ///< The file's coordinate unit (metresPerUnit("mm") for millimetres).
 };
 
 struct ReadReport {

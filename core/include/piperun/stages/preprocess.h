@@ -48,6 +48,7 @@ struct PreprocessResult {
 
   struct Diagnostics {
     std::size_t inputPoints = 0;
+    double inputSpacing = 0.0;        ///< The scan's median point spacing (m), estimated for the leaf.
     double voxelSize = 0.0;           ///< Leaf used (m), after autoVoxel.
     std::size_t afterVoxel = 0;       ///< Occupied voxels (finite input points when voxelSize is 0).
     std::size_t outliersRemoved = 0;  ///< Statistical outliers, and points left without a normal.

@@ -23,10 +23,14 @@ class Document {
   /// An empty document (nothing open).
   Document() = default;
 
-  /// Opens a scan (any point format core reads), a network (.json) or a project (.piperun).
-  /// Throws InputError.
-  static Document open(const std::filesystem::path& path, Progress& progress = Progress::none());
-  static Document fromScan(std::shared_ptr<const PointCloud> cloud, const std::filesystem::path& path);
+  /// Opens a scan (any point format core reads) whose coordinates are in `scanUnits`
+  /// (lengthUnitNames()), a network (.json) or a project (.piperun, whose scan is read in the unit
+  /// it records). Throws InputError.
+  static Document open(const std::filesystem::path& path, Progress& progress = Progress::none(),
+                       const std::string& scanUnits = "m");
+  /// `cloud`, read from `path` in `scanUnits`, with a new pipeline.
+  static Document fromScan(std::shared_ptr<const PointCloud> cloud, const std::filesystem::path& path,
+                           const std::string& scanUnits = "m");
   static Document fromNetwork(PipeNetwork network, const std::filesystem::path& path);
   /// A project as openProject() gave it; its scan is read when it is there (else the network
   /// opens alone, with a warning). `path` is the file it came from.
@@ -51,7 +55,8 @@ class Document {
   /// The network shown: the reviewed (edited) one, world coordinates.
   const PipeNetwork& network() const { return project_.edits.network(); }
 
-  /// What opening reported (a changed or missing scan, a dropped history), one line each.
+  /// What opening reported (a changed or missing scan, a dropped history, points dropped in reading,
+  /// a scan too sparse for its unit), one line each.
   const std::vector<std::string>& warnings() const { return warnings_; }
   /// An autosave of the project newer than its file, to offer for recovery.
   const std::optional<std::filesystem::path>& newerAutosave() const { return newerAutosave_; }

@@ -1,0 +1,24 @@
+#pragma once
+// `--units`: the length unit of a scan's coordinates, for every tool that reads scans.
+
+#include "piperun/io/point_reader.h"
+
+#include <CLI/CLI.hpp>
+
+#include <string>
+
+namespace piperun::app {
+
+/// `--units UNIT` (one of lengthUnitNames(), "m" by default), read into `unit`.
+inline void addUnitsOption(CLI::App& app, std::string& unit) {
+  std::string names;
+  for (const std::string& name : lengthUnitNames()) names += (names.empty() ? "" : ", ") + name;
+  app.add_option("--units", unit,
+                 "Unit of the scan's coordinates (" + names +
+                     "; ft is the international foot, us-ft the US survey foot): they are read as metres, "
+                     "which everything written is in")
+      ->check(CLI::IsMember(lengthUnitNames()))
+      ->capture_default_str();
+}
+
+}  // namespace piperun::app
