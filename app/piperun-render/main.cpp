@@ -44,7 +44,7 @@ int main(int argc, char** argv) {
   app.add_option("--text", textOutput, "Also write the texts drawn over the views (titles, status, info) to this file");
   long long pointBudget = 0;
   piperun::app::addPointBudgetOption(app, pointBudget);
-  std::string scanUnits = "m";
+  std::string scanUnits;
   piperun::app::addUnitsOption(app, scanUnits);
   if (const auto exitCode = piperun::app::parseArguments(app, argc, argv, "piperun-render")) return *exitCode;
   if (!piperun::app::checkPointBudget(pointBudget, "piperun-render")) return 1;

@@ -178,7 +178,7 @@ int main(int argc, char** argv) {
                                            "the screen's work area)");
   long long pointBudget = 0;
   piperun::app::addPointBudgetOption(app, pointBudget);
-  std::string scanUnits = "m";
+  std::string scanUnits;
   piperun::app::addUnitsOption(app, scanUnits);
   if (const auto exitCode = piperun::app::parseArguments(app, argc, argv, "piperun-studio")) return *exitCode;
   if (!piperun::app::checkPointBudget(pointBudget, "piperun-studio")) return 1;

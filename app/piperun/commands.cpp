@@ -123,11 +123,11 @@ int networkInfo(const InfoOptions& options) {
   return kExitOk;
 }
 
-/// Metres per unit of a scan's coordinates, from the --units option's name.
-double unitScale(const std::string& unit) {
-  const std::optional<double> scale = metresPerUnit(unit);
-  if (!scale) throw std::invalid_argument("--units " + unit + ": not a length unit this tool knows");
-  return *scale;
+/// The unit a scan was read in and why: "m", "mm (--units)", "us-ft (GeoTIFF key …)".
+std::string unitsNote(const CloudInfo& info, const std::string& asked, const std::string& used) {
+  if (!asked.empty()) return used + " (--units)";
+  if (!info.declaredUnits.empty()) return used + " (" + info.declaredUnitsSource + ")";
+  return used;
 }
 
 struct ExportTarget {
@@ -154,7 +154,7 @@ int runInfo(const InfoOptions& options) {
   ProgressBar bar(options.quiet);
   ReadOptions readOptions;
   readOptions.progress = &bar.progress();
-  readOptions.metresPerUnit = unitScale(options.units);
+  readOptions.units = options.units;
   ReadReport report;
   const PointCloud cloud = readPointCloud(options.input, readOptions, &report);
   const double readSeconds = secondsSince(start);
@@ -174,6 +174,8 @@ int runInfo(const InfoOptions& options) {
                 {"points", cloud.size()},
                 {"non_finite_dropped", report.nonFiniteDropped},
                 {"attributes", attributeNames(cloud.attributes())},
+                {"units", report.units},
+                {"units_source", options.units.empty() ? report.info.declaredUnitsSource : "--units"},
                 {"spacing_m", spacing},
                 {"read_seconds", readSeconds}};
     if (!box.empty()) out["bounds"] = {{"min", vectorJson(box.min)}, {"max", vectorJson(box.max)}, {"size", vectorJson(box.size())}};
@@ -189,6 +191,8 @@ int runInfo(const InfoOptions& options) {
                 static_cast<unsigned long long>(report.nonFiniteDropped));
   }
   std::printf("attributes: %s\n", joinNames(attributeNames(cloud.attributes())).c_str());
+  std::printf("units: %s%s\n", unitsNote(report.info, options.units, report.units).c_str(),
+              report.units == "m" ? "" : ", read as metres");
   if (!box.empty()) {
     std::printf("bounds min: %.3f %.3f %.3f\n", box.min.x(), box.min.y(), box.min.z());
     std::printf("bounds max: %.3f %.3f %.3f\n", box.max.x(), box.max.y(), box.max.z());
@@ -424,7 +428,7 @@ int runEval(const EvalOptions& options) {
 int runConvert(const ConvertOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   ProgressBar bar(options.quiet);
-  auto reader = openPointReader(options.input, unitScale(options.units));
+  auto reader = openPointReader(options.input, options.units);
   unsigned attributes = reader->info().attributes;
   if (options.noNormals) attributes &= ~kNormals;
   if (options.noColors) attributes &= ~kColors;
@@ -450,6 +454,8 @@ int runConvert(const ConvertOptions& options) {
   }
   std::printf("converted: %s (%s) -> %s\n", options.input.c_str(), reader->info().format.c_str(),
               options.output.c_str());
+  const std::string units = unitsRead(*reader, options.units);
+  if (units != "m") std::printf("units: %s, written in metres\n", unitsNote(reader->info(), options.units, units).c_str());
   std::printf("attributes: %s\n", joinNames(attributeNames(attributes)).c_str());
   std::printf("points=%llu dropped=%llu seconds=%.2f\n", static_cast<unsigned long long>(written),
               static_cast<unsigned long long>(dropped), secondsSince(start));
@@ -471,7 +477,7 @@ int runReconstruct(const ReconstructOptions& options) {
   ProgressBar bar(options.quiet);
   ReadOptions readOptions;
   readOptions.progress = &bar.progress();
-  readOptions.metresPerUnit = unitScale(options.units);
+  readOptions.units = options.units;
   // The pipeline reads positions alone; labels only for an evaluation over what the scan shows.
   readOptions.attributes = options.truth.empty() ? kNoAttributes : kLabels;
   ReadReport report;
@@ -518,6 +524,9 @@ int runReconstruct(const ReconstructOptions& options) {
   }
   std::printf("input: %zu points from %s, %d thread(s)  [read %.2f s]\n", inputPoints, options.input.c_str(), threads,
               readSeconds);
+  if (report.units != "m") {
+    std::printf("units: %s, read as metres\n", unitsNote(report.info, options.units, report.units).c_str());
+  }
   if (const auto sparse = sparseScanWarning(d.inputSpacing)) warn(options.input + ": " + *sparse);
   std::printf("preprocess: %zu after voxel grid (leaf %.1f mm), %zu outliers removed, %zu plane points in %d planes, "
               "%zu kept, %zu tiles  [%.2f s]\n",

@@ -11,7 +11,7 @@ enum ExitCode { kExitOk = 0, kExitUsage = 1, kExitBadInput = 2, kExitInternal = 
 
 struct InfoOptions {
   std::string input;
-  std::string units = "m";  ///< The scan's coordinate unit (lengthUnitNames()).
+  std::string units;        ///< The scan's coordinate unit (lengthUnitNames()); empty: the file's own, else m.
   bool json = false;
   bool runs = false;  ///< For a network: one line per run.
   bool quiet = false;
@@ -47,7 +47,7 @@ int runEval(const EvalOptions& options);
 struct ConvertOptions {
   std::string input;
   std::string output;
-  std::string units = "m";  ///< The input's coordinate unit; the output is written in metres.
+  std::string units;        ///< The input's coordinate unit (empty: its own, else m); the output is in metres.
   bool noNormals = false;
   bool noColors = false;
   bool noIntensity = false;
@@ -59,7 +59,7 @@ int runConvert(const ConvertOptions& options);
 struct ReconstructOptions {
   std::string input;
   std::string output;
-  std::string units = "m";               ///< The scan's coordinate unit (lengthUnitNames()).
+  std::string units;                     ///< The scan's coordinate unit; empty: the file's own, else m.
   std::string paramsFile;
   std::vector<std::string> assignments;  ///< "section.key=value"
   int threads = 0;                       ///< 0: all cores

@@ -37,6 +37,9 @@ struct LasSpec {
   std::array<double, 3> scale{0.001, 0.01, 0.0001};
   std::array<double, 3> offset{500000.0, 4000000.0, 100.0};
   std::vector<LasPoint> points;
+  /// Projection VLRs (user ID "LASF_Projection"): record ID and payload, after the other VLRs.
+  std::vector<std::pair<std::uint16_t, std::string>> projection;
+  std::uint16_t globalEncoding = 0;
 };
 
 constexpr std::array<std::uint16_t, 11> kStandardRecordSize = {20, 28, 26, 34, 57, 63, 30, 36, 38, 59, 67};
@@ -67,10 +70,13 @@ std::string buildLas(const LasSpec& spec) {
   bytes[25] = static_cast<char>(spec.minor);
   std::memcpy(&bytes[58], "piperun tests", 13);
   put<std::uint16_t>(bytes, 94, headerBytes);
-  const auto pointDataOffset =
-      static_cast<std::uint32_t>(headerBytes + spec.vlrCount * (kVlrHeaderBytes + kVlrPayloadBytes));
+  put<std::uint16_t>(bytes, 6, spec.globalEncoding);
+  std::size_t projectionBytes = 0;
+  for (const auto& [record, payload] : spec.projection) projectionBytes += kVlrHeaderBytes + payload.size();
+  const auto pointDataOffset = static_cast<std::uint32_t>(
+      headerBytes + spec.vlrCount * (kVlrHeaderBytes + kVlrPayloadBytes) + projectionBytes);
   put<std::uint32_t>(bytes, 96, pointDataOffset);
-  put<std::uint32_t>(bytes, 100, spec.vlrCount);
+  put<std::uint32_t>(bytes, 100, static_cast<std::uint32_t>(spec.vlrCount + spec.projection.size()));
   bytes[104] = static_cast<char>(spec.format);
   put<std::uint16_t>(bytes, 105, static_cast<std::uint16_t>(recordLength(spec)));
   const auto count = static_cast<std::uint32_t>(spec.points.size());
@@ -97,6 +103,13 @@ std::string buildLas(const LasSpec& spec) {
     put<std::uint16_t>(vlr, 18, static_cast<std::uint16_t>(i));
     put<std::uint16_t>(vlr, 20, kVlrPayloadBytes);
     bytes += vlr + std::string(kVlrPayloadBytes, '\xEE');
+  }
+  for (const auto& [record, payload] : spec.projection) {
+    std::string vlr(kVlrHeaderBytes, '\0');
+    std::memcpy(&vlr[2], "LASF_Projection", 15);
+    put<std::uint16_t>(vlr, 18, record);
+    put<std::uint16_t>(vlr, 20, static_cast<std::uint16_t>(payload.size()));
+    bytes += vlr + payload;
   }
 
   for (const auto& point : spec.points) {
@@ -328,6 +341,86 @@ TEST(LasReader, ReadPointCloudKeepsGeoreferencedPrecision) {
   EXPECT_EQ(cloud.colors[0], Color(255, 128, 0));
   EXPECT_EQ(cloud.labels[1], 31);
   EXPECT_FLOAT_EQ(cloud.intensities[0], 65535.0f);
+}
+
+/// A GeoTIFF key directory VLR (record 34735): a model-type key, then ProjLinearUnitsGeoKey.
+std::pair<std::uint16_t, std::string> geoKeys(std::uint16_t linearUnits) {
+  const std::array<std::uint16_t, 12> shorts = {1, 1, 0, 2, 1024, 0, 1, 1, 3076, 0, 1, linearUnits};
+  std::string payload(sizeof shorts, '\0');
+  std::memcpy(payload.data(), shorts.data(), sizeof shorts);
+  return {34735, payload};
+}
+
+/// An OGC WKT VLR (record 2112) of a projected CRS in `unit` ("name",metres), NUL-terminated.
+std::pair<std::uint16_t, std::string> wkt(const std::string& unit) {
+  return {2112,
+          "PROJCS[\"NAD83 / Texas Central\",GEOGCS[\"NAD83\",DATUM[\"North_American_Datum_1983\"],"
+          "PRIMEM[\"Greenwich\",0],UNIT[\"degree\",0.0174532925199433]],PROJECTION[\"Lambert_Conformal_Conic_2SP\"],"
+          "PARAMETER[\"standard_parallel_1\",31.88],UNIT[" + unit + "],AXIS[\"Easting\",EAST],AUTHORITY[\"EPSG\",\"2277\"]]" +
+              std::string(1, '\0')};
+}
+
+TEST(LasUnits, TheProjectionsLinearUnitIsReadAndTheCoordinatesScaledToMetres) {
+  TempDir dir;
+  LasSpec spec = sampleSpec(2, 0);
+  spec.projection = {geoKeys(9003)};
+  writeFile(dir / "feet.las", buildLas(spec));
+  ReadReport report;
+  const PointCloud cloud = readPointCloud(dir / "feet.las", {}, &report);
+  EXPECT_EQ(report.info.declaredUnits, "us-ft");
+  EXPECT_EQ(report.info.declaredUnitsSource, "GeoTIFF key ProjLinearUnitsGeoKey = 9003");
+  EXPECT_EQ(report.units, "us-ft");
+  ASSERT_EQ(cloud.size(), 3u);
+  EXPECT_NEAR((cloud.worldPosition(0) - kSampleWorld[0] * 1200.0 / 3937.0).norm(), 0.0, 1e-3);
+  // --units overrides what the file says.
+  ReadOptions asMetres;
+  asMetres.units = "m";
+  EXPECT_NEAR((readPointCloud(dir / "feet.las", asMetres).worldPosition(0) - kSampleWorld[0]).norm(), 0.0, 1e-3);
+
+  spec.projection = {geoKeys(9002)};
+  writeFile(dir / "feet.las", buildLas(spec));
+  EXPECT_EQ(openPointReader(dir / "feet.las")->info().declaredUnits, "ft");
+  // A unit no scan unit stands for (9036, kilometres) declares nothing: metres.
+  spec.projection = {geoKeys(9036)};
+  writeFile(dir / "km.las", buildLas(spec));
+  EXPECT_EQ(openPointReader(dir / "km.las")->info().declaredUnits, "");
+}
+
+TEST(LasUnits, TheWktsProjectedUnitIsReadNotItsAngularOne) {
+  TempDir dir;
+  LasSpec spec = sampleSpec(4, 6);
+  spec.projection = {wkt("\"US survey foot\",0.3048006096012192")};
+  writeFile(dir / "wkt.las", buildLas(spec));
+  auto reader = openPointReader(dir / "wkt.las");
+  EXPECT_EQ(reader->info().declaredUnits, "us-ft");
+  EXPECT_EQ(reader->info().declaredUnitsSource, "WKT UNIT[\"US survey foot\"]");
+  spec.projection = {wkt("\"metre\",1")};
+  writeFile(dir / "wkt.las", buildLas(spec));
+  EXPECT_EQ(openPointReader(dir / "wkt.las")->info().declaredUnits, "m");
+
+  // Both records, saying different things: the header's WKT bit says which one is the CRS.
+  spec.projection = {geoKeys(9002), wkt("\"metre\",1")};
+  writeFile(dir / "both.las", buildLas(spec));
+  EXPECT_EQ(openPointReader(dir / "both.las")->info().declaredUnits, "ft");
+  spec.globalEncoding = 1u << 4;
+  writeFile(dir / "both.las", buildLas(spec));
+  EXPECT_EQ(openPointReader(dir / "both.las")->info().declaredUnits, "m");
+}
+
+TEST(LasUnits, AProjectionRecordRunningIntoThePointsIsLeftOut) {
+  TempDir dir;
+  LasSpec spec = sampleSpec(2, 1);
+  spec.projection = {geoKeys(9003)};
+  std::string bytes = buildLas(spec);
+  // The projection VLR (the last before the points) claims 100 bytes more than it has.
+  const std::size_t lengthAt = 227 + spec.vlrCount * (kVlrHeaderBytes + kVlrPayloadBytes) + 20;
+  put<std::uint16_t>(bytes, lengthAt, static_cast<std::uint16_t>(get<std::uint16_t>(bytes, lengthAt) + 100));
+  writeFile(dir / "long.las", bytes);
+  ReadReport report;
+  const PointCloud cloud = readPointCloud(dir / "long.las", {}, &report);
+  EXPECT_EQ(report.units, "m");
+  ASSERT_EQ(cloud.size(), 3u);
+  EXPECT_NEAR((cloud.worldPosition(1) - kSampleWorld[1]).norm(), 0.0, 1e-3);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -83,9 +83,12 @@ TEST(ReadPointCloud, CoordinatesInAnotherUnitAreReadAsMetres) {
   writeFile(dir / "m.xyz", "x y z nx ny nz\n4000.1234 -2.4 1.25 0 0 1\n4000.2 -2.75 1.5 0 1 0\n");
   writeFile(dir / "mm.xyz", "x y z nx ny nz\n4000123.4 -2400 1250 0 0 1\n4000200 -2750 1500 0 1 0\n");
   ReadOptions millimetres;
-  millimetres.metresPerUnit = *metresPerUnit("mm");
-  const PointCloud metric = readPointCloud(dir / "m.xyz");
-  const PointCloud scaled = readPointCloud(dir / "mm.xyz", millimetres);
+  millimetres.units = "mm";
+  ReadReport metricReport, scaledReport;
+  const PointCloud metric = readPointCloud(dir / "m.xyz", {}, &metricReport);
+  const PointCloud scaled = readPointCloud(dir / "mm.xyz", millimetres, &scaledReport);
+  EXPECT_EQ(metricReport.units, "m");  // a text file declares no unit
+  EXPECT_EQ(scaledReport.units, "mm");
   ASSERT_EQ(scaled.size(), 2u);
   EXPECT_EQ(scaled.origin, metric.origin);
   EXPECT_EQ(scaled.origin, Eigen::Vector3d(4000, -2, 1));
@@ -94,11 +97,11 @@ TEST(ReadPointCloud, CoordinatesInAnotherUnitAreReadAsMetres) {
     EXPECT_EQ(scaled.normals[i], metric.normals[i]);
   }
   // The streaming reader delivers metres too (what `piperun convert --units` writes).
-  auto reader = openPointReader(dir / "mm.xyz", 0.001);
+  auto reader = openPointReader(dir / "mm.xyz", "mm");
   PointChunk chunk;
   ASSERT_EQ(reader->read(chunk, 10), 2u);
   EXPECT_NEAR(chunk.positions[1].y(), -2.75, 1e-12);
-  EXPECT_THROW(openPointReader(dir / "mm.xyz", 0.0), std::invalid_argument);
+  EXPECT_THROW(openPointReader(dir / "mm.xyz", "yd"), std::invalid_argument);
 }
 
 TEST(LengthUnits, EveryNamedUnitHasItsLengthInMetres) {

@@ -16,17 +16,17 @@ std::shared_ptr<Pipeline> studioPipeline(std::shared_ptr<const PointCloud> cloud
   return pipeline;
 }
 
-/// Reads the scan at `path` in `units`; what reading reported, and a spacing that says the unit is
-/// wrong, go to `warnings`.
-std::shared_ptr<const PointCloud> readScan(const std::filesystem::path& path, const std::string& units,
-                                           Progress& progress, std::vector<std::string>& warnings) {
-  const std::optional<double> scale = metresPerUnit(units);
-  if (!scale) throw InputError(path, "", "unknown length unit \"" + units + "\"");
+/// Reads the scan at `path` in `units` (empty: the file's own, else metres) and sets `units` to the
+/// unit read; what reading reported, and a spacing that says the unit is wrong, go to `warnings`.
+std::shared_ptr<const PointCloud> readScan(const std::filesystem::path& path, std::string& units, Progress& progress,
+                                           std::vector<std::string>& warnings) {
+  if (!units.empty() && !metresPerUnit(units)) throw InputError(path, "", "unknown length unit \"" + units + "\"");
   ReadOptions options;
   options.progress = &progress;
-  options.metresPerUnit = *scale;
+  options.units = units;
   ReadReport report;
   auto cloud = std::make_shared<PointCloud>(readPointCloud(path, options, &report));
+  units = report.units;
   warnings.insert(warnings.end(), report.warnings.begin(), report.warnings.end());
   if (const auto sparse = sparseScanWarning(estimatePointSpacing(*cloud))) warnings.push_back(path.string() + ": " + *sparse);
   return cloud;
@@ -38,7 +38,9 @@ Document Document::open(const std::filesystem::path& path, Progress& progress, c
   if (isProjectFile(path)) return fromProject(openProject(path), path, progress);
   if (isNetworkFile(path)) return fromNetwork(readNetwork(path), path);
   std::vector<std::string> warnings;
-  Document document = fromScan(readScan(path, scanUnits, progress, warnings), path, scanUnits);
+  std::string units = scanUnits;
+  auto cloud = readScan(path, units, progress, warnings);
+  Document document = fromScan(std::move(cloud), path, units);
   document.warnings_ = std::move(warnings);
   return document;
 }

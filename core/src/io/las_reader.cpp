@@ -11,7 +11,14 @@
 //                these fields: when every colour of the first 65,536 records is at most 255, the
 //                values are taken as 8-bit (the check CloudCompare and PDAL users rely on).
 // GPS time, near infrared, wave packets and extra bytes (a record longer than its format's size)
-// are skipped. VLRs and EVLRs are not needed for the points and are not read.
+// are skipped.
+//
+// Of the variable length records (VLRs) only the projection's are read, for the unit of the
+// coordinates (CloudInfo::declaredUnits): the GeoTIFF key directory (user ID "LASF_Projection",
+// record 34735), whose ProjLinearUnitsGeoKey (3076) gives an EPSG unit code, and the OGC WKT
+// (record 2112), whose PROJCS gives a UNIT with its length in metres. The WKT goes first when the
+// header's global encoding says the file's CRS is WKT (LAS 1.4). A VLR that does not fit before the
+// point data ends the search: the points do not need it. EVLRs are not read.
 //
 // The header is checked before anything is allocated: the version, the header size, the point data
 // offset, the record length against the format, the scale factors, and the point count against the
@@ -19,13 +26,17 @@
 
 #include "io/binary_file.h"
 #include "io/readers.h"
+#include "piperun/io/point_reader.h"
 
 #include <algorithm>
 #include <array>
 #include <cctype>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <optional>
 #include <string>
+#include <vector>
 
 namespace piperun::io {
 
@@ -42,6 +53,14 @@ constexpr std::uint64_t kLegacyPointCountAt = 107;
 constexpr std::uint64_t kScaleAt = 131;   // x, y, z scale factors, then x, y, z offsets (doubles)
 constexpr std::uint64_t kOffsetAt = 155;
 constexpr std::uint64_t kPointCount64At = 247;  // LAS 1.4
+constexpr std::uint64_t kGlobalEncodingAt = 6;
+constexpr std::uint64_t kVlrCountAt = 100;
+
+constexpr std::uint16_t kWktGlobalEncodingBit = 1u << 4;
+constexpr std::size_t kVlrHeaderSize = 54;  // reserved, user ID[16], record ID, length after header, description[32]
+constexpr std::uint16_t kGeoKeyDirectoryRecord = 34735;
+constexpr std::uint16_t kWktRecord = 2112;
+constexpr std::uint16_t kProjLinearUnitsGeoKey = 3076;
 
 // Minimum public header block sizes: LAS 1.0-1.2, 1.3 (adds the waveform start), 1.4 (adds the
 // EVLR fields and 64-bit point counts).
@@ -94,6 +113,78 @@ std::string printable(const unsigned char* bytes, std::size_t n) {
 }
 
 constexpr std::uint64_t kColorDepthProbeRecords = 65536;
+
+struct DeclaredUnits {
+  std::string name;    // one of lengthUnitNames()
+  std::string source;  // where the file says so
+};
+
+/// The unit of an EPSG unit-of-measure code, empty for those no scan unit stands for.
+std::string unitOfEpsgCode(unsigned code) {
+  switch (code) {
+    case 9001: return "m";
+    case 9002: return "ft";
+    case 9003: return "us-ft";
+    case 1033: return "cm";
+    case 1025: return "mm";
+    default: return "";
+  }
+}
+
+/// The unit whose length in metres is `metres` (to 1e-8), empty for none.
+std::string unitOfLength(double metres) {
+  for (const std::string& name : lengthUnitNames()) {
+    if (std::abs(*metresPerUnit(name) - metres) <= 1e-8 * metres) return name;
+  }
+  return "";
+}
+
+/// The projected linear unit of a GeoTIFF key directory (unsigned shorts: a 4-short header whose
+/// last is the key count, then 4 shorts a key: ID, location, count, value).
+std::optional<DeclaredUnits> unitsOfGeoKeys(const std::vector<unsigned char>& directory) {
+  const auto shortAt = [&](std::size_t i) { return loadLE<std::uint16_t>(&directory[2 * i]); };
+  const std::size_t shorts = directory.size() / 2;
+  if (shorts < 4) return std::nullopt;
+  for (std::size_t key = 0; key < shortAt(3) && 4 * key + 8 <= shorts; ++key) {
+    const std::size_t at = 4 + 4 * key;
+    // Location 0: the value is the key's own, not in another tag.
+    if (shortAt(at) != kProjLinearUnitsGeoKey || shortAt(at + 1) != 0) continue;
+    const unsigned code = shortAt(at + 3);
+    const std::string name = unitOfEpsgCode(code);
+    if (name.empty()) return std::nullopt;
+    return DeclaredUnits{name, "GeoTIFF key ProjLinearUnitsGeoKey = " + std::to_string(code)};
+  }
+  return std::nullopt;
+}
+
+/// The unit of an OGC WKT's PROJCS: its own UNIT["name", metres] (not the GEOGCS's angular one).
+std::optional<DeclaredUnits> unitsOfWkt(const std::string& wkt) {
+  const std::size_t projected = wkt.find("PROJCS");
+  if (projected == std::string::npos) return std::nullopt;
+  int depth = 0;
+  bool quoted = false;
+  for (std::size_t i = projected; i < wkt.size(); ++i) {
+    const char c = wkt[i];
+    if (c == '"') quoted = !quoted;
+    if (quoted) continue;
+    if (c == '[' || c == '(') ++depth;
+    if (c == ']' || c == ')') {
+      if (--depth == 0) break;  // the end of the PROJCS
+    }
+    if (depth != 1 || wkt.compare(i, 5, "UNIT[") != 0 || (wkt[i - 1] != ',' && !std::isspace(static_cast<unsigned char>(wkt[i - 1])))) {
+      continue;
+    }
+    const std::size_t nameStart = wkt.find('"', i);
+    const std::size_t nameEnd = nameStart == std::string::npos ? nameStart : wkt.find('"', nameStart + 1);
+    const std::size_t comma = nameEnd == std::string::npos ? nameEnd : wkt.find(',', nameEnd);
+    if (comma == std::string::npos) return std::nullopt;
+    const double metres = std::strtod(wkt.c_str() + comma + 1, nullptr);
+    const std::string name = metres > 0.0 ? unitOfLength(metres) : "";
+    if (name.empty()) return std::nullopt;
+    return DeclaredUnits{name, "WKT UNIT[" + wkt.substr(nameStart, nameEnd - nameStart + 1) + "]"};
+  }
+  return std::nullopt;
+}
 
 class LasReader final : public PointReader {
  public:
@@ -214,6 +305,12 @@ class LasReader final : public PointReader {
                                      std::to_string(pointDataOffset));
     }
     pointsLeft_ = pointCount;
+    const bool wktFirst = loadLE<std::uint16_t>(&header[kGlobalEncodingAt]) & kWktGlobalEncodingBit;
+    if (const auto units = readDeclaredUnits(headerSize, loadLE<std::uint32_t>(&header[kVlrCountAt]), pointDataOffset,
+                                             wktFirst)) {
+      info_.declaredUnits = units->name;
+      info_.declaredUnitsSource = units->source;
+    }
     file_.seek(pointDataOffset, "point data");
 
     info_.format = "LAS " + std::to_string(major) + "." + std::to_string(minor) + " format " + std::to_string(format_);
@@ -224,6 +321,35 @@ class LasReader final : public PointReader {
       info_.attributes |= kColors;
     }
     info_.declaredPoints = pointCount;
+  }
+
+  /// The unit of the coordinates from the projection VLRs between the header and the point data.
+  std::optional<DeclaredUnits> readDeclaredUnits(std::uint64_t at, std::uint32_t vlrCount, std::uint64_t pointDataOffset,
+                                                 bool wktFirst) {
+    std::vector<unsigned char> geoKeys, wkt;
+    std::array<unsigned char, kVlrHeaderSize> vlr{};
+    for (std::uint32_t v = 0; v < vlrCount && at + kVlrHeaderSize <= pointDataOffset; ++v) {
+      file_.seek(at, "variable length record");
+      file_.read(vlr.data(), vlr.size(), "variable length record header");
+      const std::uint64_t payloadAt = at + kVlrHeaderSize;
+      const auto length = loadLE<std::uint16_t>(&vlr[20]);
+      if (payloadAt + length > pointDataOffset) break;
+      const std::string user(reinterpret_cast<const char*>(&vlr[2]), strnlen(reinterpret_cast<const char*>(&vlr[2]), 16));
+      const auto record = loadLE<std::uint16_t>(&vlr[18]);
+      if (user == "LASF_Projection" && (record == kGeoKeyDirectoryRecord || record == kWktRecord)) {
+        std::vector<unsigned char>& payload = record == kWktRecord ? wkt : geoKeys;
+        payload.resize(length);
+        file_.read(payload.data(), length, "projection record");
+      }
+      at = payloadAt + length;
+    }
+    const auto fromWkt = [&] { return unitsOfWkt(std::string(wkt.begin(), wkt.end())); };
+    if (wktFirst) {
+      if (auto units = fromWkt()) return units;
+      return unitsOfGeoKeys(geoKeys);
+    }
+    if (auto units = unitsOfGeoKeys(geoKeys)) return units;
+    return fromWkt();
   }
 
   // Reads the first records ahead, then returns to the start of the point data.

@@ -145,15 +145,19 @@ std::optional<double> metresPerUnit(std::string_view unit) {
   return std::nullopt;
 }
 
-std::unique_ptr<PointReader> openPointReader(const std::filesystem::path& path, double metresPerUnit) {
-  if (!(metresPerUnit > 0.0 && std::isfinite(metresPerUnit))) {
-    throw std::invalid_argument("openPointReader: the unit must be a positive length in metres");
-  }
+std::string unitsRead(const PointReader& reader, const std::string& units) {
+  if (!units.empty()) return units;
+  return reader.info().declaredUnits.empty() ? "m" : reader.info().declaredUnits;
+}
+
+std::unique_ptr<PointReader> openPointReader(const std::filesystem::path& path, const std::string& units) {
+  if (!units.empty() && !metresPerUnit(units)) throw std::invalid_argument("unknown length unit \"" + units + "\"");
   std::error_code error;
   if (!std::filesystem::exists(path, error)) throw InputError(path, "", "no such file");
   std::unique_ptr<PointReader> reader = openFormatReader(path);
-  if (metresPerUnit == 1.0) return reader;
-  return std::make_unique<ScaledReader>(std::move(reader), metresPerUnit);
+  const double scale = *metresPerUnit(unitsRead(*reader, units));
+  if (scale == 1.0) return reader;
+  return std::make_unique<ScaledReader>(std::move(reader), scale);
 }
 
 std::size_t dropNonFinite(PointChunk& chunk) {
@@ -174,7 +178,7 @@ std::size_t dropNonFinite(PointChunk& chunk) {
 }
 
 PointCloud readPointCloud(const std::filesystem::path& path, const ReadOptions& options, ReadReport* report) {
-  auto reader = openPointReader(path, options.metresPerUnit);
+  auto reader = openPointReader(path, options.units);
   const CloudInfo& info = reader->info();
   Progress& progress = options.progress ? *options.progress : Progress::none();
 
@@ -209,6 +213,7 @@ PointCloud readPointCloud(const std::filesystem::path& path, const ReadOptions& 
 
   if (report) {
     report->info = info;
+    report->units = unitsRead(*reader, options.units);
     report->pointsRead = cloud.size();
     report->nonFiniteDropped = dropped;
     report->warnings.clear();

@@ -20,6 +20,10 @@ struct CloudInfo {
   std::vector<std::string> fields;        ///< Field names as the file declares them.
   std::optional<std::uint64_t> declaredPoints;  ///< Point count from the header, when it has one.
   unsigned attributes = kNoAttributes;    ///< PointAttribute bits the reader delivers.
+  /// The unit of the coordinates as the file declares it, one of lengthUnitNames(); empty when it
+  /// declares none this reader knows (only LAS files declare one: their GeoTIFF keys or WKT).
+  std::string declaredUnits;
+  std::string declaredUnitsSource;        ///< Where, e.g. "GeoTIFF key ProjLinearUnitsGeoKey = 9003".
 };
 
 /// A streaming point reader. Each call to read() fills `chunk` (cleared first) with up to
@@ -50,9 +54,13 @@ const std::vector<std::string>& lengthUnitNames();
 std::optional<double> metresPerUnit(std::string_view unit);
 
 /// Opens a streaming reader for `path`; throws InputError when the file cannot be opened or its
-/// header is malformed. Coordinates in another unit than metres (`metresPerUnit` ≠ 1) are
-/// delivered scaled to metres.
-std::unique_ptr<PointReader> openPointReader(const std::filesystem::path& path, double metresPerUnit = 1.0);
+/// header is malformed. The coordinates are in `units` (one of lengthUnitNames(); empty: in the
+/// unit the file declares, else metres) and are delivered scaled to metres. Throws
+/// std::invalid_argument for a unit that is not one of lengthUnitNames().
+std::unique_ptr<PointReader> openPointReader(const std::filesystem::path& path, const std::string& units = "");
+/// The unit `reader` delivers its points from: `units`, or when empty the one its file declares,
+/// else "m".
+std::string unitsRead(const PointReader& reader, const std::string& units);
 
 struct ReadOptions {
   std::size_t chunkPoints = 1u << 20;   ///< Points per read() call.
@@ -60,11 +68,12 @@ struct ReadOptions {
   /// Attributes kept (PointAttribute bits, where the file has them); the others are dropped chunk
   /// by chunk, so they never take memory.
   unsigned attributes = kNormals | kColors | kIntensity | kLabels;
-  double metresPerUnit = 1.0;           ///< The file's coordinate unit (metresPerUnit("mm") for millimetres).
+  std::string units;                    ///< The coordinates' unit (openPointReader): empty, the file's own or metres.
 };
 
 struct ReadReport {
   CloudInfo info;
+  std::string units;                     ///< The unit the coordinates were read in (unitsRead()).
   std::uint64_t pointsRead = 0;          ///< Points kept.
   std::uint64_t nonFiniteDropped = 0;    ///< Points with NaN or infinite coordinates, dropped.
   std::vector<std::string> warnings;     ///< One line each, e.g. the dropped-point count.

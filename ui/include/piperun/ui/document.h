@@ -24,10 +24,10 @@ class Document {
   Document() = default;
 
   /// Opens a scan (any point format core reads) whose coordinates are in `scanUnits`
-  /// (lengthUnitNames()), a network (.json) or a project (.piperun, whose scan is read in the unit
-  /// it records). Throws InputError.
+  /// (lengthUnitNames(); empty: the unit the file declares, else metres), a network (.json) or a
+  /// project (.piperun, whose scan is read in the unit it records). Throws InputError.
   static Document open(const std::filesystem::path& path, Progress& progress = Progress::none(),
-                       const std::string& scanUnits = "m");
+                       const std::string& scanUnits = "");
   /// `cloud`, read from `path` in `scanUnits`, with a new pipeline.
   static Document fromScan(std::shared_ptr<const PointCloud> cloud, const std::filesystem::path& path,
                            const std::string& scanUnits = "m");

@@ -29,9 +29,9 @@ struct StudioOptions {
   /// The most points the 3-D scene's point layers draw together when the camera is still: over it,
   /// each draws its share of the points in view, the near ones densest (`points budget` changes it).
   std::size_t pointBudget = 5'000'000;
-  /// The unit of the coordinates of the scans this studio opens (lengthUnitNames()); a project's
-  /// scan is read in the unit the project records.
-  std::string scanUnits = "m";
+  /// The unit of the coordinates of the scans this studio opens (lengthUnitNames(); empty: the unit
+  /// a file declares, else metres); a project's scan is read in the unit the project records.
+  std::string scanUnits;
   /// Autosave the project after this many edits (undo and redo count); 0: never.
   int autosaveEdits = 5;
   /// On opening a project with its scan, recompute the stages that were fresh when it was saved
