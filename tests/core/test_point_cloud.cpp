@@ -86,7 +86,9 @@ TEST(PointSpacing, SpacingTooWideForPipesIsWarnedOfWithTheUnitsOption) {
   EXPECT_FALSE(sparseScanWarning(0.0));
   EXPECT_FALSE(sparseScanWarning(0.005));
   EXPECT_FALSE(sparseScanWarning(kMaxPlausibleSpacing));
-  // A scan in millimetres read as metres: its 4.6 mm spacing reads as 4.6 m.
+  // The pump room in inches read as metres: its 4.6 mm spacing reads as 0.18 m.
+  EXPECT_TRUE(sparseScanWarning(0.18));
+  // In millimetres: 4.6 m.
   const std::optional<std::string> warning = sparseScanWarning(4.62);
   ASSERT_TRUE(warning);
   EXPECT_NE(warning->find("4.62 m apart"), std::string::npos) << *warning;
