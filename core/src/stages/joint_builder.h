@@ -179,7 +179,7 @@ struct Hypothesis {
 /// two elbows on one short pipe must leave it a length.
 class MovedEnds {
  public:
-  explicit MovedEnds(const std::vector<PipeSegment>& pipes) : points_(2 * pipes.size()) {
+  explicit MovedEnds(const std::vector<PipeSegment>& pipes) : points_(2 * pipes.size()), moved_(2 * pipes.size(), 0) {
     for (std::size_t p = 0; p < pipes.size(); ++p) {
       points_[2 * p] = pipes[p].start;
       points_[2 * p + 1] = pipes[p].end;
@@ -190,9 +190,21 @@ class MovedEnds {
   bool leaveLength(const Hypothesis& elbow) const {
     return keepsLength(elbow.a, elbow.newA) && keepsLength(elbow.b, elbow.newB);
   }
+  /// Whether an elbow chosen before moved the far end of one of `elbow`'s pipes.
+  bool farEndMoved(const Hypothesis& elbow) const {
+    return moved_[static_cast<std::size_t>(elbow.a.key() ^ 1)] || moved_[static_cast<std::size_t>(elbow.b.key() ^ 1)];
+  }
+  /// The longest tangent `elbow` may have and leave both its pipes a section long.
+  double maxTangent(const Hypothesis& elbow) const {
+    const auto room = [&](const PipeEnd& end) {
+      return (elbow.corner - points_[static_cast<std::size_t>(end.key() ^ 1)]).dot(end.outward) - kSectionLength;
+    };
+    return std::min(room(elbow.a), room(elbow.b));
+  }
   void move(const Hypothesis& elbow) {
     points_[static_cast<std::size_t>(elbow.a.key())] = elbow.newA;
     points_[static_cast<std::size_t>(elbow.b.key())] = elbow.newB;
+    moved_[static_cast<std::size_t>(elbow.a.key())] = moved_[static_cast<std::size_t>(elbow.b.key())] = 1;
   }
 
  private:
@@ -201,6 +213,7 @@ class MovedEnds {
   }
 
   std::vector<Eigen::Vector3d> points_;
+  std::vector<char> moved_;
 };
 
 /// Proposes joint hypotheses between pipe ends and pipe bodies within the limits of the parameters,

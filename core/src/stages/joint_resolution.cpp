@@ -27,6 +27,9 @@ constexpr double kChordMiddleRadii = 0.5;
 constexpr double kChordEndRadii = 2.0;
 constexpr double kMaxChordArcShare = 1.5;
 constexpr double kMinChordOffLineDeg = 15.0;
+// An elbow bounded by the room an elbow chosen before it left (see resolveJoints) must hold at
+// least this share of the points its pipes' density gives its torus.
+constexpr double kMinBoundedSupport = 0.5;
 
 /// A spatial index over the pipes' axes: each pipe (by index) is filed in the cells its axis samples,
 /// half a cell apart, fall in.
@@ -184,7 +187,26 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
     return turnsAhead(joint, end) < turnsAhead(tee, *tee.mainEnd);
   };
   MovedEnds movedEnds(pipes);
+  // An elbow whose bend would leave a pipe shorter than a section, after an elbow chosen before it
+  // trimmed that pipe's far end (a short pipe between two bends), is voted again with its bend
+  // bounded by the room left, and takes that bend when its torus still holds its points.
+  const auto boundToRoomLeft = [&](Hypothesis& elbow, const std::vector<std::uint32_t>& points) {
+    const double tangent = movedEnds.maxTangent(elbow);
+    if (tangent <= 0.0) return;
+    Hypothesis bounded = elbow;
+    bounded.supportPoints.clear();
+    bounded.valid = false;
+    bounded.maxBendRadius = tangent * std::tan(0.5 * (kPi - bounded.bendAngle));
+    builder.reconstruct(bounded, points);
+    if (bounded.valid && bounded.support >= kMinBoundedSupport && movedEnds.leaveLength(bounded)) {
+      elbow = std::move(bounded);
+    }
+  };
   for (std::size_t h : order) {
+    if (hypotheses[h].type == JointType::Elbow && !taken(hypotheses[h].a) && !taken(hypotheses[h].b) &&
+        !movedEnds.leaveLength(hypotheses[h]) && movedEnds.farEndMoved(hypotheses[h])) {
+      boundToRoomLeft(hypotheses[h], nearby[h]);
+    }
     const Hypothesis& hypothesis = hypotheses[h];
     const bool twoEnds = hypothesis.type != JointType::Tee;
     const bool elbow = hypothesis.type == JointType::Elbow;
