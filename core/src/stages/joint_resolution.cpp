@@ -28,7 +28,7 @@ constexpr double kChordEndRadii = 2.0;
 constexpr double kMaxChordArcShare = 1.5;
 constexpr double kMinChordOffLineDeg = 15.0;
 // An elbow bounded by the room an elbow chosen before it left (see resolveJoints) must hold at
-// least this share of the points its pipes' density gives its torus.
+// least this share of the points its pipes' density gives its torus, or more than the wider bend.
 constexpr double kMinBoundedSupport = 0.5;
 
 /// A spatial index over the pipes' axes: each pipe (by index) is filed in the cells its axis samples,
@@ -189,7 +189,8 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
   MovedEnds movedEnds(pipes);
   // An elbow whose bend would leave a pipe shorter than a section, after an elbow chosen before it
   // trimmed that pipe's far end (a short pipe between two bends), is voted again with its bend
-  // bounded by the room left, and takes that bend when its torus still holds its points.
+  // bounded by the room left, and takes that bend when its torus holds half its points or more
+  // of them than the wider bend did.
   const auto boundToRoomLeft = [&](Hypothesis& elbow, const std::vector<std::uint32_t>& points) {
     const double tangent = movedEnds.maxTangent(elbow);
     if (tangent <= 0.0) return;
@@ -198,7 +199,8 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
     bounded.valid = false;
     bounded.maxBendRadius = tangent * std::tan(0.5 * (kPi - bounded.bendAngle));
     builder.reconstruct(bounded, points);
-    if (bounded.valid && bounded.support >= kMinBoundedSupport && movedEnds.leaveLength(bounded)) {
+    if (bounded.valid && (bounded.support >= kMinBoundedSupport || bounded.support > elbow.support) &&
+        movedEnds.leaveLength(bounded)) {
       elbow = std::move(bounded);
     }
   };

@@ -20,8 +20,8 @@
 //    and no joint turns a main's end short of a tee that its line is carried on to past that end.
 //    An elbow whose bend would leave a pipe shorter than a section, after an elbow chosen before
 //    it trimmed that pipe's far end, is voted again with its bend bounded by the room left, and
-//    taken when that torus still holds half the points it would at its pipes' density (a short
-//    pipe between two bends).
+//    taken when that torus holds half the points it would at its pipes' density, or more than the
+//    wider bend did (a short pipe between two bends).
 //    A piece of an elbow's arc fitted as a cylinder makes two elbows of one: a pipe lying on the
 //    arc of a confident elbow between two other pipes waits for that elbow, and goes when it is
 //    chosen.
