@@ -26,6 +26,8 @@ stderr=$(env -u DISPLAY "$render" "$work/mm.xyz" --units mm --script "$work/save
   --text "$work/mm.txt" 2>&1 >/dev/null) || fail "render in millimetres: $stderr"
 [ -z "$stderr" ] || fail "warned of a scan read in its unit: $stderr"
 grep -qE "^[1-9][0-9]* pipes " "$work/mm.txt" || fail "no pipes from the scan in millimetres: $(cat "$work/mm.txt")"
+grep -q "^mm.xyz  [0-9]* points (read in mm)$" "$work/mm.txt" || fail "the status does not say the unit: $(cat "$work/mm.txt")"
+grep -q " points (read in" "$work/metres.txt" && fail "a scan read as metres names its unit: $(cat "$work/metres.txt")"
 grep -q '"units": "mm"' "$work/mm.piperun" || fail "the project does not record the unit"
 stderr=$(env -u DISPLAY "$render" "$work/mm.piperun" --no-run --size 640x400 -o "$work/project.png" --text "$work/project.txt" 2>&1 >/dev/null) ||
   fail "render the project: $stderr"

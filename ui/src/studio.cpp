@@ -719,7 +719,11 @@ void Studio::Impl::updateOverlays() {
     status << "No file open: drop a scan or a network onto the window";
   } else {
     status << document.path().filename().string();
-    if (document.input()) status << "  " << document.input()->size() << " points";
+    if (document.input()) {
+      status << "  " << document.input()->size() << " points";
+      // Everything shown is in metres; a scan in another unit says which it was read in.
+      if (document.project().scanUnits != "m") status << " (read in " << document.project().scanUnits << ")";
+    }
     status << "\n"
            << network.pipes.size() << " pipes  " << network.joints.size() << " joints  " << network.runs.size()
            << " runs";
