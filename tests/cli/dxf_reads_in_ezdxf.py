@@ -36,6 +36,8 @@ def main(network_path, dxf_path):
     auditor = document.audit()
     if auditor.has_errors:
         fail(f"ezdxf's audit of {dxf_path}: {[str(error) for error in auditor.errors]}")
+    if document.units != 6:  # ezdxf.units.M
+        fail(f"{dxf_path}: drawing units {document.units}, expected 6 (metres)")
 
     polylines = {}
     for entity in document.modelspace():

@@ -468,6 +468,8 @@ TEST(Export, DxfPolylinesWithRadiusInXdata) {
   exportNetwork(network, ExportFormat::Dxf, dir / "net.dxf");
   const DxfFile dxf = parseDxf(test::readFile(dir / "net.dxf"));
   EXPECT_EQ(dxf.header.at("$ACADVER"), "AC1009");
+  EXPECT_EQ(dxf.header.at("$INSUNITS"), "6");  // metres
+  EXPECT_EQ(dxf.header.at("$MEASUREMENT"), "1");
   EXPECT_TRUE(dxf.endsWithEof);
   EXPECT_EQ(dxf.applications, std::set<std::string>{"PIPERUN"});
   EXPECT_EQ(dxf.layers, (std::set<std::string>{"PIPE", "ELBOW", "TEE", "BOUNDARY"}));

@@ -74,6 +74,13 @@ std::string dxfDocument(const std::vector<ExportElement>& elements) {
   dxf.group(2, "HEADER");
   dxf.group(9, "$ACADVER");
   dxf.group(1, "AC1009");
+  // Release 12 has no drawing units: without them a CAD tool takes the coordinates in its own
+  // default (millimetres or inches). Later releases' units variables say metres to those that read
+  // them; the others skip them.
+  dxf.group(9, "$INSUNITS");
+  dxf.group(70, 6);  // metres
+  dxf.group(9, "$MEASUREMENT");
+  dxf.group(70, 1);  // metric
   dxf.group(9, "$EXTMIN");
   dxf.point(10, low);
   dxf.group(9, "$EXTMAX");
