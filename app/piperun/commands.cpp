@@ -501,6 +501,7 @@ int runReconstruct(const ReconstructOptions& options) {
   writeNetwork(options.output, network,
                {{"generator", std::string("piperun reconstruct ") + PIPERUN_VERSION},
                 {"source", options.input},
+                {"source_units", report.units},
                 {"seed", std::to_string(params.seed)}});
   ExportOptions exportOptions;
   exportOptions.pcfBore = pcfBoreFromString(options.pcfBore).value_or(PcfBore::Nominal);

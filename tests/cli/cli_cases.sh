@@ -119,7 +119,9 @@ case "$CASE" in
     expect_out "^units: mm \(--units\), read as metres$"
     run 0 reconstruct "$WORK/m.xyz" -o "$WORK/m.json"
     expect_out "pipes=[1-9][0-9]* joints=[1-9]"
-    cmp -s <(grep -v '"source"' "$WORK/m.json") <(grep -v '"source"' "$WORK/mm.json") ||
+    grep -q '"source_units": "mm"' "$WORK/mm.json" || fail "the network does not record the unit read"
+    grep -q '"source_units": "m"' "$WORK/m.json" || fail "the network does not record metres"
+    cmp -s <(grep -v '"source' "$WORK/m.json") <(grep -v '"source' "$WORK/mm.json") ||
       fail "the scan in millimetres gave another network than in metres"
     run 0 reconstruct "$WORK/mm.xyz" -o "$WORK/wrong.json"
     expect_err "far too sparse to show pipes"
