@@ -9,7 +9,6 @@
 #include "piperun/ui/studio.h"
 #include "parse_arguments.h"
 #include "studio_options.h"
-#include "units_option.h"
 
 #include <CLI/CLI.hpp>
 
@@ -42,12 +41,10 @@ int main(int argc, char** argv) {
                "Show the scan without running the pipeline (a project: without recomputing its fresh stages)");
   app.add_option("-o,--output", output, "PNG to write");
   app.add_option("--text", textOutput, "Also write the texts drawn over the views (titles, status, info) to this file");
-  long long pointBudget = 0;
-  piperun::app::addPointBudgetOption(app, pointBudget);
-  std::string scanUnits;
-  piperun::app::addUnitsOption(app, scanUnits);
+  piperun::app::StudioCommandLine shared;
+  shared.addTo(app);
   if (const auto exitCode = piperun::app::parseArguments(app, argc, argv, "piperun-render")) return *exitCode;
-  if (!piperun::app::checkPointBudget(pointBudget, "piperun-render")) return 1;
+  if (!shared.check("piperun-render")) return 1;
   if (!listCommands && (input.empty() || output.empty())) {
     std::fprintf(stderr, "piperun-render: error: INPUT and -o OUT.png are required (see --help)\n");
     return 1;
@@ -72,8 +69,7 @@ int main(int argc, char** argv) {
     interactor->Initialize();
 
     piperun::ui::StudioOptions options;
-    options.pointBudget = static_cast<std::size_t>(pointBudget);
-    options.scanUnits = scanUnits;
+    shared.applyTo(options);
     options.autosaveEdits = 0;  // A batch run saves when its script says so.
     options.restoreStages = !noRun;
     piperun::ui::Studio studio(window, interactor, options);

@@ -6,7 +6,6 @@
 #include "piperun/ui/studio.h"
 #include "parse_arguments.h"
 #include "studio_options.h"
-#include "units_option.h"
 
 #include <CLI/CLI.hpp>
 #include <GLFW/glfw3.h>
@@ -176,12 +175,10 @@ int main(int argc, char** argv) {
   CLI::Option* sizeOption = app.add_option("--size", size,
                                            "Window size WIDTHxHEIGHT in screen units (default: 1400x860, shrunk to fit "
                                            "the screen's work area)");
-  long long pointBudget = 0;
-  piperun::app::addPointBudgetOption(app, pointBudget);
-  std::string scanUnits;
-  piperun::app::addUnitsOption(app, scanUnits);
+  piperun::app::StudioCommandLine shared;
+  shared.addTo(app);
   if (const auto exitCode = piperun::app::parseArguments(app, argc, argv, "piperun-studio")) return *exitCode;
-  if (!piperun::app::checkPointBudget(pointBudget, "piperun-studio")) return 1;
+  if (!shared.check("piperun-studio")) return 1;
   std::smatch match;
   if (!std::regex_match(size, match, std::regex("([0-9]+)x([0-9]+)")) || std::stoi(match[1]) < 320 ||
       std::stoi(match[2]) < 240) {
@@ -251,8 +248,7 @@ int main(int argc, char** argv) {
     float scaleX = 1.0f, scaleY = 1.0f;
     glfwGetWindowContentScale(window, &scaleX, &scaleY);
     piperun::ui::StudioOptions options;
-    options.pointBudget = static_cast<std::size_t>(pointBudget);
-    options.scanUnits = scanUnits;
+    shared.applyTo(options);
     options.backgroundStages = true;
     options.uiScale = std::max(1.0f, scaleX);
     options.runFinished = [](const std::string& message) {
