@@ -211,6 +211,7 @@ int runGenerate(const GenerateOptions& options) {
   params.outlierFraction = options.outliers;
   params.stations = options.stations;
   params.densityScale = options.density;
+  params.registrationError = options.registrationError;
 
   const auto start = std::chrono::steady_clock::now();
   ProgressBar bar(options.quiet);
@@ -232,12 +233,15 @@ int runGenerate(const GenerateOptions& options) {
       bar.progress());
   writer->close();
   if (!options.truth.empty()) {
-    const NetworkMetadata metadata = {{"generator", "piperun generate"},
-                                      {"preset", options.preset},
-                                      {"seed", std::to_string(options.seed)},
-                                      {"noise_m", std::to_string(options.noise)},
-                                      {"outlier_fraction", std::to_string(options.outliers)},
-                                      {"stations", std::to_string(summary.stations)}};
+    NetworkMetadata metadata = {{"generator", "piperun generate"},
+                                {"preset", options.preset},
+                                {"seed", std::to_string(options.seed)},
+                                {"noise_m", std::to_string(options.noise)},
+                                {"outlier_fraction", std::to_string(options.outliers)},
+                                {"stations", std::to_string(summary.stations)}};
+    if (options.registrationError > 0.0) {
+      metadata["registration_error_m"] = std::to_string(options.registrationError);
+    }
     writeNetwork(options.truth, truth, metadata);
   }
   bar.finish();

@@ -27,6 +27,7 @@ struct GenerateOptions {
   double outliers = 0.01;
   int stations = 0;
   double density = 1.0;
+  double registrationError = 0.0;
   bool labels = false;
   bool quiet = false;
 };

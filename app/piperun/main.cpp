@@ -70,6 +70,11 @@ int main(int argc, char** argv) {
   generateCommand->add_option("--density", generate.density, "Scale of the scanner's sampling density (points)")
       ->check(CLI::Range(0.01, 100.0))
       ->capture_default_str();
+  generateCommand->add_option("--registration-error", generate.registrationError,
+                              "Misregistration of the stations after the first, metres: each is shifted by this "
+                              "much and turned by this much per 10 m")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   generateCommand->add_flag("--labels", generate.labels,
                             "Also write each point's truth element id (label; 0 distractor, -1 outlier)");
 

@@ -194,6 +194,15 @@ case "$CASE" in
     cmp -s "$WORK/a.json" "$WORK/b.json" || fail "same seed gave different truth"
     run 0 generate --preset small --seed 6 --density 0.2 -o "$WORK/c.ply"
     cmp -s "$WORK/a.ply" "$WORK/c.ply" && fail "different seeds gave the same points"
+    # Misregistered stations: the first station's points stay, the truth records the error.
+    run 0 generate --preset small --seed 5 --density 0.2 --stations 2 -o "$WORK/d.ply"
+    run 0 generate --preset small --seed 5 --density 0.2 --stations 2 --registration-error 0.004 \
+      -o "$WORK/e.ply" --truth "$WORK/e.json"
+    [ "$(stat -c %s "$WORK/d.ply")" -eq "$(stat -c %s "$WORK/e.ply")" ] || fail "misregistration changed the point count"
+    cmp -s "$WORK/d.ply" "$WORK/e.ply" && fail "misregistered stations gave the same points"
+    grep -q '"registration_error_m": "0.004' "$WORK/e.json" || fail "truth lacks registration_error_m"
+    grep -q registration_error "$WORK/a.json" && fail "a registered scene's truth names a registration error"
+    run 1 generate --registration-error -1 -o "$WORK/f.ply"
     ;;
   params)
     run 0 params

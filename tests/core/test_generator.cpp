@@ -364,6 +364,49 @@ TEST(GeneratorTest, OneStationSeesPipesFromOneSide) {
   }
 }
 
+TEST(GeneratorTest, MisregisteredStationsMoveRigidlyAndTheFirstStays) {
+  SceneParams params = reducedSmall(4);
+  params.stations = 3;
+  params.noiseSigma = 0.0;
+  params.outlierFraction = 0.0;
+  const Collected registered = collect(params);
+  constexpr double kError = 0.005;
+  params.registrationError = kError;
+  const Collected misregistered = collect(params);
+
+  // The same rays hit the same surfaces; only where their points land differs.
+  ASSERT_EQ(registered.positions.size(), misregistered.positions.size());
+  EXPECT_TRUE(registered.labels == misregistered.labels);
+  EXPECT_TRUE(registered.intensities == misregistered.intensities);
+  expectSameNetwork(registered.truth, misregistered.truth);
+
+  // The first station's points come first and stay where they were.
+  const std::size_t count = registered.positions.size();
+  std::size_t firstMoved = 0;
+  while (firstMoved < count && registered.positions[firstMoved] == misregistered.positions[firstMoved]) ++firstMoved;
+  ASSERT_GT(firstMoved, 0u);
+  ASSERT_LT(firstMoved, count);
+
+  // The later stations' points move rigidly: by about the error (the shift plus the turn about the
+  // station, error per 10 m), and the distance between two points scanned one after the other is
+  // kept except where one station's points give way to the next's.
+  std::vector<double> moves;
+  int distancesChanged = 0;
+  for (std::size_t i = firstMoved; i < count; ++i) {
+    moves.push_back((misregistered.positions[i] - registered.positions[i]).norm());
+    if (i + 1 < count) {
+      const double before = (registered.positions[i + 1] - registered.positions[i]).norm();
+      const double after = (misregistered.positions[i + 1] - misregistered.positions[i]).norm();
+      if (std::fabs(after - before) > 1e-9) ++distancesChanged;
+    }
+  }
+  EXPECT_LE(distancesChanged, 1);
+  std::sort(moves.begin(), moves.end());
+  EXPECT_GT(moves.front(), 0.0);
+  EXPECT_LT(moves.back(), 3.0 * kError);
+  EXPECT_NEAR(moves[moves.size() / 2], kError, 0.5 * kError);
+}
+
 TEST(GeneratorTest, StationsStandInFreeSpace) {
   for (std::uint64_t seed = 1; seed <= 4; ++seed) {
     SceneParams params;
@@ -428,6 +471,9 @@ TEST(GeneratorTest, RejectsInvalidParams) {
   EXPECT_THROW(generateScene(params, truth, ignore), std::invalid_argument);
   params = SceneParams{};
   params.densityScale = 0.0;
+  EXPECT_THROW(generateScene(params, truth, ignore), std::invalid_argument);
+  params = SceneParams{};
+  params.registrationError = -0.001;
   EXPECT_THROW(generateScene(params, truth, ignore), std::invalid_argument);
 }
 

@@ -2,10 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
+#include <Eigen/Geometry>
+
 #include "angles.h"
+#include "random.h"
 #include "synth/scanner.h"
 #include "synth/scene_layout.h"
 
@@ -18,6 +22,30 @@ constexpr std::size_t kChunkPoints = std::size_t{1} << 18;
 constexpr double kCalibrationStep = 0.5 * kDegree;
 /// Finest angular step allowed, whatever the density scale (about 0.5 mm at 10 m).
 constexpr double kFinestStep = 0.003 * kDegree;
+/// A misregistered station turns by the registration error per this distance (radians per metre
+/// of error), so points 10 m away move by about twice the error.
+constexpr double kRegistrationLever = 10.0;
+/// The random stream of the stations' misregistration, apart from the scan's noise.
+constexpr std::uint64_t kRegistrationStream = 0x7265676973747279ULL;
+
+/// Where a station's points land when the registration is off (params.registrationError): the
+/// first station is the reference and stays; the others move rigidly about themselves.
+std::optional<Eigen::Isometry3d> misregistration(const SceneParams& params, int stationIndex,
+                                                 const Eigen::Vector3d& station) {
+  if (params.registrationError == 0.0 || stationIndex == 0) return std::nullopt;
+  Rng rng(params.seed, {kRegistrationStream, static_cast<std::uint64_t>(stationIndex)});
+  auto randomUnit = [&rng] {
+    Eigen::Vector3d v;
+    do v = Eigen::Vector3d(rng.normal(), rng.normal(), rng.normal());
+    while (v.norm() < 1e-9);
+    return v.normalized();
+  };
+  const Eigen::Vector3d shift = params.registrationError * randomUnit();
+  const Eigen::AngleAxisd turn(params.registrationError / kRegistrationLever, randomUnit());
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translate(station + shift).rotate(turn).translate(-station);
+  return pose;
+}
 
 double targetPoints(ScenePreset preset) {
   switch (preset) {
@@ -43,6 +71,10 @@ void checkParams(const SceneParams& params) {
   if (!(params.densityScale > 0.0 && std::isfinite(params.densityScale))) {
     throw std::invalid_argument("scene density scale must be a finite value > 0, got " +
                                 std::to_string(params.densityScale));
+  }
+  if (!(params.registrationError >= 0.0 && std::isfinite(params.registrationError))) {
+    throw std::invalid_argument("scene registration error must be a finite value >= 0, got " +
+                                std::to_string(params.registrationError));
   }
   if (params.stations < 0 || params.stations > 3) {
     throw std::invalid_argument("scene stations must be 0 (chosen by the seed) to 3, got " +
@@ -88,7 +120,11 @@ SceneSummary generateScene(const SceneParams& params, PipeNetwork& truth, const 
   };
   for (int s = 0; s < stationCount; ++s) {
     const std::string task = "Scanning station " + std::to_string(s + 1) + " of " + std::to_string(stationCount);
+    const std::optional<Eigen::Isometry3d> registered = misregistration(params, s, layout.stations[s]);
     scanner.scan(layout.stations[s], s, settings, [&](synth::ScanStrip&& strip, double fraction) {
+      if (registered) {
+        for (Eigen::Vector3d& position : strip.positions) position = *registered * position;
+      }
       for (std::size_t i = 0; i < strip.positions.size(); ++i) {
         chunk.positions.push_back(strip.positions[i]);
         chunk.intensities.push_back(strip.intensities[i]);

@@ -24,6 +24,11 @@ struct SceneParams {
   double outlierFraction = 0.01;   ///< Uniform outliers in the scene box, per surface point (expected count).
   int stations = 0;                ///< Scanner stations (1-3); 0 lets the seed choose.
   double densityScale = 1.0;       ///< Multiplies the preset's angular sampling density (points ~ scale).
+  /// Misregistration of the stations (m): every station after the first is shifted by this much
+  /// in a random direction and turned by this much per 10 m about a random axis through it, as a
+  /// registered multi-station scan that is a few millimetres off. The truth stays in the first
+  /// station's frame.
+  double registrationError = 0.0;
 };
 
 struct SceneSummary {
