@@ -1,7 +1,7 @@
 #!/bin/bash
 # Reconstructs generated scenes over several seeds and prints the accuracy of each and the mean.
 #   scripts/evaluate.sh [--preset small] [--seeds "1 2 3"] [--noise M] [--outliers F]
-#                       [--stations K] [--registration-error M] [--pipes-only] [--until merge|joints] [--set key=value]...
+#                       [--stations K] [--registration-error M] [--mixed-pixels F] [--pipes-only] [--until merge|joints] [--set key=value]...
 #                       [--joints] [--runs N]
 # --pipes-only compares only straight pipes (the pipe-axis figures before joints); --until merge
 # stops the reconstruction before the joints stage (the same pipes, no joints); --joints also lists,
@@ -25,6 +25,7 @@ noise=0.002
 outliers=0.01
 stations=0
 registration_error=0
+mixed_pixels=0
 sets=()
 eval_flags=()
 list_joints=0
@@ -37,6 +38,7 @@ while [ $# -gt 0 ]; do
     --outliers) outliers=$2; shift 2 ;;
     --stations) stations=$2; shift 2 ;;
     --registration-error) registration_error=$2; shift 2 ;;
+    --mixed-pixels) mixed_pixels=$2; shift 2 ;;
     --set) sets+=(--set "$2"); shift 2 ;;
     --until) sets+=(--until "$2"); shift 2 ;;
     --pipes-only) eval_flags+=(--pipes-only); shift ;;
@@ -53,7 +55,8 @@ results="$work/results.txt"
 case "$runs" in '' | *[!0-9]* | 0) echo "evaluate.sh: --runs needs a positive count" >&2; exit 1 ;; esac
 for seed in $seeds; do
   "$PIPERUN" -q generate --preset "$preset" --seed "$seed" --noise "$noise" --outliers "$outliers" \
-    --stations "$stations" --registration-error "$registration_error" --labels -o "$work/scene.ply" --truth "$work/truth.json" >/dev/null
+    --stations "$stations" --registration-error "$registration_error" \
+    --mixed-pixels "$mixed_pixels" --labels -o "$work/scene.ply" --truth "$work/truth.json" >/dev/null
   for ((run = 0; run < runs; ++run)); do
     pipeline_seed=$((seed + 100 * run))
     label="seed=$seed"

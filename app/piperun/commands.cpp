@@ -212,6 +212,7 @@ int runGenerate(const GenerateOptions& options) {
   params.stations = options.stations;
   params.densityScale = options.density;
   params.registrationError = options.registrationError;
+  params.mixedPixelShare = options.mixedPixels;
 
   const auto start = std::chrono::steady_clock::now();
   ProgressBar bar(options.quiet);
@@ -242,6 +243,7 @@ int runGenerate(const GenerateOptions& options) {
     if (options.registrationError > 0.0) {
       metadata["registration_error_m"] = std::to_string(options.registrationError);
     }
+    if (options.mixedPixels > 0.0) metadata["mixed_pixel_share"] = std::to_string(options.mixedPixels);
     writeNetwork(options.truth, truth, metadata);
   }
   bar.finish();
@@ -249,8 +251,10 @@ int runGenerate(const GenerateOptions& options) {
   const BoundingBox& box = summary.bounds;
   std::printf("scene: preset %s, seed %llu, %d station(s)\n", options.preset.c_str(),
               static_cast<unsigned long long>(options.seed), summary.stations);
-  std::printf("points: %llu written to %s (%llu outliers)\n", static_cast<unsigned long long>(summary.points),
-              options.output.c_str(), static_cast<unsigned long long>(summary.outliers));
+  const std::string mixed =
+      summary.mixedPixels > 0 ? ", " + std::to_string(summary.mixedPixels) + " mixed pixels" : std::string();
+  std::printf("points: %llu written to %s (%llu outliers%s)\n", static_cast<unsigned long long>(summary.points),
+              options.output.c_str(), static_cast<unsigned long long>(summary.outliers), mixed.c_str());
   if (!options.truth.empty()) std::printf("truth: %s\n", options.truth.c_str());
   if (!box.empty()) std::printf("size: %.1f x %.1f x %.1f m\n", box.size().x(), box.size().y(), box.size().z());
   std::printf("time: %.2f s\n", secondsSince(start));

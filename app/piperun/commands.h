@@ -28,6 +28,7 @@ struct GenerateOptions {
   int stations = 0;
   double density = 1.0;
   double registrationError = 0.0;
+  double mixedPixels = 0.0;
   bool labels = false;
   bool quiet = false;
 };

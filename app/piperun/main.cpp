@@ -75,6 +75,11 @@ int main(int argc, char** argv) {
                               "much and turned by this much per 10 m")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
+  generateCommand->add_option("--mixed-pixels", generate.mixedPixels,
+                              "Share of the rays next to a depth edge that return a range between the two surfaces "
+                              "(mixed pixels)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   generateCommand->add_flag("--labels", generate.labels,
                             "Also write each point's truth element id (label; 0 distractor, -1 outlier)");
 

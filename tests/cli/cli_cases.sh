@@ -203,6 +203,12 @@ case "$CASE" in
     grep -q '"registration_error_m": "0.004' "$WORK/e.json" || fail "truth lacks registration_error_m"
     grep -q registration_error "$WORK/a.json" && fail "a registered scene's truth names a registration error"
     run 1 generate --registration-error -1 -o "$WORK/f.ply"
+    # Mixed pixels take their rays' places: the same point count, counted on the points line.
+    run 0 generate --preset small --seed 5 --density 0.2 --stations 2 --mixed-pixels 1 -o "$WORK/g.ply" --truth "$WORK/g.json"
+    expect_out "outliers, [0-9]+ mixed pixels\)"
+    [ "$(stat -c %s "$WORK/d.ply")" -eq "$(stat -c %s "$WORK/g.ply")" ] || fail "mixed pixels changed the point count"
+    grep -q '"mixed_pixel_share": "1.0' "$WORK/g.json" || fail "truth lacks mixed_pixel_share"
+    run 1 generate --mixed-pixels 2 -o "$WORK/f.ply"
     ;;
   params)
     run 0 params

@@ -407,6 +407,43 @@ TEST(GeneratorTest, MisregisteredStationsMoveRigidlyAndTheFirstStays) {
   EXPECT_NEAR(moves[moves.size() / 2], kError, 0.5 * kError);
 }
 
+TEST(GeneratorTest, MixedPixelsLieOnTheirRayBetweenTheSurfacesOfAnEdge) {
+  SceneParams params = reducedSmall(2);
+  params.stations = 1;
+  params.outlierFraction = 0.0;
+  const Collected clean = collect(params);
+  params.mixedPixelShare = 1.0;
+  const Collected mixed = collect(params);
+  params.mixedPixelShare = 0.5;
+  const Collected halfMixed = collect(params);
+  const Eigen::Vector3d station = synth::buildSceneLayout(params).stations.front();
+
+  // A mixed pixel takes the place of its ray's point; every other point keeps its noise.
+  ASSERT_EQ(clean.positions.size(), mixed.positions.size());
+  std::size_t mixedCount = 0;
+  for (std::size_t i = 0; i < clean.positions.size(); ++i) {
+    if (mixed.positions[i] == clean.positions[i]) {
+      EXPECT_EQ(mixed.labels[i], clean.labels[i]);
+      continue;
+    }
+    ++mixedCount;
+    EXPECT_EQ(mixed.labels[i], -1);
+    EXPECT_GE(clean.labels[i], 0);
+    // On the ray of the surface point: the noise moved that point off the ray by a few σ at most,
+    // which the line through it turns into that much times the ranges' ratio.
+    const Eigen::Vector3d toPoint = clean.positions[i] - station, offset = mixed.positions[i] - station;
+    const Eigen::Vector3d ray = toPoint.normalized();
+    EXPECT_LT((offset - offset.dot(ray) * ray).norm(), 5.0 * params.noiseSigma * offset.norm() / toPoint.norm());
+  }
+  EXPECT_EQ(mixedCount, mixed.summary.mixedPixels);
+  // Edges are a few per cent of the rays; half the share mixes about half of them.
+  const double share = static_cast<double>(mixedCount) / static_cast<double>(clean.positions.size());
+  EXPECT_GT(share, 0.01);
+  EXPECT_LT(share, 0.2);
+  EXPECT_NEAR(static_cast<double>(halfMixed.summary.mixedPixels) / static_cast<double>(mixedCount), 0.5, 0.05);
+  EXPECT_EQ(clean.summary.mixedPixels, 0u);
+}
+
 TEST(GeneratorTest, StationsStandInFreeSpace) {
   for (std::uint64_t seed = 1; seed <= 4; ++seed) {
     SceneParams params;
@@ -474,6 +511,9 @@ TEST(GeneratorTest, RejectsInvalidParams) {
   EXPECT_THROW(generateScene(params, truth, ignore), std::invalid_argument);
   params = SceneParams{};
   params.registrationError = -0.001;
+  EXPECT_THROW(generateScene(params, truth, ignore), std::invalid_argument);
+  params = SceneParams{};
+  params.mixedPixelShare = 1.5;
   EXPECT_THROW(generateScene(params, truth, ignore), std::invalid_argument);
 }
 

@@ -10,6 +10,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <numeric>
 #include <utility>
 
@@ -545,10 +546,55 @@ void Scanner::traceStrip(const StationGrid& grid, int strip, const ScanSettings&
           bestPiece = reach.piece;
         }
       }
-      if (best) onHit(ray, *best, pieces_[bestPiece].surface);
+      if (best) onHit(ray, *best, pieces_[bestPiece].surface, column, row);
     }
   }
 }
+
+namespace {
+
+/// The random stream of mixed pixels, apart from the scan's noise and outliers.
+constexpr std::uint64_t kMixedPixelStream = 0x6d69786564ULL;
+
+/// The ranges of a strip's rays as they are traced (column by column, each from the lowest row
+/// up), to tell the rays next to a depth edge: a range jump of more than kMixedPixelJump from the
+/// ray before in the column or in the row. The strip's first column has no column before it here.
+class DepthEdges {
+ public:
+  explicit DepthEdges(int rows)
+      : before_(static_cast<std::size_t>(rows), kNoRange), current_(static_cast<std::size_t>(rows), kNoRange) {}
+
+  /// Records the ray's range; returns the range of the neighbour across the larger jump, or NaN.
+  double across(int column, int row, double range) {
+    if (column != column_) {
+      if (column == column_ + 1) {
+        std::swap(before_, current_);
+      } else {
+        std::fill(before_.begin(), before_.end(), kNoRange);
+      }
+      std::fill(current_.begin(), current_.end(), kNoRange);
+      column_ = column;
+    }
+    const auto r = static_cast<std::size_t>(row);
+    current_[r] = range;
+    double across = kNoRange, largestJump = kMixedPixelJump;
+    for (const double neighbour : {r > 0 ? current_[r - 1] : kNoRange, before_[r]}) {
+      const double jump = std::fabs(neighbour - range);  // NaN, so no jump, where no ray hit
+      if (jump > largestJump) {
+        largestJump = jump;
+        across = neighbour;
+      }
+    }
+    return across;
+  }
+
+ private:
+  static constexpr double kNoRange = std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> before_, current_;
+  int column_ = -1;
+};
+
+}  // namespace
 
 void Scanner::scan(const Eigen::Vector3d& station, int stationIndex, const ScanSettings& settings,
                    const std::function<void(ScanStrip&&, double)>& emit) const {
@@ -557,15 +603,33 @@ void Scanner::scan(const Eigen::Vector3d& station, int stationIndex, const ScanS
 
   auto traceToPoints = [&](int strip) {
     Rng rng(settings.seed, {static_cast<std::uint64_t>(stationIndex), static_cast<std::uint64_t>(strip)});
+    // Mixed pixels draw from a stream of their own, so every other point keeps its noise.
+    Rng mixing(settings.seed, {kMixedPixelStream, static_cast<std::uint64_t>(stationIndex),
+                               static_cast<std::uint64_t>(strip)});
+    DepthEdges edges(grid.rows);
     ScanStrip points;
-    traceStrip(grid, strip, settings, [&](const Ray& ray, const RayHit& hit, int surfaceIndex) {
+    traceStrip(grid, strip, settings, [&](const Ray& ray, const RayHit& hit, int surfaceIndex, int column, int row) {
       const Surface& surface = surfaces_[surfaceIndex];
+      std::optional<Eigen::Vector3d> mixed;
+      if (settings.mixedPixelShare > 0.0) {
+        const double across = edges.across(column, row, hit.distance);
+        if (!std::isnan(across) && mixing.chance(settings.mixedPixelShare)) {
+          mixed = ray.origin + (hit.distance + mixing.uniform() * (across - hit.distance)) * ray.direction;
+        }
+      }
       Eigen::Vector3d position = ray.origin + hit.distance * ray.direction;
       if (settings.noiseSigma > 0.0) position += (settings.noiseSigma * rng.normal()) * hit.normal;
-      points.positions.push_back(position);
-      points.intensities.push_back(
-          static_cast<float>(std::min(1.0, std::abs(ray.direction.dot(hit.normal)) * surface.reflectance)));
-      points.labels.push_back(surface.label);
+      if (mixed) {
+        points.positions.push_back(*mixed);
+        points.intensities.push_back(static_cast<float>(mixing.uniform(0.0, 0.5)));
+        points.labels.push_back(-1);
+        ++points.mixedPixels;
+      } else {
+        points.positions.push_back(position);
+        points.intensities.push_back(
+            static_cast<float>(std::min(1.0, std::abs(ray.direction.dot(hit.normal)) * surface.reflectance)));
+        points.labels.push_back(surface.label);
+      }
       if (settings.outlierFraction > 0.0 && rng.chance(settings.outlierFraction)) {
         const Eigen::Vector3d local =
             outlierCorner + 2.0 * settings.outlierBox.halfExtents.cwiseProduct(
@@ -605,7 +669,7 @@ std::uint64_t Scanner::countHits(const Eigen::Vector3d& station, const ScanSetti
       tbb::blocked_range<int>(0, grid.strips), std::uint64_t{0},
       [&](const tbb::blocked_range<int>& range, std::uint64_t count) {
         for (int strip = range.begin(); strip < range.end(); ++strip) {
-          traceStrip(grid, strip, settings, [&](const Ray&, const RayHit&, int) { ++count; });
+          traceStrip(grid, strip, settings, [&](const Ray&, const RayHit&, int, int, int) { ++count; });
         }
         return count;
       },

@@ -35,6 +35,10 @@ struct ScanSettings {
   double maxRange = 60.0;                     ///< Farther hits are not recorded (m).
   double noiseSigma = 0.0;                    ///< Gaussian noise along the surface normal (m).
   double outlierFraction = 0.0;               ///< Outliers per surface point, uniform in outlierBox.
+  /// Share of the rays next to a depth edge (a range jump of more than kMixedPixelJump from the ray
+  /// before it in the row or the column) that return a range between the two surfaces, as a beam
+  /// straddling a silhouette does (a mixed pixel).
+  double mixedPixelShare = 0.0;
   OrientedBox outlierBox;
   std::uint64_t seed = 1;
 };
@@ -43,9 +47,13 @@ struct ScanSettings {
 struct ScanStrip {
   std::vector<Eigen::Vector3d> positions;
   std::vector<float> intensities;    ///< |cos(incidence)| × reflectance, in [0, 1].
-  std::vector<std::int32_t> labels;  ///< The surface's label; -1 for outliers.
+  std::vector<std::int32_t> labels;  ///< The surface's label; -1 for outliers and mixed pixels.
   std::uint64_t outliers = 0;
+  std::uint64_t mixedPixels = 0;
 };
+
+/// A range jump between neighbouring rays that makes a depth edge (m).
+constexpr double kMixedPixelJump = 0.05;
 
 class Scanner {
  public:

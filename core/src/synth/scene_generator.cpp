@@ -76,6 +76,10 @@ void checkParams(const SceneParams& params) {
     throw std::invalid_argument("scene registration error must be a finite value >= 0, got " +
                                 std::to_string(params.registrationError));
   }
+  if (!(params.mixedPixelShare >= 0.0 && params.mixedPixelShare <= 1.0)) {
+    throw std::invalid_argument("scene mixed pixel share must be in [0, 1], got " +
+                                std::to_string(params.mixedPixelShare));
+  }
   if (params.stations < 0 || params.stations > 3) {
     throw std::invalid_argument("scene stations must be 0 (chosen by the seed) to 3, got " +
                                 std::to_string(params.stations));
@@ -96,6 +100,7 @@ SceneSummary generateScene(const SceneParams& params, PipeNetwork& truth, const 
   synth::ScanSettings settings;
   settings.noiseSigma = params.noiseSigma;
   settings.outlierFraction = params.outlierFraction;
+  settings.mixedPixelShare = params.mixedPixelShare;
   settings.outlierBox = layout.room;
   settings.seed = params.seed;
   // Hits grow as 1 / step² on an angular grid, so a sparse scan from every station tells which
@@ -136,6 +141,7 @@ SceneSummary generateScene(const SceneParams& params, PipeNetwork& truth, const 
       }
       summary.points += strip.positions.size();
       summary.outliers += strip.outliers;
+      summary.mixedPixels += strip.mixedPixels;
       progress.report(task, (s + fraction) / stationCount);
       progress.checkCancelled();
     });

@@ -29,11 +29,15 @@ struct SceneParams {
   /// registered multi-station scan that is a few millimetres off. The truth stays in the first
   /// station's frame.
   double registrationError = 0.0;
+  /// Share of the rays next to a depth edge (a silhouette) that return a range between the near
+  /// and the far surface, as a laser beam straddling the edge does (mixed pixels, 0–1).
+  double mixedPixelShare = 0.0;
 };
 
 struct SceneSummary {
   std::uint64_t points = 0;
   std::uint64_t outliers = 0;
+  std::uint64_t mixedPixels = 0;
   int stations = 0;
   int pipes = 0;
   int elbows = 0;
