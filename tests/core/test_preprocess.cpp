@@ -192,6 +192,31 @@ TEST(PreprocessOutliers, RemovesScatteredPointsAndKeepsTheSurface) {
   EXPECT_EQ(result.diagnostics.keptPoints + result.diagnostics.outliersRemoved, cloud.size());
 }
 
+TEST(PreprocessOutliers, AScanWithFewOutliersKeepsItsSparseFarSurface) {
+  // A terrestrial scan thins out with range: a near floor at 1 cm spacing and a far wall at 2.5 cm.
+  // Without outliers to widen the spread of the neighbour distances, mean + 3 std falls inside the
+  // far wall's. Its points lie as far from their neighbours as those do from theirs, so they stay;
+  // points in the air, far from every other, still go.
+  SceneBuilder scene(7);
+  scene.plane({0, 0, 0}, {1, 0, 0}, {0, 1, 0}, 0.01, 0.001);
+  scene.plane({0, 3, 0}, {1, 0, 0}, {0, 0, 1}, 0.025, 0.001);
+  const PointCloud clean = scene.cloud();
+  scene.scatter({0, 1.2, 0.3}, {1, 2.8, 1.0}, 10);
+  const PointCloud withStrays = scene.cloud();
+  PreprocessParams params = withoutPlanes();
+  params.voxelSize = 0.0;
+  const auto onFarWall = [](const Eigen::Vector3d& p) { return p.y() > 2.99; };
+  const auto inTheAir = [](const Eigen::Vector3d& p) { return p.y() > 1.1 && p.y() < 2.9; };
+  const auto farWall = static_cast<double>(countPoints(clean, onFarWall));
+
+  EXPECT_GE(countPoints(preprocess(clean, params).points, onFarWall), static_cast<std::size_t>(0.99 * farWall));
+  const PreprocessResult strays = preprocess(withStrays, params);
+  EXPECT_EQ(countPoints(strays.points, inTheAir), 0u);
+  EXPECT_GE(countPoints(strays.points, onFarWall), static_cast<std::size_t>(0.99 * farWall));
+  params.sparseSurfaceSpacings = 0.0;
+  EXPECT_LT(countPoints(preprocess(clean, params).points, onFarWall), static_cast<std::size_t>(0.9 * farWall));
+}
+
 TEST(PreprocessOutliers, RobustStatisticsHoldUnderHeavyContamination) {
   // A fifth of the points scattered through the volume above a floor: they inflate the mean and std
   // of the neighbour distances enough to hide themselves, but not the median and MAD.
@@ -530,6 +555,7 @@ TEST(PreprocessParamsCheck, RejectsInvalidParameters) {
   invalid([](PreprocessParams& p) { p.voxelSize = -0.01; });
   invalid([](PreprocessParams& p) { p.normalNeighbors = 2; });
   invalid([](PreprocessParams& p) { p.keptNeighborsMB = -1.0; });
+  invalid([](PreprocessParams& p) { p.sparseSurfaceSpacings = -1.0; });
   invalid([](PreprocessParams& p) { p.tileSize = 0.0; });
   invalid([](PreprocessParams& p) { p.planeMaxThickness = std::nan(""); });
   const PreprocessResult empty = preprocess(PointCloud{}, PreprocessParams{});

@@ -18,6 +18,9 @@ struct PreprocessParams {
   int outlierNeighbors = 8;         ///< Statistical outlier removal: a point whose mean distance to its k
   double outlierStdRatio = 3.0;     ///< neighbours exceeds mean + ratio × std of all points goes; ratio 0 disables.
   bool outlierRobust = false;       ///< Median and MAD instead of mean and std: copes with 20 % outliers, but also drops sparse far-range surfaces.
+  double sparseSurfaceSpacings = 4; ///< A point those statistics take stays when its mean neighbour distance is within
+                                    ///< this many times the median one and at most twice its neighbours' own: a sparse
+                                    ///< far surface, not a stray point (0: the statistics alone).
   int normalNeighbors = 16;         ///< k of the k-nearest-neighbour PCA normal estimation (at least 3).
   double keptNeighborsMB = 1000;    ///< The normals' neighbours are kept from the outlier search up to this memory
                                     ///< (MB, 4 bytes a neighbour); beyond it they are searched again: the same normals,
