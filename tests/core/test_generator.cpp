@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <map>
 #include <stdexcept>
 #include <vector>
@@ -495,26 +496,18 @@ TEST(GeneratorTest, PresetNamesRoundTrip) {
 }
 
 TEST(GeneratorTest, RejectsInvalidParams) {
-  PipeNetwork truth;
-  const PointChunkSink ignore = [](const PointChunk&) {};
-  SceneParams params;
-  params.stations = 4;
-  EXPECT_THROW(generateScene(params, truth, ignore), std::invalid_argument);
-  params = SceneParams{};
-  params.outlierFraction = 1.5;
-  EXPECT_THROW(generateScene(params, truth, ignore), std::invalid_argument);
-  params = SceneParams{};
-  params.noiseSigma = -0.001;
-  EXPECT_THROW(generateScene(params, truth, ignore), std::invalid_argument);
-  params = SceneParams{};
-  params.densityScale = 0.0;
-  EXPECT_THROW(generateScene(params, truth, ignore), std::invalid_argument);
-  params = SceneParams{};
-  params.registrationError = -0.001;
-  EXPECT_THROW(generateScene(params, truth, ignore), std::invalid_argument);
-  params = SceneParams{};
-  params.mixedPixelShare = 1.5;
-  EXPECT_THROW(generateScene(params, truth, ignore), std::invalid_argument);
+  const auto invalid = [](const std::function<void(SceneParams&)>& change) {
+    SceneParams params;
+    change(params);
+    PipeNetwork truth;
+    EXPECT_THROW(generateScene(params, truth, [](const PointChunk&) {}), std::invalid_argument);
+  };
+  invalid([](SceneParams& p) { p.stations = 4; });
+  invalid([](SceneParams& p) { p.outlierFraction = 1.5; });
+  invalid([](SceneParams& p) { p.noiseSigma = -0.001; });
+  invalid([](SceneParams& p) { p.densityScale = 0.0; });
+  invalid([](SceneParams& p) { p.registrationError = -0.001; });
+  invalid([](SceneParams& p) { p.mixedPixelShare = 1.5; });
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -10,8 +10,8 @@
 #include <array>
 #include <cmath>
 #include <limits>
-#include <optional>
 #include <numeric>
+#include <optional>
 #include <utility>
 
 #include "angles.h"
@@ -617,6 +617,7 @@ void Scanner::scan(const Eigen::Vector3d& station, int stationIndex, const ScanS
           mixed = ray.origin + (hit.distance + mixing.uniform() * (across - hit.distance)) * ray.direction;
         }
       }
+      // The noise is drawn for a mixed pixel's ray too, so the next rays draw what they would without it.
       Eigen::Vector3d position = ray.origin + hit.distance * ray.direction;
       if (settings.noiseSigma > 0.0) position += (settings.noiseSigma * rng.normal()) * hit.normal;
       if (mixed) {

@@ -102,6 +102,8 @@ class Scanner {
   };
 
   StationGrid prepare(const Eigen::Vector3d& station, int stationIndex, const ScanSettings& settings) const;
+  /// Traces the strip's rays column by column, each column from its lowest row up, and calls
+  /// onHit(ray, hit, surface index, column, row) for every ray that hits.
   template <typename OnHit>
   void traceStrip(const StationGrid& grid, int strip, const ScanSettings& settings, OnHit&& onHit) const;
   /// Fills nodes_[node] with pieceOrder_[first .. first + count), halving it until leaves are small.
