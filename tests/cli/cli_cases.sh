@@ -348,6 +348,18 @@ case "$CASE" in
     OUT=$(PIPERUN="$PIPERUN" bash "$script" --seeds 4 --runs 0 2>&1) && fail "evaluate.sh took --runs 0: $OUT"
     expect_out "needs a positive count"
     ;;
+  robustness-registration)
+    # scripts/robustness.sh --registration: a row a registration error, with F1 and the joint totals.
+    script="$DOCS/../scripts/robustness.sh"
+    OUT=$(PIPERUN="$PIPERUN" bash "$script" --registration --seeds 4 --runs 1 2>&1) ||
+      fail "robustness.sh --registration failed: $OUT"
+    expect_out "^\| registration error \| F1 \| elbows found \| tees found \| spurious joints \|$"
+    for error in "0 mm" "1 mm" "2 mm" "5 mm" "10 mm"; do
+      expect_out "^\| $error \| [0-9.]+ \| [0-9]+/[0-9]+ \| [0-9]+/[0-9]+ \| [0-9]+/[0-9]+ \|$"
+    done
+    OUT=$(PIPERUN="$PIPERUN" bash "$script" --bogus 2>&1) && fail "robustness.sh took --bogus: $OUT"
+    expect_out "unknown option --bogus"
+    ;;
   *)
     fail "unknown case"
     ;;
