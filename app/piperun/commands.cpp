@@ -240,9 +240,8 @@ int runGenerate(const GenerateOptions& options) {
                                 {"noise_m", std::to_string(options.noise)},
                                 {"outlier_fraction", std::to_string(options.outliers)},
                                 {"stations", std::to_string(summary.stations)}};
-    if (options.registrationError > 0.0) {
-      metadata["registration_error_m"] = std::to_string(options.registrationError);
-    }
+    // Only the scan effects a scene has, so the default scenes' truths stay as they were.
+    if (options.registrationError > 0.0) metadata["registration_error_m"] = std::to_string(options.registrationError);
     if (options.mixedPixels > 0.0) metadata["mixed_pixel_share"] = std::to_string(options.mixedPixels);
     writeNetwork(options.truth, truth, metadata);
   }

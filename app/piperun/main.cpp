@@ -81,7 +81,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
   generateCommand->add_flag("--labels", generate.labels,
-                            "Also write each point's truth element id (label; 0 distractor, -1 outlier)");
+                            "Also write each point's truth element id (label; 0 distractor, -1 outlier or mixed pixel)");
 
   EvalOptions eval;
   auto* evalCommand = app.add_subcommand("eval", "Compare a network with ground truth (precision, recall, F1)");

@@ -241,6 +241,23 @@ OutlierSearch searchOutlierNeighbors(const std::vector<Eigen::Vector3f>& positio
   return search;
 }
 
+/// Hands every point's `k` nearest neighbours to `visit(point, neighbors)`: those step 2 kept when
+/// it kept as many, otherwise found by a search of their own (progress from `progressFrom` to
+/// `progressTo`).
+template <typename Visit>
+void visitNeighborLists(const std::vector<Eigen::Vector3f>& positions, const OutlierSearch& search, int k,
+                        double spacing, Progress& progress, double progressFrom, double progressTo, Visit&& visit) {
+  if (search.keptK >= k && !search.kept.empty()) {
+    const auto keptK = static_cast<std::size_t>(search.keptK);
+    parallelChunks(positions.size(), progress, [&](std::size_t first, std::size_t last) {
+      for (std::size_t i = first; i < last; ++i) visit(static_cast<std::uint32_t>(i), &search.kept[i * keptK]);
+    });
+  } else {
+    visitNearestNeighbors(positions, k, spacing, progress, kTask, progressFrom, progressTo,
+                          [&](std::uint32_t i, const std::uint32_t* neighbors, const float*) { visit(i, neighbors); });
+  }
+}
+
 /// Step 2: flags points whose mean neighbour distance exceeds centre + stdRatio × spread over all
 /// points: mean and standard deviation, or with `robust` the median and the scaled median absolute
 /// deviation (which heavy contamination cannot inflate).
@@ -275,8 +292,7 @@ std::vector<char> statisticalOutliers(const std::vector<float>& meanDistance, st
 constexpr double kSparseSurfaceRatio = 2.0;
 
 /// Step 2, then: keeps the points flagged in `outlier` that lie on a sparse surface (see the top of
-/// this file), judged by their first `meanOf` neighbours: `kept` (keptK a point) when those are
-/// there, otherwise found again by a search of their own.
+/// this file), judged by their first `meanOf` neighbours.
 void keepSparseSurfacePoints(std::vector<char>& outlier, const std::vector<float>& meanDistance, double maxSpacings,
                              const std::vector<Eigen::Vector3f>& positions, int meanOf, const OutlierSearch& search,
                              double spacing, Progress& progress, double progressFrom) {
@@ -293,16 +309,7 @@ void keepSparseSurfacePoints(std::vector<char>& outlier, const std::vector<float
     for (int j = 0; j < meanOf; ++j) sum += meanDistance[neighbors[j]];
     if (meanDistance[point] <= kSparseSurfaceRatio * sum / meanOf) outlier[point] = 0;
   };
-  const std::size_t n = positions.size();
-  if (search.keptK >= meanOf && !search.kept.empty()) {
-    const auto keptK = static_cast<std::size_t>(search.keptK);
-    parallelChunks(n, progress, [&](std::size_t first, std::size_t last) {
-      for (std::size_t i = first; i < last; ++i) judge(static_cast<std::uint32_t>(i), &search.kept[i * keptK]);
-    });
-  } else {
-    visitNearestNeighbors(positions, meanOf, spacing, progress, kTask, progressFrom, kOutliersDone,
-                          [&](std::uint32_t point, const std::uint32_t* neighbors, const float*) { judge(point, neighbors); });
-  }
+  visitNeighborLists(positions, search, meanOf, spacing, progress, progressFrom, kOutliersDone, judge);
 }
 
 /// Eigen-decomposition of the covariance of a set of points, smallest eigenvalue first.
@@ -378,19 +385,10 @@ SurfaceEstimates estimateNormals(const PointCloud& cloud, const OutlierSearch& s
   estimates.valid.assign(n, 0);
   const auto& positions = cloud.positions;
   const int listSize = neighborListSize(n, normalK);
-  if (search.keptK >= listSize && !search.kept.empty()) {
-    const auto keptK = static_cast<std::size_t>(search.keptK);
-    parallelChunks(n, progress, [&](std::size_t first, std::size_t last) {
-      for (std::size_t i = first; i < last; ++i) {
-        estimateNormalAt(static_cast<std::uint32_t>(i), &search.kept[i * keptK], listSize, positions, outlier, estimates);
-      }
-    });
-  } else {
-    visitNearestNeighbors(positions, listSize, spacing, progress, kTask, kOutliersDone, kNormalsDone,
-                          [&](std::uint32_t i, const std::uint32_t* neighbors, const float*) {
-                            estimateNormalAt(i, neighbors, listSize, positions, outlier, estimates);
-                          });
-  }
+  visitNeighborLists(positions, search, listSize, spacing, progress, kOutliersDone, kNormalsDone,
+                     [&](std::uint32_t i, const std::uint32_t* neighbors) {
+                       estimateNormalAt(i, neighbors, listSize, positions, outlier, estimates);
+                     });
   return estimates;
 }
 
@@ -802,8 +800,8 @@ PreprocessResult preprocess(std::shared_ptr<const PointCloud> input, const Prepr
   // The sparse surfaces' points read the outlier neighbours again: from the normals' lists when
   // those are kept and hold as many, otherwise from a second search (on site scans only).
   const int meanOf = neighborListSize(n, params.outlierNeighbors);
-  const bool searchAgain = removeOutliers && params.sparseSurfaceSpacings > 0.0 &&
-                           !(keepNeighbors && neighborListSize(n, params.normalNeighbors) >= meanOf);
+  const int keptK = keepNeighbors ? neighborListSize(n, params.normalNeighbors) : 0;  // as step 2 keeps them
+  const bool searchAgain = removeOutliers && params.sparseSurfaceSpacings > 0.0 && keptK < meanOf;
   const double searchedOnce = searchAgain ? 0.5 * (kVoxelDone + kOutliersDone) : kOutliersDone;
   OutlierSearch search;
   if (removeOutliers) {
