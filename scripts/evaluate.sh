@@ -1,8 +1,10 @@
 #!/bin/bash
 # Reconstructs generated scenes over several seeds and prints the accuracy of each and the mean.
 #   scripts/evaluate.sh [--preset small] [--seeds "1 2 3"] [--noise M] [--outliers F]
-#                       [--stations K] [--registration-error M] [--mixed-pixels F] [--pipes-only] [--until merge|joints] [--set key=value]...
-#                       [--joints] [--runs N]
+#                       [--stations K] [--registration-error M] [--mixed-pixels F] [--up AXIS] [--pipes-only]
+#                       [--until merge|joints] [--set key=value]... [--joints] [--runs N]
+# --up AXIS generates the scenes turned so that AXIS (x, y, -z, ...) is up and tells the pipeline so;
+# add --set up=z to reconstruct them as if z were up.
 # --pipes-only compares only straight pipes (the pipe-axis figures before joints); --until merge
 # stops the reconstruction before the joints stage (the same pipes, no joints); --joints also lists,
 # seed by seed, every truth elbow and tee missed and every spurious joint (piperun eval --joints).
@@ -26,6 +28,7 @@ outliers=0.01
 stations=0
 registration_error=0
 mixed_pixels=0
+up=z
 sets=()
 eval_flags=()
 list_joints=0
@@ -39,6 +42,7 @@ while [ $# -gt 0 ]; do
     --stations) stations=$2; shift 2 ;;
     --registration-error) registration_error=$2; shift 2 ;;
     --mixed-pixels) mixed_pixels=$2; shift 2 ;;
+    --up) up=$2; shift 2 ;;
     --set) sets+=(--set "$2"); shift 2 ;;
     --until) sets+=(--until "$2"); shift 2 ;;
     --pipes-only) eval_flags+=(--pipes-only); shift ;;
@@ -56,13 +60,15 @@ case "$runs" in '' | *[!0-9]* | 0) echo "evaluate.sh: --runs needs a positive co
 for seed in $seeds; do
   "$PIPERUN" -q generate --preset "$preset" --seed "$seed" --noise "$noise" --outliers "$outliers" \
     --stations "$stations" --registration-error "$registration_error" \
-    --mixed-pixels "$mixed_pixels" --labels -o "$work/scene.ply" --truth "$work/truth.json" >/dev/null
+    --mixed-pixels "$mixed_pixels" --up "$up" --labels -o "$work/scene.ply" --truth "$work/truth.json" >/dev/null
   for ((run = 0; run < runs; ++run)); do
     pipeline_seed=$((seed + 100 * run))
     label="seed=$seed"
     [ "$runs" -gt 1 ] && label="$label run=$run pipeline_seed=$pipeline_seed"
     start=$(date +%s.%N)
-    "$PIPERUN" -q reconstruct "$work/scene.ply" -o "$work/net.json" --seed "$pipeline_seed" "${sets[@]}" >/dev/null
+    # The scene's up axis goes first, so that a --set up=… given after it tells the pipeline otherwise.
+    "$PIPERUN" -q reconstruct "$work/scene.ply" -o "$work/net.json" --seed "$pipeline_seed" --set "up=$up" \
+      "${sets[@]}" >/dev/null
     end=$(date +%s.%N)
     "$PIPERUN" eval "${eval_flags[@]}" --joints --scan "$work/scene.ply" "$work/truth.json" "$work/net.json" >"$work/eval.txt"
     line=$(tail -1 "$work/eval.txt")

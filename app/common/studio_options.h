@@ -3,6 +3,7 @@
 
 #include "piperun/ui/studio.h"
 #include "units_option.h"
+#include "up_option.h"
 
 #include <CLI/CLI.hpp>
 
@@ -11,10 +12,12 @@
 
 namespace piperun::app {
 
-/// The options both front ends read into StudioOptions: `--point-budget N` and `--units UNIT`.
+/// The options both front ends read into StudioOptions: `--point-budget N`, `--units UNIT` and
+/// `--up AXIS`.
 struct StudioCommandLine {
   long long pointBudget = static_cast<long long>(piperun::ui::StudioOptions{}.pointBudget);
   std::string scanUnits;  ///< Empty: the unit a file declares, else metres.
+  std::string up;         ///< Empty: z.
 
   void addTo(CLI::App& app) {
     app.add_option("--point-budget", pointBudget,
@@ -22,6 +25,7 @@ struct StudioCommandLine {
                    "those in view, the near ones densest (the points budget command changes it)")
         ->capture_default_str();
     addUnitsOption(app, scanUnits);
+    addUpOption(app, up);
   }
 
   /// Whether the values read are usable; prints `program`'s error otherwise.
@@ -34,6 +38,7 @@ struct StudioCommandLine {
   void applyTo(piperun::ui::StudioOptions& options) const {
     options.pointBudget = static_cast<std::size_t>(pointBudget);
     options.scanUnits = scanUnits;
+    if (!up.empty()) options.up = upAxisFromString(up);
   }
 };
 

@@ -213,6 +213,7 @@ int runGenerate(const GenerateOptions& options) {
   params.densityScale = options.density;
   params.registrationError = options.registrationError;
   params.mixedPixelShare = options.mixedPixels;
+  params.up = upAxisFromString(options.up);
 
   const auto start = std::chrono::steady_clock::now();
   ProgressBar bar(options.quiet);
@@ -243,6 +244,7 @@ int runGenerate(const GenerateOptions& options) {
     // Only the scan effects a scene has, so the default scenes' truths stay as they were.
     if (options.registrationError > 0.0) metadata["registration_error_m"] = std::to_string(options.registrationError);
     if (options.mixedPixels > 0.0) metadata["mixed_pixel_share"] = std::to_string(options.mixedPixels);
+    if (params.up != UpAxis::PlusZ) metadata["up"] = options.up;
     writeNetwork(options.truth, truth, metadata);
   }
   bar.finish();
@@ -477,6 +479,7 @@ int runReconstruct(const ReconstructOptions& options) {
   if (!options.paramsFile.empty()) params = readParams(options.paramsFile);
   for (const auto& assignment : options.assignments) setParam(params, assignment);
   if (options.seed >= 0) params.seed = static_cast<std::uint64_t>(options.seed);
+  if (!options.up.empty()) params.up = upAxisFromString(options.up);
   validateParams(params);  // before reading what may be a large scan
   const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
   tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
@@ -505,11 +508,12 @@ int runReconstruct(const ReconstructOptions& options) {
   if (options.dumpDirectory.empty()) pipeline.releaseTileDetails();
   pipeline.run(bar.progress(), stageFromName(options.until).value_or(Stage::Joints));
   const PipeNetwork network = pipeline.network();
-  writeNetwork(options.output, network,
-               {{"generator", std::string("piperun reconstruct ") + PIPERUN_VERSION},
-                {"source", options.input},
-                {"source_units", report.units},
-                {"seed", std::to_string(params.seed)}});
+  NetworkMetadata metadata = {{"generator", std::string("piperun reconstruct ") + PIPERUN_VERSION},
+                              {"source", options.input},
+                              {"source_units", report.units},
+                              {"seed", std::to_string(params.seed)}};
+  if (params.up != UpAxis::PlusZ) metadata["up"] = toString(params.up);
+  writeNetwork(options.output, network, metadata);
   ExportOptions exportOptions;
   exportOptions.pcfBore = pcfBoreFromString(options.pcfBore).value_or(PcfBore::Nominal);
   if (!exports.empty()) {
@@ -535,6 +539,7 @@ int runReconstruct(const ReconstructOptions& options) {
   if (report.units != "m") {
     std::printf("units: %s, read as metres\n", unitsNote(report.info, options.units, report.units).c_str());
   }
+  if (params.up != UpAxis::PlusZ) std::printf("up: %s\n", toString(params.up).c_str());
   if (const auto sparse = sparseScanWarning(d.inputSpacing)) warn(options.input + ": " + *sparse);
   std::printf("preprocess: %zu after voxel grid (leaf %.1f mm), %zu outliers removed, %zu plane points in %d planes, "
               "%zu kept, %zu tiles  [%.2f s]\n",

@@ -29,6 +29,7 @@ struct GenerateOptions {
   double density = 1.0;
   double registrationError = 0.0;
   double mixedPixels = 0.0;
+  std::string up = "z";
   bool labels = false;
   bool quiet = false;
 };
@@ -66,6 +67,7 @@ struct ReconstructOptions {
   std::vector<std::string> assignments;  ///< "section.key=value"
   int threads = 0;                       ///< 0: all cores
   std::int64_t seed = -1;                ///< -1: from the parameters
+  std::string up;                        ///< Empty: from the parameters
   std::string dumpDirectory;
   std::string truth;                     ///< Optional: evaluate against this network.
   std::string until = "joints";          ///< Last stage to run: "merge" or "joints".

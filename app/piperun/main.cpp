@@ -4,6 +4,7 @@
 #include "parse_arguments.h"
 #include "piperun/error.h"
 #include "units_option.h"
+#include "up_option.h"
 
 #include <CLI/CLI.hpp>
 
@@ -80,6 +81,11 @@ int main(int argc, char** argv) {
                               "(mixed pixels)")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
+  generateCommand->add_option("--up", generate.up,
+                              "Turn the scene so that this axis is up, points and truth (x, y, z, -x, -y or -z), as "
+                              "a tool that writes y up gives a scan")
+      ->check(CLI::IsMember(piperun::upAxisNames()))
+      ->capture_default_str();
   generateCommand->add_flag("--labels", generate.labels,
                             "Also write each point's truth element id (label; 0 distractor, -1 outlier or mixed pixel)");
 
@@ -133,6 +139,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 1024));
   reconstructCommand->add_option("--seed", reconstruct.seed, "Random seed (overrides the parameter document)")
       ->check(CLI::NonNegativeNumber);
+  piperun::app::addUpOption(*reconstructCommand, reconstruct.up);
   reconstructCommand->add_option("--dump-stages", reconstruct.dumpDirectory,
                                  "Write every stage's output (labelled PLY clouds) into this folder");
   reconstructCommand->add_option("--truth", reconstruct.truth, "Ground-truth network: print the evaluation too");

@@ -21,7 +21,7 @@ namespace piperun {
 namespace {
 
 using nlohmann::ordered_json;
-using FieldRef = std::variant<double*, int*, bool*, std::uint64_t*>;
+using FieldRef = std::variant<double*, int*, bool*, std::uint64_t*, UpAxis*>;
 
 constexpr double kUnbounded = std::numeric_limits<double>::infinity();
 /// Smallest tile edge: each tile runs every per-tile stage, so their count grows with the cube of
@@ -80,6 +80,7 @@ const std::vector<Field>& fields() {
   static const std::vector<Field> table = {
       PIPERUN_FIELD("", "seed", "", Stage::Directions, seed, anyValue(), "Seed of every random choice; the same seed gives the same network"),
       PIPERUN_FIELD("", "rounds", "", Stage::Directions, rounds, atLeast(1), "Rounds of directions, placement and extents per tile on points not yet explained"),
+      PIPERUN_FIELD("", "up", "", Stage::Joints, up, anyValue(), "The scan's up direction, x, y, z, -x, -y or -z (--up): the ground no pipe reaches below lies across it, a gently sloping pipe turns off the level direction under it, and the studio stands its cameras on it"),
 
       PIPERUN_FIELD("preprocess", "voxel_size", "m", Stage::Preprocess, preprocess.voxelSize, atLeast(0), "Voxel-grid leaf, the largest with auto_voxel: one point per occupied voxel (0 keeps every point)"),
       PIPERUN_FIELD("preprocess", "auto_voxel", "", Stage::Preprocess, preprocess.autoVoxel, anyValue(), "Leaf from the scan: twice its median point spacing, within 5 mm and voxel_size"),
@@ -182,7 +183,15 @@ std::string fullKey(const Field& field) {
 }
 
 ordered_json valueJson(const FieldRef& ref) {
-  return std::visit([](auto* value) { return ordered_json(*value); }, ref);
+  return std::visit(
+      [](auto* value) {
+        if constexpr (std::is_same_v<std::remove_pointer_t<decltype(value)>, UpAxis>) {
+          return ordered_json(toString(*value));
+        } else {
+          return ordered_json(*value);
+        }
+      },
+      ref);
 }
 
 // Sets a field from JSON; false when the JSON value has the wrong type.
@@ -190,7 +199,15 @@ bool assign(const FieldRef& ref, const ordered_json& value) {
   return std::visit(
       [&](auto* target) {
         using T = std::remove_pointer_t<decltype(target)>;
-        if constexpr (std::is_same_v<T, bool>) {
+        if constexpr (std::is_same_v<T, UpAxis>) {
+          if (!value.is_string()) return false;
+          try {
+            *target = upAxisFromString(value.get<std::string>());
+          } catch (const std::invalid_argument&) {
+            return false;
+          }
+          return true;
+        } else if constexpr (std::is_same_v<T, bool>) {
           if (!value.is_boolean()) return false;
         } else if constexpr (std::is_same_v<T, double>) {
           if (!value.is_number()) return false;
@@ -212,6 +229,7 @@ const char* typeName(const FieldRef& ref) {
       [](auto* target) -> const char* {
         using T = std::remove_pointer_t<decltype(target)>;
         if constexpr (std::is_same_v<T, bool>) return "true or false";
+        if constexpr (std::is_same_v<T, UpAxis>) return "one of \"x\", \"y\", \"z\", \"-x\", \"-y\", \"-z\"";
         if constexpr (std::is_same_v<T, double>) return "a number";
         if constexpr (std::is_same_v<T, std::uint64_t>) return "a non-negative integer";
         return "an integer";
@@ -219,12 +237,12 @@ const char* typeName(const FieldRef& ref) {
       ref);
 }
 
-/// The field's value as a number; nullopt for true/false fields.
+/// The field's value as a number; nullopt for true/false and axis fields.
 std::optional<double> numericValue(const FieldRef& ref) {
   return std::visit(
       [](auto* value) -> std::optional<double> {
         using T = std::remove_pointer_t<decltype(value)>;
-        if constexpr (std::is_same_v<T, bool>) {
+        if constexpr (std::is_same_v<T, bool> || std::is_same_v<T, UpAxis>) {
           return std::nullopt;
         } else {
           return static_cast<double>(*value);
@@ -334,7 +352,11 @@ void setParam(PipelineParams& params, const std::string& assignment) {
     try {
       value = ordered_json::parse(text);
     } catch (const ordered_json::exception&) {  // not JSON, or a number beyond a double's range
-      throw std::invalid_argument("parameter " + key + ": '" + text + "' is not " + typeName(field.ref(params)));
+      // A word is its own value where a word is wanted: up=y as well as up="y".
+      if (!std::holds_alternative<UpAxis*>(field.ref(params))) {
+        throw std::invalid_argument("parameter " + key + ": '" + text + "' is not " + typeName(field.ref(params)));
+      }
+      value = text;
     }
     PipelineParams changed = params;
     if (!assign(field.ref(changed), value)) {

@@ -227,7 +227,8 @@ void Pipeline::runMerge(Progress& progress) {
 void Pipeline::runJoints(Progress& progress) {
   const auto started = std::chrono::steady_clock::now();
   joints_ = std::make_shared<const JointsResult>(
-      connectPipes({preprocess_->points, merge_->segments, &preprocess_->planePoints}, params_.joints, progress));
+      connectPipes({preprocess_->points, merge_->segments, &preprocess_->planePoints, upVector(params_.up)},
+                   params_.joints, progress));
   seconds_[index(Stage::Joints)] = secondsSince(started);
   fresh_[index(Stage::Joints)] = true;
 }

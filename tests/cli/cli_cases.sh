@@ -210,6 +210,30 @@ case "$CASE" in
     grep -q '"mixed_pixel_share": "1.0' "$WORK/g.json" || fail "truth lacks mixed_pixel_share"
     run 1 generate --mixed-pixels 2 -o "$WORK/f.ply"
     ;;
+  up)
+    # generate --up y turns the z-up scene, (x, y, z) -> (x, z, -y), every digit kept; the truth
+    # records the axis.
+    run 0 generate --preset small --seed 5 --density 0.2 -o "$WORK/z.xyz" --truth "$WORK/z.json"
+    run 0 generate --preset small --seed 5 --density 0.2 --up y -o "$WORK/y.xyz" --truth "$WORK/y.json"
+    awk 'NR == 1 { print; next } { y = substr($2, 1, 1) == "-" ? substr($2, 2) : "-" $2; print $1, $3, y, $4 }' \
+      "$WORK/z.xyz" >"$WORK/z-turned.xyz"
+    cmp -s "$WORK/z-turned.xyz" "$WORK/y.xyz" || fail "generate --up y is not the z-up scene turned"
+    grep -q '"up": "y"' "$WORK/y.json" || fail "the turned truth does not record its up axis"
+    grep -q '"up"' "$WORK/z.json" && fail "a z-up truth records an up axis"
+    # reconstruct --up: said, and recorded in the network (the studio stands its camera on it).
+    run 0 reconstruct "$WORK/y.xyz" -o "$WORK/net.json" --up y
+    expect_out "^up: y$"
+    grep -q '"up": "y"' "$WORK/net.json" || fail "the network does not record its up axis"
+    run 0 reconstruct "$WORK/y.xyz" -o "$WORK/net-z.json" --set up=y --up z
+    grep -q '^up:' <<<"$OUT" && fail "--up z did not override --set up=y"
+    run 0 reconstruct "$WORK/y.xyz" -o "$WORK/net-set.json" --set up=-x
+    expect_out "^up: -x$"
+    run 1 reconstruct "$WORK/y.xyz" -o "$WORK/net.json" --up w
+    expect_one_line_error "--up"
+    run 1 reconstruct "$WORK/y.xyz" -o "$WORK/net.json" --set up=north
+    expect_one_line_error "parameter up: 'north' is not one of"
+    run 1 generate --up sideways -o "$WORK/a.ply"
+    ;;
   params)
     run 0 params
     expect_out "^placement.max_radius = "

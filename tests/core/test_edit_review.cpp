@@ -185,6 +185,21 @@ TEST_F(EditReview, RunInHalvesCarriesTheReviewAsRunDoes) {
   EXPECT_THROW(interpreter_->prepareRun("run nowhere"), CommandError);
 }
 
+TEST_F(EditReview, RerunTakesTheStagesKeysAndTopLevelOnes) {
+  // "up=y" is no joints key: the top-level parameter. An unknown key is named as the stage's.
+  const auto joints = interpreter_->prepareRun("rerun joints up=y min_pipe_diameters=2.5");
+  ASSERT_TRUE(joints);
+  EXPECT_EQ(joints->last, Stage::Joints);
+  EXPECT_EQ(pipeline_->params().up, UpAxis::PlusY);
+  EXPECT_EQ(pipeline_->params().joints.minPipeDiameters, 2.5);
+  try {
+    interpreter_->prepareRun("rerun joints upp=y");
+    FAIL() << "an unknown key was taken";
+  } catch (const CommandError& error) {
+    EXPECT_NE(std::string(error.what()).find("unknown parameter 'joints.upp'"), std::string::npos) << error.what();
+  }
+}
+
 TEST_F(EditReview, ScriptedReviewRerunSaveAndReopen) {
   const PipeNetwork network = project_.edits.network();
   const Joint* first = firstJoint(network, JointType::Elbow);

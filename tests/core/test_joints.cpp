@@ -1,4 +1,5 @@
 #include "piperun/stages/joints.h"
+#include "piperun/up_axis.h"
 
 #include "stages/segment_axis.h"
 
@@ -201,8 +202,22 @@ class ConstructedScene {
     return static_cast<int>(pipes_.size()) - 1;
   }
 
-  JointsResult connect(const JointsParams& params = {}) const {
-    return connectPipes({cloud_, pipes_, planes_.positions.empty() ? nullptr : &planes_}, params);
+  /// Joins the listed pipes, `up` being the scan's up direction.
+  JointsResult connect(const JointsParams& params = {}, const Eigen::Vector3d& up = Eigen::Vector3d::UnitZ()) const {
+    return connectPipes({cloud_, pipes_, planes_.positions.empty() ? nullptr : &planes_, up}, params);
+  }
+  /// Turns the whole scene about the origin by `turn` (a rotation): points, normals, listed pipes
+  /// and removed planes.
+  void turnBy(const Eigen::Matrix3d& turn) {
+    const Eigen::Matrix3f turnPoint = turn.cast<float>();
+    for (PointCloud* points : {&cloud_, &planes_}) {
+      for (Eigen::Vector3f& p : points->positions) p = turnPoint * p;
+      for (Eigen::Vector3f& n : points->normals) n = turnPoint * n;
+    }
+    for (PipeSegment& pipe : pipes_) {
+      pipe.start = turn * pipe.start;
+      pipe.end = turn * pipe.end;
+    }
   }
   /// A point removed as part of a large plane (PreprocessResult::planePoints), with its normal
   /// (zero: not known).
@@ -665,28 +680,52 @@ ConstructedScene levelPipeTurningUp(double r, double R, double angle, double slo
   return scene;
 }
 
-TEST(Joints, TheLevelLegUnderASlopeFittedAcrossItsBendIsFoundThoughNoLevelPipeRunsThatWay) {
-  // A level leg along +x turns at the origin up a 6° slope (r 5 cm, R 15 cm: a branch leaving its
-  // header level, then sloping; small seed 24). No stage found the level leg: the slope's fit runs
-  // 0.3 m into it, tilted less than 5° from the slope. A pipe elsewhere runs along the slope, none
-  // level along x: the leg's direction is the level one under the slope.
+/// A level leg along +x turning at the origin up a 6° slope (r 5 cm, R 15 cm: a branch leaving its
+/// header level, then sloping; small seed 24). No stage found the level leg: the slope's fit runs
+/// 0.3 m into it, tilted less than 5° from the slope. A pipe elsewhere runs along the slope, none
+/// level along x.
+ConstructedScene levelLegUnderASlopeFittedAcrossItsBend() {
   const double r = 0.05;
-  const Eigen::Vector3d in = Eigen::Vector3d::UnitX();
   const Eigen::Vector3d out(std::cos(kSixDegrees), 0.0, std::sin(kSixDegrees));
   ConstructedScene scene = levelPipeTurningUp(r, 3.0 * r, kSixDegrees, 1.2);
   const int slope = scene.addFittedPipe(Eigen::Vector3d(-0.3, 0.0, -0.002), 1.2 * out, r);
   EXPECT_LT(std::acos(unitAxis(scene.pipes()[static_cast<std::size_t>(slope)]).dot(out)), 5.0 * kPi / 180.0);
   const Eigen::Vector3d elsewhere(0.0, 2.0, 0.0);
   scene.addPipe(elsewhere, elsewhere + 1.0 * out, r);
+  return scene;
+}
 
-  const JointsResult result = scene.connect();
+TEST(Joints, TheLevelLegUnderASlopeFittedAcrossItsBendIsFoundThoughNoLevelPipeRunsThatWay) {
+  // The leg's direction is the level one under the slope.
+  const JointsResult result = levelLegUnderASlopeFittedAcrossItsBend().connect();
   EXPECT_EQ(result.diagnostics.kinkLegs, 1u);
   ASSERT_EQ(result.pipes.size(), 3u);
   expectOnlyAnElbowAtTheOrigin(result, {1, 3});
   // The leg (appended after the input pipes) is level and runs back to the level pipe's last point.
   const PipeSegment& leg = result.pipes[2];
-  EXPECT_GT(std::fabs(unitAxis(leg).dot(in)), std::cos(0.3 * kPi / 180.0));
+  EXPECT_GT(std::fabs(unitAxis(leg).dot(Eigen::Vector3d::UnitX())), std::cos(0.3 * kPi / 180.0));
   EXPECT_NEAR(std::min(leg.start.x(), leg.end.x()), -0.8, 0.02);
+}
+
+TEST(Joints, TheLevelUnderASlopeLiesAcrossTheUpDirectionGiven) {
+  // The same scene turned so that each axis is up, and the stage told so: the level leg is found.
+  for (const std::string& name : upAxisNames()) {
+    const UpAxis up = upAxisFromString(name);
+    const Eigen::Matrix3d turn = turnZUpTo(up);
+    ConstructedScene scene = levelLegUnderASlopeFittedAcrossItsBend();
+    scene.turnBy(turn);
+    const JointsResult result = scene.connect({}, upVector(up));
+    EXPECT_EQ(result.diagnostics.kinkLegs, 1u) << name;
+    ASSERT_EQ(result.pipes.size(), 3u) << name;
+    EXPECT_GT(std::fabs(unitAxis(result.pipes[2]).dot(turn * Eigen::Vector3d::UnitX())), std::cos(0.3 * kPi / 180.0))
+        << name;
+    ASSERT_EQ(result.joints.size(), 1u) << name;
+    EXPECT_EQ(result.joints[0].type, JointType::Elbow) << name;
+  }
+  // Turned to y up but taken as z up, the slope looks level, and no leg is looked for under it.
+  ConstructedScene toldWrongly = levelLegUnderASlopeFittedAcrossItsBend();
+  toldWrongly.turnBy(turnZUpTo(UpAxis::PlusY));
+  EXPECT_EQ(toldWrongly.connect().diagnostics.kinkLegs, 0u);
 }
 
 TEST(Joints, AnEndsLegIsCompletedThoughTheEndRanOnPastTheCornerOfABendOfThirtyDegrees) {
@@ -1634,36 +1673,63 @@ TEST(Joints, ALegOverPointsARemovedPlaneLeftIsThatPlanesAndNotCompleted) {
   ASSERT_NO_FATAL_FAILURE(expectUprightLegCompletedAtTheOrigin(byAWall.connect()));
 }
 
-TEST(Joints, NoPipeOrLegReachesBelowTheGround) {
-  // A riser (pipe 1) comes down to an elbow (R = 3r) turning level into a leg no pipe covers, its
-  // axis at z = 0. Over a floor just under the leg, the leg is completed with its elbow. Over a
-  // floor 1.5 cm above the leg's bottom (the lowest floor, nothing scanned under it: the ground), a
-  // tube there would run through it: such a fit is the floor's points by a riser's foot, and no leg
-  // is completed; given as a pipe, it is left out.
+/// A riser (pipe 1) coming down to an elbow (R = 3r, r = 5 cm) that turns level into a leg along
+/// +x, its axis at z = 0, listed as a pipe or not, over a removed floor at height `floor`.
+ConstructedScene riserToFloor(double floor, bool legListed) {
   const double r = 0.05, R = 0.15;
-  const auto scene = [&](double floor, bool legListed) {
-    ConstructedScene riserToFloor;
-    riserToFloor.addPipe({0, 0, 1.5}, {0, 0, R}, r);
-    riserToFloor.addElbow({R, 0, R}, {0, 0, R}, -Eigen::Vector3d::UnitY(), kPi / 2, r);
-    riserToFloor.addPipe({R, 0, 0}, {0.8, 0, 0}, r, legListed);
-    riserToFloor.addRemovedFloor(floor, 1.5);
-    return riserToFloor;
-  };
-  const JointsResult overFloor = scene(-r - 0.01, false).connect();
+  ConstructedScene scene;
+  scene.addPipe({0, 0, 1.5}, {0, 0, R}, r);
+  scene.addElbow({R, 0, R}, {0, 0, R}, -Eigen::Vector3d::UnitY(), kPi / 2, r);
+  scene.addPipe({R, 0, 0}, {0.8, 0, 0}, r, legListed);
+  scene.addRemovedFloor(floor, 1.5);
+  return scene;
+}
+
+TEST(Joints, NoPipeOrLegReachesBelowTheGround) {
+  // Over a floor just under the leg, the leg is completed with its elbow. Over a floor 1.5 cm above
+  // the leg's bottom (the lowest floor, nothing scanned under it: the ground), a tube there would
+  // run through it: such a fit is the floor's points by a riser's foot, and no leg is completed;
+  // given as a pipe, it is left out.
+  const double r = 0.05;
+  const JointsResult overFloor = riserToFloor(-r - 0.01, false).connect();
   EXPECT_EQ(overFloor.diagnostics.completedPipes, 1u);
   EXPECT_EQ(overFloor.diagnostics.underGround, 0u);
   ASSERT_EQ(overFloor.joints.size(), 1u);
   EXPECT_EQ(overFloor.joints[0].type, JointType::Elbow);
 
-  const JointsResult throughFloor = scene(-r + 0.015, false).connect();
+  const JointsResult throughFloor = riserToFloor(-r + 0.015, false).connect();
   EXPECT_EQ(throughFloor.diagnostics.completedPipes, 0u);
   EXPECT_GE(throughFloor.diagnostics.underGround, 1u);
   EXPECT_TRUE(throughFloor.joints.empty());
 
-  const JointsResult givenThroughFloor = scene(-r + 0.015, true).connect();
+  const JointsResult givenThroughFloor = riserToFloor(-r + 0.015, true).connect();
   EXPECT_EQ(givenThroughFloor.pipes.size(), 1u);
   EXPECT_GE(givenThroughFloor.diagnostics.underGround, 1u);
   EXPECT_TRUE(givenThroughFloor.joints.empty());
+}
+
+TEST(Joints, TheGroundLiesAcrossTheUpDirectionGiven) {
+  // The scene of NoPipeOrLegReachesBelowTheGround turned so that each axis is up, and the stage
+  // told so: the floor through the leg's bottom is the ground whichever axis is up.
+  const double r = 0.05;
+  for (const std::string& name : upAxisNames()) {
+    const UpAxis up = upAxisFromString(name);
+    ConstructedScene throughFloor = riserToFloor(-r + 0.015, false);
+    throughFloor.turnBy(turnZUpTo(up));
+    const JointsResult result = throughFloor.connect({}, upVector(up));
+    EXPECT_EQ(result.diagnostics.completedPipes, 0u) << name;
+    EXPECT_GE(result.diagnostics.underGround, 1u) << name;
+    EXPECT_TRUE(result.joints.empty()) << name;
+  }
+  // Turned to y up but taken as z up, the floor is a wall: no ground, and the leg through it is
+  // completed with its elbow.
+  ConstructedScene toldWrongly = riserToFloor(-r + 0.015, false);
+  toldWrongly.turnBy(turnZUpTo(UpAxis::PlusY));
+  const JointsResult result = toldWrongly.connect();
+  EXPECT_EQ(result.diagnostics.underGround, 0u);
+  EXPECT_EQ(result.diagnostics.completedPipes, 1u);
+  ASSERT_EQ(result.joints.size(), 1u);
+  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
 }
 
 TEST(Joints, AnEndThatOnlyAProposedJointTookIsStillCompleted) {

@@ -60,6 +60,39 @@ TEST(Params, AssignmentsFromTheCommandLine) {
   EXPECT_THROW(setParam(params, "rounds"), std::invalid_argument);
 }
 
+TEST(Params, TheUpAxisIsAnAxisNameOnTheCommandLineAndInDocuments) {
+  PipelineParams params;
+  EXPECT_EQ(params.up, UpAxis::PlusZ);
+  setParam(params, "up=y");
+  EXPECT_EQ(params.up, UpAxis::PlusY);
+  setParam(params, "up=\"-x\"");
+  EXPECT_EQ(params.up, UpAxis::MinusX);
+  setParam(params, "up=+z");
+  EXPECT_EQ(params.up, UpAxis::PlusZ);
+  for (const char* wrong : {"up=w", "up=1", "up=", "up=true"}) {
+    try {
+      setParam(params, wrong);
+      FAIL() << wrong;
+    } catch (const std::invalid_argument& error) {
+      EXPECT_NE(std::string(error.what()).find("one of \"x\", \"y\", \"z\", \"-x\", \"-y\", \"-z\""), std::string::npos)
+          << error.what();
+    }
+  }
+  EXPECT_EQ(params.up, UpAxis::PlusZ);
+
+  params.up = UpAxis::MinusY;
+  const std::string document = paramsToJson(params);
+  EXPECT_NE(document.find("\"up\": \"-y\""), std::string::npos) << document;
+  EXPECT_EQ(paramsFromJson(document, "p.json").up, UpAxis::MinusY);
+  try {
+    paramsFromJson(R"({"up": 2})", "p.json");
+    FAIL();
+  } catch (const InputError& error) {
+    EXPECT_EQ(error.location(), "/up");
+  }
+  EXPECT_THROW(paramsFromJson(R"({"up": "north"})", "p.json"), InputError);
+}
+
 TEST(Params, ValuesOutsideTheirRangeAreRefusedNamingTheKeyAndTheRange) {
   PipelineParams params;
   const auto refusal = [&](const std::string& assignment) -> std::string {
@@ -121,8 +154,9 @@ TEST(Params, BoundsThatDependOnEachOtherAreCheckedTogether) {
 TEST(Params, EveryNumberHasARangeAndEveryDefaultLiesInIt) {
   for (const auto& p : describeParams()) {
     const bool flag = p.defaultValue == "true" || p.defaultValue == "false";
+    const bool word = p.defaultValue.front() == '"';
     // The seed takes any value; every other number is bounded somewhere.
-    EXPECT_EQ(p.range.empty(), flag || p.key == "seed") << p.key;
+    EXPECT_EQ(p.range.empty(), flag || word || p.key == "seed") << p.key;
   }
   EXPECT_NO_THROW(validateParams(PipelineParams{}));
 }
@@ -145,6 +179,9 @@ TEST(Params, FirstChangedStage) {
   EXPECT_FALSE(firstChangedStage(a, b));
   b.extents.minArcDeg += 10;
   EXPECT_EQ(firstChangedStage(a, b), Stage::Extents);
+  PipelineParams turned = a;
+  turned.up = UpAxis::PlusY;  // Read by the joints stage alone.
+  EXPECT_EQ(firstChangedStage(a, turned), Stage::Joints);
   b.placement.minInliers += 1;
   EXPECT_EQ(firstChangedStage(a, b), Stage::Placement);
   b.seed += 1;

@@ -3,9 +3,11 @@
 # with tests/baselines/NAME.png, and the texts drawn over the views (titles, status, info) must equal
 # tests/baselines/NAME.txt (a changed word is too few pixels for the image comparison). With
 # PIPERUN_UPDATE_BASELINES=1 the outputs replace the baselines.
-# Usage: render_test.sh RENDER COMPARE NAME INPUT SCRIPT VIEW SIZE THRESHOLD BASELINE_DIR OUTPUT_DIR
+# Usage: render_test.sh RENDER COMPARE NAME INPUT SCRIPT VIEW SIZE THRESHOLD BASELINE_DIR OUTPUT_DIR [OPTION...]
+# (the options go to piperun-render).
 set -euo pipefail
 render=$1 compare=$2 name=$3 input=$4 script=$5 view=$6 size=$7 threshold=$8 baselines=$9 outputs=${10}
+options=("${@:11}")
 
 mkdir -p "$outputs"
 output="$outputs/$name.png"
@@ -13,7 +15,7 @@ text="$outputs/$name.txt"
 diff="$outputs/$name.diff.png"
 rm -f "$output" "$text" "$diff"
 env -u DISPLAY -u WAYLAND_DISPLAY "$render" "$input" --script "$script" --view "$view" --size "$size" -o "$output" \
-  --text "$text"
+  --text "$text" "${options[@]}"
 
 baseline="$baselines/$name.png"
 text_baseline="$baselines/$name.txt"

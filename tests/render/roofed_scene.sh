@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The render tests' small scene under a roof: a flat slab of points every 2 cm over its whole
-# footprint, 30 cm above its highest point (the generator makes no roofs).
-# Usage: roofed_scene.sh PIPERUN OUT.xyz
+# footprint, 30 cm above its highest point (the generator makes no roofs). With `y`, the scene is
+# then turned so that y is up, (x, y, z) -> (x, z, -y), as `piperun generate --up y` turns.
+# Usage: roofed_scene.sh PIPERUN OUT.xyz [y]
 set -euo pipefail
-piperun=$1 out=$2
+piperun=$1 out=$2 up=${3:-z}
 "$piperun" generate --preset small --seed 1 -o "$out" >/dev/null
 awk 'NR == 1 { next }
      NR == 2 || $1 < x0 { x0 = $1 } NR == 2 || $1 > x1 { x1 = $1 }
@@ -13,3 +14,9 @@ awk 'NR == 1 { next }
   "$out" >"$out.roof"
 cat "$out.roof" >>"$out"
 rm "$out.roof"
+if [[ "$up" == y ]]; then
+  # -y by its sign alone, so that every digit stays.
+  awk 'NR == 1 { print; next } { y = substr($2, 1, 1) == "-" ? substr($2, 2) : "-" $2; print $1, $3, y, $4 }' \
+    "$out" >"$out.turned"
+  mv "$out.turned" "$out"
+fi

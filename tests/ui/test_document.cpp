@@ -147,6 +147,27 @@ TEST(Document, AScanInMillimetresIsReadAsMetresAndItsProjectKeepsTheUnit) {
   std::filesystem::remove(scan);
 }
 
+TEST(Document, TheUpAxisGivenOrRecordedIsTheDocumentsAndItsProjectKeepsIt) {
+  // A scan opened with y up: its pipeline's parameter, recorded by its project and read back.
+  const auto scan = writeSmallScan("scan_up.ply");
+  EXPECT_EQ(Document::open(scan).pipeline()->params().up, UpAxis::PlusZ);
+  Document document = Document::open(scan, Progress::none(), "", UpAxis::PlusY);
+  EXPECT_EQ(document.pipeline()->params().up, UpAxis::PlusY);
+  EXPECT_EQ(document.project().params.up, UpAxis::PlusY);
+  const auto project = temporaryPath("scan_up.piperun");
+  saveProject(project, document.project());
+  EXPECT_EQ(Document::open(project, Progress::none(), "", UpAxis::MinusX).project().params.up, UpAxis::PlusY);
+
+  // A network takes the axis `piperun reconstruct --up` recorded, unless one is given.
+  const auto network = temporaryPath("network_up.json");
+  writeNetwork(network, PipeNetwork{}, {{"up", "-y"}});
+  EXPECT_EQ(Document::open(network).project().params.up, UpAxis::MinusY);
+  EXPECT_EQ(Document::open(network, Progress::none(), "", UpAxis::PlusX).project().params.up, UpAxis::PlusX);
+  writeNetwork(network, PipeNetwork{}, {{"up", "north"}});
+  EXPECT_THROW(Document::open(network), InputError);
+  for (const auto& path : {scan, project, network}) std::filesystem::remove(path);
+}
+
 TEST(Document, UnreadableFileIsAnInputError) {
   EXPECT_THROW(Document::open(temporaryPath("missing.ply")), InputError);
   EXPECT_THROW(Document::open(temporaryPath("missing.json")), InputError);

@@ -98,11 +98,33 @@ TEST(CeilingHeight, IsALittleOverTheNetworkUnderARoof) {
   chunk.positions.push_back(Eigen::Vector3d::Constant(std::nan("")));  // Readers may keep invalid points.
   PointCloud cloud;
   cloud.append(chunk);
-  const auto height = ceilingHeight(cloud, pipeAtHeight(2.0));
+  const auto height = ceilingHeight(cloud, pipeAtHeight(2.0), UpAxis::PlusZ);
   ASSERT_TRUE(height.has_value());
   EXPECT_NEAR(*height, 2.0 + 0.1 + kCeilingMargin, 1e-9);  // The pipe's top and the margin.
-  EXPECT_FALSE(ceilingHeight(cloud, pipeAtHeight(3.9)).has_value());  // Nothing but the roof's edge above 4.25 m.
-  EXPECT_FALSE(ceilingHeight(cloud, PipeNetwork{}).has_value());
+  EXPECT_FALSE(ceilingHeight(cloud, pipeAtHeight(3.9), UpAxis::PlusZ).has_value());  // Nothing but the roof's edge above 4.25 m.
+  EXPECT_FALSE(ceilingHeight(cloud, PipeNetwork{}, UpAxis::PlusZ).has_value());
+}
+
+TEST(CeilingHeight, IsMeasuredAlongTheUpAxis) {
+  // The roofed room and its pipe turned so that each axis is up: the same height along it.
+  PointChunk room = roomPoints(4.0);
+  for (int i = 0; i <= 500; ++i)
+    for (int j = 0; j <= 500; ++j) room.positions.push_back({0.02 * i, 0.02 * j, 4.0});
+  for (const std::string& name : upAxisNames()) {
+    const UpAxis up = upAxisFromString(name);
+    const Eigen::Matrix3d turn = turnZUpTo(up);
+    PointChunk turned = room;
+    for (Eigen::Vector3d& p : turned.positions) p = turn * p;
+    PointCloud cloud;
+    cloud.append(turned);
+    PipeNetwork network = pipeAtHeight(2.0);
+    network.pipes[0].start = turn * network.pipes[0].start;
+    network.pipes[0].end = turn * network.pipes[0].end;
+    const auto height = ceilingHeight(cloud, network, up);
+    ASSERT_TRUE(height.has_value()) << name;
+    EXPECT_NEAR(*height, 2.0 + 0.1 + kCeilingMargin, 1e-9) << name;
+    EXPECT_NEAR(heightAlong(up, turn * Eigen::Vector3d(1, 2, 3)), 3.0, 1e-12) << name;
+  }
 }
 
 TEST(CeilingHeight, WallsAndScatteredOutliersAreNoCeiling) {
@@ -115,7 +137,7 @@ TEST(CeilingHeight, WallsAndScatteredOutliersAreNoCeiling) {
     chunk.positions.push_back({across(random), across(random), up(random)});
   PointCloud cloud;
   cloud.append(chunk);
-  EXPECT_FALSE(ceilingHeight(cloud, pipeAtHeight(2.0)).has_value());
+  EXPECT_FALSE(ceilingHeight(cloud, pipeAtHeight(2.0), UpAxis::PlusZ).has_value());
 }
 
 }  // namespace

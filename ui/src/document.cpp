@@ -34,30 +34,47 @@ std::shared_ptr<const PointCloud> readScan(const std::filesystem::path& path, st
 
 }  // namespace
 
-Document Document::open(const std::filesystem::path& path, Progress& progress, const std::string& scanUnits) {
+Document Document::open(const std::filesystem::path& path, Progress& progress, const std::string& scanUnits,
+                        std::optional<UpAxis> up) {
   if (isProjectFile(path)) return fromProject(openProject(path), path, progress);
-  if (isNetworkFile(path)) return fromNetwork(readNetwork(path), path);
+  if (isNetworkFile(path)) {
+    NetworkMetadata metadata;
+    PipeNetwork network = readNetwork(path, &metadata);
+    // `piperun reconstruct --up` records the axis.
+    const auto recorded = metadata.find("up");
+    if (!up && recorded != metadata.end()) {
+      try {
+        up = upAxisFromString(recorded->second);
+      } catch (const std::invalid_argument&) {
+        throw InputError(path, "/metadata/up", "unknown up axis \"" + recorded->second + "\"");
+      }
+    }
+    return fromNetwork(std::move(network), path, up.value_or(UpAxis::PlusZ));
+  }
   std::vector<std::string> warnings;
   std::string units = scanUnits;
   auto cloud = readScan(path, units, progress, warnings);
-  Document document = fromScan(std::move(cloud), path, units);
+  Document document = fromScan(std::move(cloud), path, units, up.value_or(UpAxis::PlusZ));
   document.warnings_ = std::move(warnings);
   return document;
 }
 
 Document Document::fromScan(std::shared_ptr<const PointCloud> cloud, const std::filesystem::path& path,
-                            const std::string& scanUnits) {
+                            const std::string& scanUnits, UpAxis up) {
   Document document;
   document.path_ = path;
   document.input_ = cloud;
-  document.pipeline_ = studioPipeline(std::move(cloud), {});
+  PipelineParams params;
+  params.up = up;
+  document.pipeline_ = studioPipeline(std::move(cloud), params);
   document.project_ = newProject(path, *document.pipeline_, scanUnits);
   return document;
 }
 
-Document Document::fromNetwork(PipeNetwork network, const std::filesystem::path& path) {
+Document Document::fromNetwork(PipeNetwork network, const std::filesystem::path& path, UpAxis up) {
   Document document;
   document.path_ = path;
+  document.project_.params.up = up;
   document.project_.edits = EditSession(std::move(network));
   return document;
 }

@@ -168,28 +168,32 @@ std::vector<bool> strayPoints(const PointCloud& cloud, double cell, int minNeigh
   return stray;
 }
 
-std::optional<double> ceilingHeight(const PointCloud& cloud, const PipeNetwork& network) {
+std::optional<double> ceilingHeight(const PointCloud& cloud, const PipeNetwork& network, UpAxis up) {
+  const auto heightOf = [&](const Eigen::Vector3d& p) { return heightAlong(up, p); };
   double top = -std::numeric_limits<double>::infinity();
-  for (const auto& pipe : network.pipes) top = std::max(top, std::max(pipe.start.z(), pipe.end.z()) + pipe.radius);
+  for (const auto& pipe : network.pipes) top = std::max(top, std::max(heightOf(pipe.start), heightOf(pipe.end)) + pipe.radius);
   for (const auto& joint : network.joints)
-    for (const auto& point : joint.axis) top = std::max(top, point.z() + joint.radius);
+    for (const auto& point : joint.axis) top = std::max(top, heightOf(point) + joint.radius);
   if (!std::isfinite(top) || cloud.empty()) return std::nullopt;
   const double height = top + kCeilingMargin;
 
   const BoundingBox bounds = cloud.boundingBox();  // Of the finite points.
   if (bounds.empty()) return std::nullopt;
-  const double cell = std::max(0.25, std::max(bounds.size().x(), bounds.size().y()) / 64.0);
-  const int columns = static_cast<int>(bounds.size().x() / cell) + 1, rows = static_cast<int>(bounds.size().y() / cell) + 1;
+  // The footprint: the two axes across the up one.
+  const int across = (upIndex(up) + 1) % 3, along = (upIndex(up) + 2) % 3;
+  const Eigen::Vector3d size = bounds.size();
+  const double cell = std::max(0.25, std::max(size[across], size[along]) / 64.0);
+  const int columns = static_cast<int>(size[across] / cell) + 1, rows = static_cast<int>(size[along] / cell) + 1;
   // Per cell: its points, and those above the height. Scattered outliers over the network are no ceiling.
   std::vector<std::array<std::uint32_t, 2>> counts(static_cast<std::size_t>(columns) * static_cast<std::size_t>(rows));
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     const Eigen::Vector3d p = cloud.worldPosition(i);
     if (!p.allFinite()) continue;
-    const int column = std::min(columns - 1, static_cast<int>((p.x() - bounds.min.x()) / cell));
-    const int row = std::min(rows - 1, static_cast<int>((p.y() - bounds.min.y()) / cell));
+    const int column = std::min(columns - 1, static_cast<int>((p[across] - bounds.min[across]) / cell));
+    const int row = std::min(rows - 1, static_cast<int>((p[along] - bounds.min[along]) / cell));
     auto& count = counts[static_cast<std::size_t>(row) * static_cast<std::size_t>(columns) + static_cast<std::size_t>(column)];
     ++count[0];
-    if (p.z() > height) ++count[1];
+    if (heightOf(p) > height) ++count[1];
   }
   const auto occupied = std::count_if(counts.begin(), counts.end(), [](const auto& count) { return count[0] > 0; });
   const auto covered = std::count_if(counts.begin(), counts.end(), [](const auto& count) {

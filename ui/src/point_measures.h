@@ -5,6 +5,7 @@
 
 #include "piperun/pipe_network.h"
 #include "piperun/point_cloud.h"
+#include "piperun/up_axis.h"
 
 #include <limits>
 #include <optional>
@@ -36,12 +37,15 @@ inline constexpr double kCeilingMargin = 0.25;
 /// Share of a footprint cell's points above the network's top that makes the cell covered.
 inline constexpr double kCeilingShare = 0.05;
 
-/// The height (world z, m) above which the points hide the network from above, as a building's
+/// The height of world point `p` along `up` (its coordinate on that axis, negated for -x, -y, -z).
+inline double heightAlong(UpAxis up, const Eigen::Vector3d& p) { return upSign(up) * p[upIndex(up)]; }
+
+/// The height (along `up`, m) above which the points hide the network from above, as a building's
 /// roof or a deck over the piping does: the network's top (its highest surface) plus
 /// kCeilingMargin, when at least half of the scan's footprint is covered above that height (square
 /// cells of a 64th of its larger horizontal extent, at least 0.25 m, in which kCeilingShare of the
 /// points lie above it; outliers scattered through the volume do not). nullopt when the network is
 /// empty or nothing above it covers the scan.
-std::optional<double> ceilingHeight(const PointCloud& cloud, const PipeNetwork& network);
+std::optional<double> ceilingHeight(const PointCloud& cloud, const PipeNetwork& network, UpAxis up);
 
 }  // namespace piperun::ui

@@ -324,9 +324,11 @@ void Studio::Impl::takeResults() {
 void Studio::Impl::chooseFirstClip() {
   if (firstClipChosen || !document.input() || document.network().pipes.empty()) return;
   firstClipChosen = true;
-  if (const auto height = ceilingHeight(*document.input(), document.network()))
-    pointClip = heightRange(-std::numeric_limits<double>::infinity(), *height);
+  if (const auto height = ceilingHeight(*document.input(), document.network(), upAxis()))
+    pointClip = heightRange(-std::numeric_limits<double>::infinity(), *height, upAxis());
 }
+
+UpAxis Studio::Impl::upAxis() const { return document.project().params.up; }
 
 std::string Studio::Impl::pointClipText() const {
   if (!pointClip) return "points not clipped";
@@ -336,7 +338,7 @@ std::string Studio::Impl::pointClipText() const {
            format(" %.3f", clip.min.z()) + format(" to %.3f", clip.max.x()) + format(" %.3f", clip.max.y()) +
            format(" %.3f", clip.max.z()) + " hidden";
   }
-  const double low = clip.min.z(), high = clip.max.z();
+  const auto [low, high] = heightLimits(clip, upAxis());
   if (!std::isfinite(low)) return format("points above %.2f m hidden", high);
   if (!std::isfinite(high)) return format("points below %.2f m hidden", low);
   return format("points shown from %.2f m", low) + format(" to %.2f m", high);
@@ -348,8 +350,8 @@ std::string Studio::Impl::pointClipCaption() const {
     const Eigen::Vector3d size = clip.size();
     return format("box %.2f", size.x()) + format(" x %.2f", size.y()) + format(" x %.2f m", size.z());
   }
-  const double low = clip.min.z(), high = clip.max.z();
-  return (std::isfinite(low) ? format("%.2f < ", low) : std::string()) + "z" +
+  const auto [low, high] = heightLimits(clip, upAxis());
+  return (std::isfinite(low) ? format("%.2f < ", low) : std::string()) + toString(upAxis()) +
          (std::isfinite(high) ? format(" < %.2f", high) : std::string()) + " m";
 }
 
@@ -568,18 +570,20 @@ void Studio::Impl::layout() {
 
 void Studio::Impl::resetSceneCamera() {
   vtkCamera* camera = scene->GetActiveCamera();
+  const Eigen::Matrix3d turn = turnZUpTo(upAxis());
   camera->SetFocalPoint(0, 0, 0);
-  camera->SetPosition(0.55, 1.0, 0.8);
-  camera->SetViewUp(0, 0, 1);
+  camera->SetPosition(Eigen::Vector3d(turn * Eigen::Vector3d(0.55, 1.0, 0.8)).data());
+  camera->SetViewUp(upVector(upAxis()).data());
   scene->ResetCamera();
   scene->ResetCameraClippingRange();
 }
 
 void Studio::Impl::resetSphereCamera() {
   vtkCamera* camera = sphere->GetActiveCamera();
+  const Eigen::Matrix3d turn = turnZUpTo(upAxis());
   camera->SetFocalPoint(0, 0, 0);
-  camera->SetPosition(2.4, -3.6, 2.4);
-  camera->SetViewUp(0, 0, 1);
+  camera->SetPosition(Eigen::Vector3d(turn * Eigen::Vector3d(2.4, -3.6, 2.4)).data());
+  camera->SetViewUp(upVector(upAxis()).data());
   camera->SetViewAngle(30.0);
   sphere->ResetCameraClippingRange();
 }
@@ -1203,7 +1207,7 @@ Studio::~Studio() = default;
 void Studio::open(Document document) { impl_->open(std::move(document)); }
 
 void Studio::open(const std::filesystem::path& path) {
-  impl_->open(Document::open(path, Progress::none(), impl_->options.scanUnits));
+  impl_->open(Document::open(path, Progress::none(), impl_->options.scanUnits, impl_->options.up));
 }
 
 const Document& Studio::document() const { return impl_->document; }

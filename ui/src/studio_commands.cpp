@@ -209,7 +209,7 @@ void Studio::Impl::registerCommands() {
 
   commands.add(
       "clip", "Z_MAX | Z_MIN Z_MAX | box | off | toggle",
-      "draw the scene's points only below height Z_MAX, between two heights (world z, m: the height colour bar's) or "
+      "draw the scene's points only below height Z_MAX, between two heights (along the up axis, m: the height colour bar's) or "
       "inside the fit box; off shows them all, toggle switches between the last clip and none",
       [this](const std::vector<std::string>& args) {
         expectArguments(args, 1, 2, "clip Z_MAX | Z_MIN Z_MAX | box | off | toggle");
@@ -221,9 +221,9 @@ void Studio::Impl::registerCommands() {
             pointClip.reset();
           } else if (args[0] == "toggle") {
             if (!lastPointClip) {
-              const auto height = ceilingHeight(*document.input(), document.network());
+              const auto height = ceilingHeight(*document.input(), document.network(), upAxis());
               if (!height) throw CommandError("no ceiling over the network to clip: give a height (clip Z_MAX)");
-              lastPointClip = heightRange(-kOpen, *height);
+              lastPointClip = heightRange(-kOpen, *height, upAxis());
             }
             pointClip = lastPointClip;
           }
@@ -234,7 +234,7 @@ void Studio::Impl::registerCommands() {
           const double high = parseDouble(args.back(), "Z_MAX");
           if (!std::isfinite(high) || std::isnan(low)) throw CommandError("heights must be finite numbers (metres)");
           if (!(low < high)) throw CommandError("Z_MIN must be below Z_MAX");
-          pointClip = heightRange(low, high);
+          pointClip = heightRange(low, high, upAxis());
         }
         firstClipChosen = true;
         applyPointClip();
@@ -629,7 +629,7 @@ void Studio::Impl::registerCommands() {
                  std::string path = args[0];
                  for (std::size_t i = 1; i < args.size(); ++i) path += " " + args[i];  // Names with blanks.
                  try {
-                   open(Document::open(path, Progress::none(), options.scanUnits));
+                   open(Document::open(path, Progress::none(), options.scanUnits, options.up));
                  } catch (const InputError& error) {
                    throw CommandError(error.what());
                  }

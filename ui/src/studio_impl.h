@@ -34,6 +34,7 @@
 #include <map>
 #include <mutex>
 #include <optional>
+#include <utility>
 #include <string>
 #include <thread>
 #include <vector>
@@ -124,13 +125,22 @@ inline std::string formatPoint(const Eigen::Vector3d& point) {
   return format("%.17g", point.x()) + " " + format("%.17g", point.y()) + " " + format("%.17g", point.z());
 }
 
-/// The region between two heights (world z, m; either may be infinite), open sideways.
-inline BoundingBox heightRange(double low, double high) {
+/// The region between two heights along `up` (m; either may be infinite), open sideways.
+inline BoundingBox heightRange(double low, double high, UpAxis up) {
   constexpr double kOpen = std::numeric_limits<double>::infinity();
   BoundingBox range;
-  range.min = Eigen::Vector3d(-kOpen, -kOpen, low);
-  range.max = Eigen::Vector3d(kOpen, kOpen, high);
+  range.min = Eigen::Vector3d::Constant(-kOpen);
+  range.max = Eigen::Vector3d::Constant(kOpen);
+  const int k = upIndex(up);
+  range.min[k] = upSign(up) > 0.0 ? low : -high;
+  range.max[k] = upSign(up) > 0.0 ? high : -low;
   return range;
+}
+
+/// The heights along `up` that `range` (a heightRange, or any box) spans.
+inline std::pair<double, double> heightLimits(const BoundingBox& range, UpAxis up) {
+  const int k = upIndex(up);
+  return upSign(up) > 0.0 ? std::make_pair(range.min[k], range.max[k]) : std::make_pair(-range.max[k], -range.min[k]);
 }
 
 /// A principal direction of one tile's round, numbered across all tiles for the views.
@@ -283,6 +293,9 @@ struct Studio::Impl {
   std::string pointClipText() const;
   /// "z < 9.79 m", "box 2.00 x 3.10 x 1.50 m": the clip in the scene's title.
   std::string pointClipCaption() const;
+  /// The up direction of the document (its parameters'; a scan or network takes the studio's
+  /// --up on opening). Cameras stand on it; heights, clips and the ceiling are along it.
+  UpAxis upAxis() const;
   std::vector<Rgb> inputPointColors();
   void buildNetworkLayers();
   void buildSelectionLayer();

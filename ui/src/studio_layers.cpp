@@ -225,8 +225,9 @@ std::vector<Rgb> Studio::Impl::inputPointColors() {
   std::vector<Rgb> colors(cloud.size(), kNeutral);
   switch (pointColor) {
     case PointColor::Height: {
-      auto map = scalarMap(inputBounds.min.z(), inputBounds.max.z());
-      for (std::size_t i = 0; i < cloud.size(); ++i) colors[i] = mapColor(map, cloud.worldPosition(i).z());
+      const auto [low, high] = heightLimits(inputBounds, upAxis());
+      auto map = scalarMap(low, high);
+      for (std::size_t i = 0; i < cloud.size(); ++i) colors[i] = mapColor(map, heightAlong(upAxis(), cloud.worldPosition(i)));
       break;
     }
     case PointColor::Intensity: {
@@ -627,7 +628,8 @@ void Studio::Impl::updateColorBar() {
   std::string title;
   if (layerVisible("input/points") && document.input()) {
     if (pointColor == PointColor::Height) {
-      map = scalarMap(inputBounds.min.z(), inputBounds.max.z());
+      const auto [low, high] = heightLimits(inputBounds, upAxis());
+      map = scalarMap(low, high);
       title = "height (m)";
     } else if (pointColor == PointColor::Intensity) {
       map = scalarMap(inputIntensities.first, inputIntensities.second);

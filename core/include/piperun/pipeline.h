@@ -11,6 +11,7 @@
 #include "piperun/stages/merge.h"
 #include "piperun/stages/placement.h"
 #include "piperun/stages/preprocess.h"
+#include "piperun/up_axis.h"
 
 #include <array>
 #include <cstdint>
@@ -33,6 +34,7 @@ std::optional<Stage> stageFromName(const std::string& name);
 struct PipelineParams {
   std::uint64_t seed = 1;  ///< Seed of every random choice; the same seed gives the same network.
   int rounds = 2;          ///< Rounds of directions → placement → extents per tile on points not yet explained.
+  UpAxis up = UpAxis::PlusZ;  ///< The scan's up direction (the joints stage's ground and level).
   PreprocessParams preprocess;
   DirectionsParams directions;
   PlacementParams placement;

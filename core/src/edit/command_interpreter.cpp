@@ -6,6 +6,7 @@
 #include "piperun/params.h"
 
 #include <fstream>
+#include <set>
 #include <sstream>
 
 namespace piperun {
@@ -114,11 +115,16 @@ CommandInterpreter::PendingRun CommandInterpreter::parseRun(const std::vector<st
     if (words.size() < 2) throw EditError("expected \"rerun STAGE key=value ...\"");
     run.last = stageNamed(words[1]);
     PipelineParams params = pipeline_->params();
+    std::set<std::string> keys;
+    for (const ParamDescription& description : describeParams()) keys.insert(description.key);
     for (std::size_t i = 2; i < words.size(); ++i) {
-      // Keys are the stage's own ("center_bandwidth=0.012"); "section.key=value" names any.
+      // Keys are the stage's own ("center_bandwidth=0.012") or top-level ones ("seed=3", "up=y");
+      // "section.key=value" names any.
       const bool qualified = words[i].find('.') < words[i].find('=');
+      const std::string key = words[i].substr(0, words[i].find('='));
+      const bool topLevel = !keys.count(words[1] + "." + key) && keys.count(key);
       try {
-        setParam(params, qualified ? words[i] : words[1] + "." + words[i]);
+        setParam(params, qualified || topLevel ? words[i] : words[1] + "." + words[i]);
       } catch (const std::invalid_argument& error) {
         throw EditError(error.what());
       }

@@ -385,13 +385,14 @@ std::optional<PipeSegment> legBeyondKink(const PointCloud& cloud, const PipeSegm
   return leg;
 }
 
-/// `directions` and, for each sloping gently (kMinKinkDeg to kMaxKinkDeg off level, z up), the level
-/// direction under it, unless one of `directions` runs so already: a sloping line turns off a level
-/// one (a drain leaving a header) whether or not another level pipe runs that way.
-std::vector<Eigen::Vector3d> withLevelUnderSlopes(const std::vector<Eigen::Vector3d>& directions) {
+/// `directions` and, for each sloping gently (kMinKinkDeg to kMaxKinkDeg off level across the unit
+/// `up`), the level direction under it, unless one of `directions` runs so already: a sloping line
+/// turns off a level one (a drain leaving a header) whether or not another level pipe runs that way.
+std::vector<Eigen::Vector3d> withLevelUnderSlopes(const std::vector<Eigen::Vector3d>& directions,
+                                                  const Eigen::Vector3d& up) {
   std::vector<Eigen::Vector3d> all = directions;
   for (const Eigen::Vector3d& direction : directions) {
-    const Eigen::Vector3d level(direction.x(), direction.y(), 0.0);
+    const Eigen::Vector3d level = direction - direction.dot(up) * up;
     if (level.norm() < 1e-9) continue;
     const double slope = degrees(std::acos(std::min(1.0, level.norm())));
     if (slope < kMinKinkDeg || slope > kMaxKinkDeg) continue;
@@ -416,7 +417,8 @@ bool insideAnotherTube(const PipeSegment& piece, const std::vector<PipeSegment>&
 }  // namespace
 
 GentleKinks splitAtGentleKinks(const PointCells& cells, std::vector<PipeSegment>& pipes,
-                               const std::vector<Eigen::Vector3d>& directions, const JointsParams& params) {
+                               const std::vector<Eigen::Vector3d>& directions, const Eigen::Vector3d& up,
+                               const JointsParams& params) {
   const PointCloud& cloud = cells.cloud();
   GentleKinks kinks;
   for (std::size_t a = 0; a < pipes.size(); ++a) {
@@ -432,7 +434,7 @@ GentleKinks splitAtGentleKinks(const PointCells& cells, std::vector<PipeSegment>
     for (std::uint32_t i : pipe.inliers) explained[i] = 1;
   }
   const double legReach = kMaxOvershoot + params.maxCompletionLength;
-  const std::vector<Eigen::Vector3d> legDirections = withLevelUnderSlopes(directions);
+  const std::vector<Eigen::Vector3d> legDirections = withLevelUnderSlopes(directions, up);
   const std::size_t found = pipes.size();
   std::vector<std::optional<PipeSegment>> legs(2 * found);
   tbb::parallel_for(std::size_t{0}, legs.size(), [&](std::size_t key) {

@@ -138,12 +138,12 @@ std::optional<PieceOnLine> pieceOnLine(const PipeSegment& piece, const PipeSegme
 /// reaching below it is a fit to the floor's points by a riser's foot, not a pipe.
 class Ground {
  public:
-  Ground(const PointCloud* planes, const PointCloud& cloud) {
+  Ground(const PointCloud* planes, const PointCloud& cloud, const Eigen::Vector3d& up) : up_(up) {
     if (!planes || planes->normals.empty()) return;
     const double minUp = std::cos(radians(kMaxFloorTiltDeg));
     std::vector<double> heights;
     for (std::size_t i = 0; i < planes->size(); ++i) {
-      if (std::fabs(planes->normals[i].z()) >= minUp) heights.push_back(planes->positions[i].z());
+      if (std::fabs(planes->normals[i].cast<double>().dot(up)) >= minUp) heights.push_back(heightOf(planes->positions[i]));
     }
     if (heights.empty()) return;
     // The lowest level holding a good share of the floors' points (a stray low patch does not count).
@@ -165,25 +165,28 @@ class Ground {
     const double height = sum / static_cast<double>(count);
     // A floor with the scan under it (a deck over pipes, a camera's frame) is no ground.
     const auto below = std::count_if(cloud.positions.begin(), cloud.positions.end(),
-                                     [&](const Eigen::Vector3f& p) { return p.z() < height - kLevelStep; });
+                                     [&](const Eigen::Vector3f& p) { return heightOf(p) < height - kLevelStep; });
     if (static_cast<double>(below) <= kMaxShareBelowGround * static_cast<double>(cloud.size())) height_ = height;
   }
 
   /// Whether the tube of `pipe` reaches below the ground by more than the floor's noise.
   bool under(const PipeSegment& pipe) const {
     if (!height_) return false;
-    const Eigen::Vector3d axis = unitAxis(pipe);
-    const double lowest = std::min(pipe.start.z(), pipe.end.z()) -
-                          pipe.radius * std::sqrt(std::max(0.0, 1.0 - axis.z() * axis.z()));
+    const double rise = unitAxis(pipe).dot(up_);
+    const double lowest = std::min(pipe.start.dot(up_), pipe.end.dot(up_)) -
+                          pipe.radius * std::sqrt(std::max(0.0, 1.0 - rise * rise));
     return lowest < *height_ - kGroundTolerance;
   }
 
  private:
+  double heightOf(const Eigen::Vector3f& p) const { return p.cast<double>().dot(up_); }
+
   static constexpr double kMaxFloorTiltDeg = 10.0;      // Plane points whose normals lie this near vertical are floors'.
   static constexpr double kLevelStep = 0.02;            // Floors' heights are binned this finely (m).
   static constexpr double kMinGroundShare = 0.05;       // The ground's level holds this share of the floors' points...
   static constexpr double kMaxShareBelowGround = 0.001; // ...and at most this share of the scan lies under it.
   static constexpr double kGroundTolerance = 0.005;     // A tube may reach this far below it (m): a pipe lying on it.
+  Eigen::Vector3d up_;
   std::optional<double> height_;
 };
 
@@ -238,9 +241,9 @@ std::size_t carryOnCappedLegs(const PointCloud& cloud, const std::vector<Complet
 JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Ground& ground, const PointCells& cells,
                     const JointsParams& params, Progress& progress) {
   std::vector<PipeSegment> pipes = input.pipes;
-  const GentleKinks kinks = splitAtGentleKinks(cells, pipes, networkDirections(input.pipes), params);
+  const GentleKinks kinks = splitAtGentleKinks(cells, pipes, networkDirections(input.pipes), input.up, params);
   const std::size_t foundCount = pipes.size();  // The input pipes and the legs found beyond gentle bends.
-  const JointsInput split{input.cloud, pipes};
+  const JointsInput split{input.cloud, pipes, nullptr, input.up};
   std::vector<char> explained(input.cloud.size(), 0);
   for (const auto& pipe : pipes) {
     for (std::uint32_t i : pipe.inliers) explained[i] = 1;
@@ -268,7 +271,7 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Gr
     // One round of completions of the pipes from `lookingFrom` on (of all, for legs seen only on
     // their bends); whether any was adopted.
     const auto completeRound = [&](bool fromBends) {
-      const JointsInput current{input.cloud, pipes};
+      const JointsInput current{input.cloud, pipes, nullptr, input.up};
       std::vector<Completion> completions = completeFreeEnds(current, params, explainedByPipes, resolution, planes,
                                                              fromBends ? 0 : lookingFrom, cells, fromBends);
       const auto found = completions.size();
@@ -556,7 +559,7 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   // until all left do.
   std::vector<PipeSegment> pipes = input.pipes;
   const joints::PlaneCells planes(input.planes);
-  const joints::Ground ground(input.planes, input.cloud);
+  const joints::Ground ground(input.planes, input.cloud, input.up);
   const auto pipesBefore = pipes.size();
   pipes.erase(std::remove_if(pipes.begin(), pipes.end(), [&](const PipeSegment& pipe) { return ground.under(pipe); }),
               pipes.end());
@@ -565,7 +568,7 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   const PointCells cells(input.cloud, std::max(params.minSearchDistance, 0.25));
   std::size_t dropped = 0;
   for (;;) {
-    joints::JoinedOnce joined = joints::joinOnce({input.cloud, pipes}, planes, ground, cells, params, progress);
+    joints::JoinedOnce joined = joints::joinOnce({input.cloud, pipes, nullptr, input.up}, planes, ground, cells, params, progress);
     if (joined.unjoined.empty()) {
       JointsResult& result = joined.result;
       result.diagnostics.unjoinedPipes = dropped;

@@ -117,6 +117,8 @@ SceneSummary generateScene(const SceneParams& params, PipeNetwork& truth, const 
   summary.stations = stationCount;
   const std::size_t elementCount = layout.truth.pipes.size() + layout.truth.joints.size();
   std::vector<std::int64_t> pointsPerElement(elementCount + 1, 0);
+  const bool turned = params.up != UpAxis::PlusZ;
+  const Eigen::Matrix3d turn = turnZUpTo(params.up);
   PointChunk chunk;
   auto flush = [&] {
     if (chunk.empty()) return;
@@ -129,6 +131,9 @@ SceneSummary generateScene(const SceneParams& params, PipeNetwork& truth, const 
     scanner.scan(layout.stations[s], s, settings, [&](synth::ScanStrip&& strip, double fraction) {
       if (registered) {
         for (Eigen::Vector3d& position : strip.positions) position = *registered * position;
+      }
+      if (turned) {
+        for (Eigen::Vector3d& position : strip.positions) position = turn * position;
       }
       for (std::size_t i = 0; i < strip.positions.size(); ++i) {
         chunk.positions.push_back(strip.positions[i]);
@@ -149,6 +154,15 @@ SceneSummary generateScene(const SceneParams& params, PipeNetwork& truth, const 
   flush();
 
   truth = std::move(layout.truth);
+  if (turned) {
+    for (Pipe& pipe : truth.pipes) {
+      pipe.start = turn * pipe.start;
+      pipe.end = turn * pipe.end;
+    }
+    for (Joint& joint : truth.joints) {
+      for (Eigen::Vector3d& point : joint.axis) point = turn * point;
+    }
+  }
   for (Pipe& pipe : truth.pipes) pipe.inlierCount = pointsPerElement[static_cast<std::size_t>(pipe.id)];
   summary.pipes = static_cast<int>(truth.pipes.size());
   for (const Joint& joint : truth.joints) {

@@ -79,6 +79,9 @@ struct JointsInput {
   /// known: a pipe completed over points lying by them is the plane's residue (a floor's seam), and
   /// the lowest of the floors, with no point under it, is the ground no pipe reaches below.
   const PointCloud* planes = nullptr;
+  /// The scan's unit up direction: the ground lies across it, and a gently sloping pipe turns off
+  /// the level direction under it.
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
 };
 
 /// The joined network in the cloud's frame. The pipes keep their input order, less those reaching

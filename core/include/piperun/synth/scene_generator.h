@@ -4,6 +4,7 @@
 #include "piperun/pipe_network.h"
 #include "piperun/point_cloud.h"
 #include "piperun/progress.h"
+#include "piperun/up_axis.h"
 
 #include <cstdint>
 #include <functional>
@@ -32,6 +33,9 @@ struct SceneParams {
   /// Share of the rays next to a depth edge (a silhouette) that return a range between the near
   /// and the far surface, as a laser beam straddling the edge does (mixed pixels, 0–1).
   double mixedPixelShare = 0.0;
+  /// The scene's up direction: the z-up scene is turned so that this axis is up, points and truth
+  /// alike, as a scan written by a tool that puts y up.
+  UpAxis up = UpAxis::PlusZ;
 };
 
 struct SceneSummary {

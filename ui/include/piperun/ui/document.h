@@ -25,13 +25,15 @@ class Document {
 
   /// Opens a scan (any point format core reads) whose coordinates are in `scanUnits`
   /// (lengthUnitNames(); empty: the unit the file declares, else metres), a network (.json) or a
-  /// project (.piperun, whose scan is read in the unit it records). Throws InputError.
+  /// project (.piperun, whose scan is read in the unit it records). A scan or network has `up` as
+  /// its up direction (the parameter up; none given: the one a network records, else z); a project
+  /// keeps its own. Throws InputError.
   static Document open(const std::filesystem::path& path, Progress& progress = Progress::none(),
-                       const std::string& scanUnits = "");
-  /// `cloud`, read from `path` in `scanUnits`, with a new pipeline.
+                       const std::string& scanUnits = "", std::optional<UpAxis> up = std::nullopt);
+  /// `cloud`, read from `path` in `scanUnits`, with a new pipeline whose up direction is `up`.
   static Document fromScan(std::shared_ptr<const PointCloud> cloud, const std::filesystem::path& path,
-                           const std::string& scanUnits = "m");
-  static Document fromNetwork(PipeNetwork network, const std::filesystem::path& path);
+                           const std::string& scanUnits = "m", UpAxis up = UpAxis::PlusZ);
+  static Document fromNetwork(PipeNetwork network, const std::filesystem::path& path, UpAxis up = UpAxis::PlusZ);
   /// A project as openProject() gave it; its scan is read when it is there (else the network
   /// opens alone, with a warning). `path` is the file it came from.
   static Document fromProject(OpenedProject opened, const std::filesystem::path& path,

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 
 class vtkRenderWindow;
@@ -32,6 +33,9 @@ struct StudioOptions {
   /// The unit of the coordinates of the scans this studio opens (lengthUnitNames(); empty: the unit
   /// a file declares, else metres); a project's scan is read in the unit the project records.
   std::string scanUnits;
+  /// The up direction of the scans and networks this studio opens (none: z, or the one a network
+  /// records; a project keeps its own).
+  std::optional<UpAxis> up;
   /// Autosave the project after this many edits (undo and redo count); 0: never.
   int autosaveEdits = 5;
   /// On opening a project with its scan, recompute the stages that were fresh when it was saved

@@ -1,0 +1,21 @@
+#pragma once
+// `--up`: the scan's up direction, for every tool that reconstructs or shows scans.
+
+#include "piperun/up_axis.h"
+
+#include <CLI/CLI.hpp>
+
+#include <string>
+
+namespace piperun::app {
+
+/// `--up AXIS` (x, y, z, -x, -y, -z), read into `up`; left empty when not given, for the parameter
+/// document's (default z).
+inline void addUpOption(CLI::App& app, std::string& up) {
+  app.add_option("--up", up,
+                 "The scan's up direction: x, y, z, -x, -y or -z (overrides the parameter up; default z, as "
+                 "scanners, LAS and E57 have it)")
+      ->check(CLI::IsMember(upAxisNames()));
+}
+
+}  // namespace piperun::app
