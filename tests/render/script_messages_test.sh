@@ -4,9 +4,10 @@
 # and box. The points' size (1 pixel at start on a scan of over 4 million points), their strays, their
 # budget (the scene's title counts the points drawn when a layer is over it). Selecting a tile:
 # its first direction, the next and previous tile (wrapping round); fly with nothing selected goes there.
-# Usage: script_messages_test.sh PIPERUN_RENDER PIPERUN SCENE ROOFED_SCENE NETWORK WORK_DIR
+# The up axis set in a script: the ceiling looked for along it.
+# Usage: script_messages_test.sh PIPERUN_RENDER PIPERUN SCENE ROOFED_SCENE NETWORK WORK_DIR ROOFED_Y_UP_SCENE
 set -uo pipefail
-render=$1 piperun=$2 scene=$3 roofed=$4 network=$5 work=$6
+render=$1 piperun=$2 scene=$3 roofed=$4 network=$5 work=$6 roofed_y_up=$7
 mkdir -p "$work"
 failures=0
 
@@ -39,6 +40,13 @@ expect 2 "script\.txt:1: Z_MIN must be below Z_MAX" "$scene" "clip 1.5 0.5" --no
 expect 2 "script\.txt:1: heights must be finite numbers \(metres\)" "$scene" "clip inf" --no-run
 expect 2 "script\.txt:1: expected Z_MAX as a number, got 'high'" "$scene" "clip high" --no-run
 expect 2 "script\.txt:1: no points: this document is a network" "$network" "clip 1.5"
+# Under the roof with y up, taken as z up there is no ceiling (the roof is a wall); set up=y stands
+# the cameras on y and finds the roof along it, and after the run as well.
+expect 2 "script\.txt:1: no ceiling over the network to clip" "$roofed_y_up" "clip toggle"
+expect 0 "^parameters set; the cameras stand on y" "$roofed_y_up" "set up=y"
+expect 0 "^points above 3\.[0-9][0-9] m hidden" "$roofed_y_up" "set up=y\nclip toggle\nclip toggle"
+expect 0 "^points above 3\.[0-9][0-9] m hidden" "$roofed_y_up" "rerun joints up=y\nclip toggle\nclip toggle"
+expect 0 "^points above 3\.[0-9][0-9] m hidden" "$roofed_y_up" "clip toggle\nclip toggle" --up y
 
 # The scene's point size.
 expect 0 "^scene points drawn at 3 px" "$scene" "points size larger" --no-run

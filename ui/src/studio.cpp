@@ -274,6 +274,7 @@ void Studio::Impl::open(Document opened) {
   pointClip.reset();
   lastPointClip.reset();
   firstClipChosen = false;
+  shownUp = upAxis();
   // Millions of 2-pixel points seen whole are a solid block; at 1 pixel the structure shows.
   scenePointSize = document.input() && document.input()->size() > kDenseScanPoints ? 1 : 2;
   straysHidden = false;
@@ -329,6 +330,23 @@ void Studio::Impl::chooseFirstClip() {
 }
 
 UpAxis Studio::Impl::upAxis() const { return document.project().params.up; }
+
+bool Studio::Impl::followUpAxis() {
+  if (upAxis() == shownUp) return false;
+  shownUp = upAxis();
+  for (auto* clip : {&pointClip, &lastPointClip}) {
+    if (*clip && !(*clip)->min.allFinite()) clip->reset();  // A height clip; a box stays.
+  }
+  // The ceiling looked for along the old axis was none: look along the new one.
+  if (!pointClip) {
+    firstClipChosen = false;
+    chooseFirstClip();
+  }
+  resetSceneCamera();
+  resetSphereCamera();
+  buildPointLayers();
+  return true;
+}
 
 std::string Studio::Impl::pointClipText() const {
   if (!pointClip) return "points not clipped";
@@ -847,6 +865,7 @@ std::string Studio::Impl::startRun(const CommandInterpreter::PendingRun& run) {
 CommandOutcome Studio::Impl::finishRun(const CommandInterpreter::PendingRun& run) {
   CommandOutcome outcome = interpreter->finishRun(run);
   takeResults();
+  followUpAxis();
   rebuildAll();
   if (layers.count("plane/points")) resetPlaneCamera();
   // Edits that could not be carried onto the new network are listed, never dropped silently.

@@ -276,9 +276,11 @@ void Studio::Impl::registerCommands() {
                    throw CommandError(error.what());
                  }
                  recordPipelineState(document.project(), *pipeline);
+                 const bool turned = followUpAxis();
+                 if (turned) applyPointClip();
                  selectStage(selectedStage);
                  updateOverlays();
-                 return std::string("parameters set");
+                 return std::string(turned ? "parameters set; the cameras stand on " + toString(upAxis()) : "parameters set");
                });
 
   commands.add("stage", "STAGE", "choose the stage the slider edits", [this](const std::vector<std::string>& args) {

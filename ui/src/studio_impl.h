@@ -296,6 +296,10 @@ struct Studio::Impl {
   /// The up direction of the document (its parameters'; a scan or network takes the studio's
   /// --up on opening). Cameras stand on it; heights, clips and the ceiling are along it.
   UpAxis upAxis() const;
+  /// After the parameter up changed (set, rerun): the cameras stand on the new axis, a height clip
+  /// along the old one is dropped, the ceiling is looked for along the new one (unless a box
+  /// clips) and the points are coloured anew. Whether it had changed.
+  bool followUpAxis();
   std::vector<Rgb> inputPointColors();
   void buildNetworkLayers();
   void buildSelectionLayer();
@@ -434,6 +438,7 @@ struct Studio::Impl {
   std::optional<BoundingBox> pointClip;
   std::optional<BoundingBox> lastPointClip;  ///< What `clip toggle` brings back.
   bool firstClipChosen = false;                        ///< chooseFirstClip has decided, or the user clipped.
+  UpAxis shownUp = UpAxis::PlusZ;  ///< The up direction the cameras stand on and the colours and clip follow.
   Selection selection;
   int selectedDirection = -1;
   Stage selectedStage = Stage::Placement;
