@@ -224,12 +224,16 @@ bool assign(const FieldRef& ref, const ordered_json& value) {
       ref);
 }
 
-const char* typeName(const FieldRef& ref) {
+std::string typeName(const FieldRef& ref) {
   return std::visit(
-      [](auto* target) -> const char* {
+      [](auto* target) -> std::string {
         using T = std::remove_pointer_t<decltype(target)>;
         if constexpr (std::is_same_v<T, bool>) return "true or false";
-        if constexpr (std::is_same_v<T, UpAxis>) return "one of \"x\", \"y\", \"z\", \"-x\", \"-y\", \"-z\"";
+        if constexpr (std::is_same_v<T, UpAxis>) {
+          std::string names;
+          for (const std::string& name : upAxisNames()) names += (names.empty() ? "\"" : ", \"") + name + "\"";
+          return "one of " + names;
+        }
         if constexpr (std::is_same_v<T, double>) return "a number";
         if constexpr (std::is_same_v<T, std::uint64_t>) return "a non-negative integer";
         return "an integer";

@@ -28,10 +28,10 @@ struct GentleKinks {
 /// corner, its axis refitted on them at its radius, and ends at the corner of the refitted axes;
 /// the inliers it gives up go to the other pipe where they lie on its surface. Then each end of a
 /// pipe looks for the leg beyond such a bend that no stage found, along one of `directions` (the
-/// network's) or the level direction under one sloping gently (across the unit `up`), from its own inliers and the
-/// points no pipe explains; a leg found is split from the pipe in the same way and appended to
-/// `pipes` (not when `params.maxCompletionLength` is 0, which turns the searches for missed pipes
-/// off). `cells`: the scan's points filed by cell.
+/// network's) or the level direction under one sloping gently (across the unit `up`), from its own
+/// inliers and the points no pipe explains; a leg found is split from the pipe in the same way and
+/// appended to `pipes` (not when `params.maxCompletionLength` is 0, which turns the searches for
+/// missed pipes off). `cells`: the scan's points filed by cell.
 GentleKinks splitAtGentleKinks(const PointCells& cells, std::vector<PipeSegment>& pipes,
                                const std::vector<Eigen::Vector3d>& directions, const Eigen::Vector3d& up,
                                const JointsParams& params);
