@@ -7,6 +7,7 @@
 #include "piperun/edit/pipe_fit.h"
 
 #include "angles.h"
+#include "cell_table.h"
 
 #include <algorithm>
 #include <cmath>
@@ -139,15 +140,11 @@ std::map<int, int> matchPipes(const PipeNetwork& from, const PipeNetwork& to) {
       visit(Eigen::Vector3i((p / cell).array().floor().cast<int>()));
     }
   };
-  const auto key = [](const Eigen::Vector3i& c) {
-    const auto part = [](int v) { return static_cast<std::uint64_t>(static_cast<std::uint32_t>(v) & 0x1FFFFFu); };
-    return part(c.x()) | (part(c.y()) << 21) | (part(c.z()) << 42);
-  };
   std::unordered_map<std::uint64_t, std::vector<std::size_t>> grid;
   for (std::size_t i = 0; i < to.pipes.size(); ++i) {
     if (to.pipes[i].status == PipeStatus::Deleted) continue;
     forEachSampleCell(to.pipes[i], [&](const Eigen::Vector3i& c) {
-      auto& bucket = grid[key(c)];
+      auto& bucket = grid[cellKey(c)];
       if (bucket.empty() || bucket.back() != i) bucket.push_back(i);
     });
   }
@@ -160,7 +157,7 @@ std::map<int, int> matchPipes(const PipeNetwork& from, const PipeNetwork& to) {
       for (int dx = -1; dx <= 1; ++dx) {
         for (int dy = -1; dy <= 1; ++dy) {
           for (int dz = -1; dz <= 1; ++dz) {
-            const auto found = grid.find(key(c + Eigen::Vector3i(dx, dy, dz)));
+            const auto found = grid.find(cellKey(c + Eigen::Vector3i(dx, dy, dz)));
             if (found != grid.end()) near.insert(near.end(), found->second.begin(), found->second.end());
           }
         }
