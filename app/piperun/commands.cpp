@@ -37,16 +37,18 @@ namespace {
 using nlohmann::json;
 
 /// A network file's network, or the reviewed network of a project (.piperun), whose metadata
-/// then names the project's scan.
+/// then names the project's scan, and its up axis when that is not z (as reconstruct records it).
 PipeNetwork readNetworkOrProject(const std::string& path, NetworkMetadata* metadata = nullptr) {
   if (!isProjectFile(path)) return readNetwork(path, metadata);
   Project project = readProject(path);
   if (metadata) {
     (*metadata)["project"] = "reviewed network, " + std::to_string(project.edits.position()) + " edits";
     if (!project.scanPath.empty()) (*metadata)["scan"] = project.scanPath.string();
+    if (project.params.up != UpAxis::PlusZ) (*metadata)["up"] = toString(project.params.up);
   }
   return project.edits.network();
 }
+
 
 /// The process's peak resident memory so far (MB), as /usr/bin/time reports it.
 double peakResidentMegabytes() {
@@ -516,6 +518,7 @@ int runReconstruct(const ReconstructOptions& options) {
   writeNetwork(options.output, network, metadata);
   ExportOptions exportOptions;
   exportOptions.pcfBore = pcfBoreFromString(options.pcfBore).value_or(PcfBore::Nominal);
+  exportOptions.up = params.up;
   if (!exports.empty()) {
     const PipeNetwork exported = options.acceptedOnly ? acceptedPart(network) : network;
     for (const auto& target : exports) exportNetwork(exported, target.format, target.path, exportOptions);
@@ -629,11 +632,13 @@ int runExport(const ExportCommandOptions& options) {
     throw std::invalid_argument("cannot tell the export format from \"" + options.output +
                                 "\": name a .obj .ply .csv .dxf or .pcf file, or give --format");
   }
-  const PipeNetwork read = readNetworkOrProject(options.input);
+  NetworkMetadata metadata;
+  const PipeNetwork read = readNetworkOrProject(options.input, &metadata);
   const PipeNetwork network = options.acceptedOnly ? acceptedPart(read) : read;
   ExportOptions exportOptions;
   exportOptions.chordTolerance = options.chordTolerance;
   exportOptions.pcfBore = pcfBoreFromString(options.pcfBore).value_or(PcfBore::Nominal);
+  exportOptions.up = options.up.empty() ? recordedUpAxis(metadata, options.input) : upAxisFromString(options.up);
   exportNetwork(network, *format, options.output, exportOptions);
 
   int pipes = 0, elbows = 0, tees = 0, boundaries = 0, leftOut = 0;

@@ -85,6 +85,7 @@ struct ExportCommandOptions {
   double chordTolerance = 0.001;  ///< Mesh tessellation, metres.
   std::string pcfBore = "nominal";  ///< PCF bores: "nominal" or "outside".
   bool acceptedOnly = false;        ///< Leave out what is proposed and the joints on it (acceptedPart).
+  std::string up;                   ///< The network's up axis; empty: the one it records, else z.
 };
 int runExport(const ExportCommandOptions& options);
 

@@ -167,6 +167,11 @@ int main(int argc, char** argv) {
       ->transform(CLI::IsMember({"nominal", "outside"}, CLI::ignore_case))
       ->capture_default_str();
   exportCommand->add_flag("--accepted-only", exportOptions.acceptedOnly, kAcceptedOnlyHelp);
+  exportCommand
+      ->add_option("--up", exportOptions.up,
+                   "The network's up axis, x, y, z, -x, -y or -z (default: the one `reconstruct --up` recorded, else "
+                   "z): a PCF is written turned so that it is z, as isometrics draw elevations")
+      ->check(CLI::IsMember(piperun::upAxisNames()));
   exportCommand->add_option("--chord-tolerance", exportOptions.chordTolerance,
                             "Meshes: largest gap between a tube's polygon and its circle, metres")
       ->check(CLI::PositiveNumber)

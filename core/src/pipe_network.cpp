@@ -20,6 +20,16 @@ double Joint::length() const {
   return total;
 }
 
+void PipeNetwork::turn(const Eigen::Matrix3d& turn) {
+  for (Pipe& pipe : pipes) {
+    pipe.start = turn * pipe.start;
+    pipe.end = turn * pipe.end;
+  }
+  for (Joint& joint : joints) {
+    for (Eigen::Vector3d& point : joint.axis) point = turn * point;
+  }
+}
+
 Eigen::Vector3d Joint::position() const {
   if (axis.empty()) return Eigen::Vector3d::Zero();
   if (type == JointType::Tee) return axis.front();

@@ -233,6 +233,14 @@ case "$CASE" in
     run 1 reconstruct "$WORK/y.xyz" -o "$WORK/net.json" --set up=north
     expect_one_line_error "parameter up: 'north' is not one of"
     run 1 generate --up sideways -o "$WORK/a.ply"
+    # export: a PCF is written with the recorded up axis as z (East, North, Up), so the turned
+    # truth's is the z-up truth's; --up overrides the record.
+    run 0 export "$WORK/z.json" -o "$WORK/z.pcf"
+    run 0 export "$WORK/y.json" -o "$WORK/y.pcf"
+    cmp -s "$WORK/z.pcf" "$WORK/y.pcf" || fail "the y-up truth's PCF is not the z-up truth's"
+    run 0 export "$WORK/y.json" -o "$WORK/y-as-z.pcf" --up z
+    cmp -s "$WORK/z.pcf" "$WORK/y-as-z.pcf" && fail "export --up z did not override the recorded axis"
+    run 1 export "$WORK/y.json" -o "$WORK/y.pcf" --up w
     ;;
   params)
     run 0 params

@@ -656,6 +656,31 @@ TEST(Export, PcfRunsWithElbowAndTee) {
   EXPECT_TRUE(containsPoint(open, {1000, 0, 200}, 0.06));
 }
 
+TEST(Export, PcfIsWrittenWithTheNetworksUpAxisAsZ) {
+  // The sample network turned so that each axis is up, told so: its PCF is the z-up network's,
+  // byte for byte (isometrics draw elevations along z). The other formats keep its co-ordinates.
+  TempDir dir;
+  exportNetwork(sampleNetwork(), ExportFormat::Pcf, dir / "z.pcf");
+  exportNetwork(sampleNetwork(), ExportFormat::Obj, dir / "z.obj");
+  const std::string upright = test::readFile(dir / "z.pcf");
+  for (const std::string& name : upAxisNames()) {
+    const UpAxis up = upAxisFromString(name);
+    PipeNetwork turned = sampleNetwork();
+    turned.turn(turnZUpTo(up));
+    ExportOptions options;
+    options.up = up;
+    exportNetwork(turned, ExportFormat::Pcf, dir / "turned.pcf", options);
+    EXPECT_EQ(test::readFile(dir / "turned.pcf"), upright) << name;
+    exportNetwork(turned, ExportFormat::Obj, dir / "turned.obj", options);
+    EXPECT_EQ(test::readFile(dir / "turned.obj") == test::readFile(dir / "z.obj"), up == UpAxis::PlusZ) << name;
+    // Not told, the turned network's PCF lies on its side.
+    if (up != UpAxis::PlusZ) {
+      exportNetwork(turned, ExportFormat::Pcf, dir / "untold.pcf");
+      EXPECT_NE(test::readFile(dir / "untold.pcf"), upright) << name;
+    }
+  }
+}
+
 TEST(Export, PcfNominalBoresAgreeAtEveryConnectionWithReducersWhereTheSizeChanges) {
   // A 6" pipe (fitted 3 mm wide, as scans fit them) turns through an elbow into an 8" one, which
   // continues across a gap into a 6" pipe carrying a 2" branch.

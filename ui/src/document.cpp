@@ -40,16 +40,8 @@ Document Document::open(const std::filesystem::path& path, Progress& progress, c
   if (isNetworkFile(path)) {
     NetworkMetadata metadata;
     PipeNetwork network = readNetwork(path, &metadata);
-    // `piperun reconstruct --up` records the axis.
-    const auto recorded = metadata.find("up");
-    if (!up && recorded != metadata.end()) {
-      try {
-        up = upAxisFromString(recorded->second);
-      } catch (const std::invalid_argument&) {
-        throw InputError(path, "/metadata/up", "unknown up axis \"" + recorded->second + "\"");
-      }
-    }
-    return fromNetwork(std::move(network), path, up.value_or(UpAxis::PlusZ));
+    const UpAxis recorded = recordedUpAxis(metadata, path);
+    return fromNetwork(std::move(network), path, up.value_or(recorded));
   }
   std::vector<std::string> warnings;
   std::string units = scanUnits;

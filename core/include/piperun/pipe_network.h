@@ -71,6 +71,8 @@ struct PipeNetwork {
   /// Throws std::invalid_argument naming the first problem: duplicate ids, a joint or run that
   /// refers to an unknown pipe or joint, a non-positive radius, an axis with fewer than two points.
   void validate() const;
+  /// Turns every position (pipe ends, joint axes) about the origin by the rotation `turn`.
+  void turn(const Eigen::Matrix3d& turn);
 };
 
 std::string toString(PipeStatus status);

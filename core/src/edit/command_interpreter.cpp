@@ -201,7 +201,9 @@ CommandOutcome CommandInterpreter::dispatch(const std::vector<std::string>& word
       throw EditError("cannot tell the export format from \"" + words[1] + "\": name a .obj .ply .csv .dxf or .pcf file");
     }
     const PipeNetwork& network = project_.edits.network();
-    exportNetwork(acceptedOnly ? acceptedPart(network) : network, *format, words[1]);
+    ExportOptions options;
+    options.up = project_.params.up;
+    exportNetwork(acceptedOnly ? acceptedPart(network) : network, *format, words[1], options);
     return {"exported " + words[1] + " (" + toString(*format) + (acceptedOnly ? ", accepted only)" : ")"), false, {}};
   }
   if (const auto edit = parseEdit(words)) {

@@ -73,7 +73,12 @@ int meshSegments(double radius, const ExportOptions& options) {
 void exportNetwork(const PipeNetwork& network, ExportFormat format, const std::filesystem::path& path,
                    const ExportOptions& options) {
   checkOptions(options);
-  const auto elements = io::exportedElements(network);
+  std::optional<PipeNetwork> upright;
+  if (format == ExportFormat::Pcf && options.up != UpAxis::PlusZ) {
+    upright = network;
+    upright->turn(turnZUpTo(options.up).transpose());
+  }
+  const auto elements = io::exportedElements(upright ? *upright : network);
   std::optional<NominalSizes> sizes;
   if (format == ExportFormat::Csv || (format == ExportFormat::Pcf && options.pcfBore == PcfBore::Nominal)) {
     sizes = NominalSizes::shipped();

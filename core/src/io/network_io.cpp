@@ -322,6 +322,16 @@ void writeNetwork(const std::filesystem::path& path, const PipeNetwork& network,
 
 bool isNetworkFile(const std::filesystem::path& path) { return io::lowerExtension(path) == ".json"; }
 
+UpAxis recordedUpAxis(const NetworkMetadata& metadata, const std::filesystem::path& source) {
+  const auto recorded = metadata.find("up");
+  if (recorded == metadata.end()) return UpAxis::PlusZ;
+  try {
+    return upAxisFromString(recorded->second);
+  } catch (const std::invalid_argument&) {
+    throw InputError(source, "/metadata/up", "unknown up axis \"" + recorded->second + "\"");
+  }
+}
+
 PipeNetwork readNetwork(const std::filesystem::path& path, NetworkMetadata* metadata) {
   std::error_code error;
   if (!std::filesystem::is_regular_file(path, error)) throw InputError(path, "", "no such file");

@@ -154,15 +154,7 @@ SceneSummary generateScene(const SceneParams& params, PipeNetwork& truth, const 
   flush();
 
   truth = std::move(layout.truth);
-  if (turned) {
-    for (Pipe& pipe : truth.pipes) {
-      pipe.start = turn * pipe.start;
-      pipe.end = turn * pipe.end;
-    }
-    for (Joint& joint : truth.joints) {
-      for (Eigen::Vector3d& point : joint.axis) point = turn * point;
-    }
-  }
+  if (turned) truth.turn(turn);
   for (Pipe& pipe : truth.pipes) pipe.inlierCount = pointsPerElement[static_cast<std::size_t>(pipe.id)];
   summary.pipes = static_cast<int>(truth.pipes.size());
   for (const Joint& joint : truth.joints) {

@@ -6,6 +6,7 @@
 // spaces, so an element is named by its type and id: "pipe-12", "elbow-3", "tee-4", "boundary-5".
 
 #include "piperun/pipe_network.h"
+#include "piperun/up_axis.h"
 
 #include <filesystem>
 #include <optional>
@@ -35,6 +36,10 @@ struct ExportOptions {
   int minSegments = 8;    ///< Meshes: fewest sides around a tube.
   int maxSegments = 128;  ///< Meshes: most sides around a tube.
   PcfBore pcfBore = PcfBore::Nominal;  ///< PCF: the bores written.
+  /// The network's up direction. PCF co-ordinates are East, North, Up (isometrics draw elevations
+  /// along z), so a network with another axis up is turned so that it is z; the other formats keep
+  /// the network's co-ordinates, those of its scan.
+  UpAxis up = UpAxis::PlusZ;
 };
 
 /// "nominal", "outside".

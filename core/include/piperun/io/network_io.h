@@ -2,6 +2,7 @@
 // The piperun-network JSON format (docs/FORMATS.md): reading and writing pipe networks.
 
 #include "piperun/pipe_network.h"
+#include "piperun/up_axis.h"
 
 #include <filesystem>
 #include <map>
@@ -29,6 +30,9 @@ void writeNetwork(const std::filesystem::path& path, const PipeNetwork& network,
                   const NetworkMetadata& metadata = {});
 
 PipeNetwork readNetwork(const std::filesystem::path& path, NetworkMetadata* metadata = nullptr);
+/// The up axis a network's `metadata` records (`piperun reconstruct --up` writes "up"), z when it
+/// records none. Throws InputError (at /metadata/up of `source`) for an unknown axis.
+UpAxis recordedUpAxis(const NetworkMetadata& metadata, const std::filesystem::path& source);
 /// Whether the path names a network file (`.json`, any case).
 bool isNetworkFile(const std::filesystem::path& path);
 
