@@ -49,7 +49,6 @@ PipeNetwork readNetworkOrProject(const std::string& path, NetworkMetadata* metad
   return project.edits.network();
 }
 
-
 /// The process's peak resident memory so far (MB), as /usr/bin/time reports it.
 double peakResidentMegabytes() {
   rusage usage{};
