@@ -741,11 +741,16 @@ void Studio::Impl::updateOverlays() {
     status << "No file open: drop a scan or a network onto the window";
   } else {
     status << document.path().filename().string();
+    // What is taken for granted otherwise is said: a scan read in another unit than metres (in which
+    // everything is shown), and an up axis other than z.
+    std::vector<std::string> notes;
     if (document.input()) {
       status << "  " << document.input()->size() << " points";
-      // Everything shown is in metres; a scan in another unit says which it was read in.
-      if (document.project().scanUnits != "m") status << " (read in " << document.project().scanUnits << ")";
+      if (document.project().scanUnits != "m") notes.push_back("read in " + document.project().scanUnits);
     }
+    if (upAxis() != UpAxis::PlusZ) notes.push_back(toString(upAxis()) + " up");
+    for (std::size_t i = 0; i < notes.size(); ++i) status << (i == 0 ? " (" : ", ") << notes[i];
+    if (!notes.empty()) status << ")";
     status << "\n"
            << network.pipes.size() << " pipes  " << network.joints.size() << " joints  " << network.runs.size()
            << " runs";
