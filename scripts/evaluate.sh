@@ -1,10 +1,10 @@
 #!/bin/bash
 # Reconstructs generated scenes over several seeds and prints the accuracy of each and the mean.
 #   scripts/evaluate.sh [--preset small] [--seeds "1 2 3"] [--noise M] [--outliers F]
-#                       [--stations K] [--registration-error M] [--mixed-pixels F] [--up AXIS] [--pipes-only]
+#                       [--stations K] [--registration-error M] [--mixed-pixels F] [--up AXIS] [--roof] [--pipes-only]
 #                       [--until merge|joints] [--set key=value]... [--joints] [--runs N]
 # --up AXIS generates the scenes turned so that AXIS (x, y, -z, ...) is up and tells the pipeline so;
-# add --set up=z to reconstruct them as if z were up.
+# add --set up=z to reconstruct them as if z were up. --roof closes the scenes' rooms with a roof.
 # --pipes-only compares only straight pipes (the pipe-axis figures before joints); --until merge
 # stops the reconstruction before the joints stage (the same pipes, no joints); --joints also lists,
 # seed by seed, every truth elbow and tee missed and every spurious joint (piperun eval --joints).
@@ -29,6 +29,7 @@ stations=0
 registration_error=0
 mixed_pixels=0
 up=z
+roof=()
 sets=()
 eval_flags=()
 list_joints=0
@@ -43,6 +44,7 @@ while [ $# -gt 0 ]; do
     --registration-error) registration_error=$2; shift 2 ;;
     --mixed-pixels) mixed_pixels=$2; shift 2 ;;
     --up) up=$2; shift 2 ;;
+    --roof) roof=(--roof); shift ;;
     --set) sets+=(--set "$2"); shift 2 ;;
     --until) sets+=(--until "$2"); shift 2 ;;
     --pipes-only) eval_flags+=(--pipes-only); shift ;;
@@ -60,7 +62,7 @@ case "$runs" in '' | *[!0-9]* | 0) echo "evaluate.sh: --runs needs a positive co
 for seed in $seeds; do
   "$PIPERUN" -q generate --preset "$preset" --seed "$seed" --noise "$noise" --outliers "$outliers" \
     --stations "$stations" --registration-error "$registration_error" \
-    --mixed-pixels "$mixed_pixels" --up "$up" --labels -o "$work/scene.ply" --truth "$work/truth.json" >/dev/null
+    --mixed-pixels "$mixed_pixels" --up "$up" "${roof[@]}" --labels -o "$work/scene.ply" --truth "$work/truth.json" >/dev/null
   for ((run = 0; run < runs; ++run)); do
     pipeline_seed=$((seed + 100 * run))
     label="seed=$seed"

@@ -215,6 +215,7 @@ int runGenerate(const GenerateOptions& options) {
   params.registrationError = options.registrationError;
   params.mixedPixelShare = options.mixedPixels;
   params.up = upAxisFromString(options.up);
+  params.roof = options.roof;
 
   const auto start = std::chrono::steady_clock::now();
   ProgressBar bar(options.quiet);
@@ -246,6 +247,7 @@ int runGenerate(const GenerateOptions& options) {
     if (options.registrationError > 0.0) metadata["registration_error_m"] = std::to_string(options.registrationError);
     if (options.mixedPixels > 0.0) metadata["mixed_pixel_share"] = std::to_string(options.mixedPixels);
     if (params.up != UpAxis::PlusZ) metadata["up"] = options.up;
+    if (options.roof) metadata["roof"] = "true";
     writeNetwork(options.truth, truth, metadata);
   }
   bar.finish();

@@ -30,6 +30,7 @@ struct GenerateOptions {
   double registrationError = 0.0;
   double mixedPixels = 0.0;
   std::string up = "z";
+  bool roof = false;
   bool labels = false;
   bool quiet = false;
 };

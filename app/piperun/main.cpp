@@ -86,6 +86,9 @@ int main(int argc, char** argv) {
                               "a tool that writes y up gives a scan")
       ->check(CLI::IsMember(piperun::upAxisNames()))
       ->capture_default_str();
+  generateCommand->add_flag("--roof", generate.roof,
+                            "Close the room with a concrete roof slab at its height (the pipes keep the points they "
+                            "get without it)");
   generateCommand->add_flag("--labels", generate.labels,
                             "Also write each point's truth element id (label; 0 distractor, -1 outlier or mixed pixel)");
 

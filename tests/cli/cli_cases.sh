@@ -209,6 +209,11 @@ case "$CASE" in
     [ "$(stat -c %s "$WORK/d.ply")" -eq "$(stat -c %s "$WORK/g.ply")" ] || fail "mixed pixels changed the point count"
     grep -q '"mixed_pixel_share": "1.0' "$WORK/g.json" || fail "truth lacks mixed_pixel_share"
     run 1 generate --mixed-pixels 2 -o "$WORK/f.ply"
+    # A roof adds points and is recorded; the scene without one records none.
+    run 0 generate --preset small --seed 5 --density 0.2 --stations 2 --roof -o "$WORK/h.ply" --truth "$WORK/h.json"
+    [ "$(stat -c %s "$WORK/h.ply")" -gt "$(stat -c %s "$WORK/d.ply")" ] || fail "a roof added no points"
+    grep -q '"roof": "true"' "$WORK/h.json" || fail "truth lacks roof"
+    grep -q '"roof"' "$WORK/a.json" && fail "a scene without a roof records one"
     ;;
   up)
     # generate --up y turns the z-up scene, (x, y, z) -> (x, z, -y), every digit kept; the truth

@@ -445,6 +445,31 @@ TEST(GeneratorTest, MixedPixelsLieOnTheirRayBetweenTheSurfacesOfAnEdge) {
   EXPECT_EQ(clean.summary.mixedPixels, 0u);
 }
 
+TEST(GeneratorTest, ARoofAddsItsPointsOverTheRoomAndTakesNoneFromThePipes) {
+  SceneParams params = reducedSmall(3);
+  const Collected open = collect(params);
+  params.roof = true;
+  const Collected roofed = collect(params);
+  // The sampling is the open scene's: every pipe and joint keeps its hits (the truth's counts).
+  expectSameNetwork(open.truth, roofed.truth);
+  ASSERT_GT(roofed.positions.size(), open.positions.size());
+  // The points added are the roof's (distractor points at its height, the room's top) and the
+  // outliers that come with them.
+  const synth::OrientedBox room = synth::buildSceneLayout(params).room;
+  const double height = room.center.z() + room.halfExtents.z();
+  const auto atRoof = [&](const Collected& scene) {
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < scene.positions.size(); ++i) {
+      count += scene.labels[i] == 0 && std::abs(scene.positions[i].z() - height) < 5.0 * params.noiseSigma;
+    }
+    return count;
+  };
+  const double added = static_cast<double>(roofed.positions.size() - open.positions.size()) -
+                       static_cast<double>(roofed.summary.outliers - open.summary.outliers);
+  EXPECT_GT(added, 0.2 * static_cast<double>(open.positions.size()));
+  EXPECT_NEAR(static_cast<double>(atRoof(roofed) - atRoof(open)), added, 0.01 * added);
+}
+
 TEST(GeneratorTest, StationsStandInFreeSpace) {
   for (std::uint64_t seed = 1; seed <= 4; ++seed) {
     SceneParams params;

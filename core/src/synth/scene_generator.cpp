@@ -94,7 +94,17 @@ SceneSummary generateScene(const SceneParams& params, PipeNetwork& truth, const 
   progress.report("Laying out the scene", 0.0);
   synth::SceneLayout layout = synth::buildSceneLayout(params);
   progress.checkCancelled();
-  const synth::Scanner scanner(std::move(layout.surfaces));
+  std::vector<synth::Surface> roofed;
+  if (params.roof) {
+    roofed = layout.surfaces;
+    roofed.push_back(layout.roof);
+  }
+  // The sampling is calibrated on the scene without its roof (below), so a roof adds points and
+  // takes none from the pipes.
+  const synth::Scanner calibration(std::move(layout.surfaces));
+  const std::optional<synth::Scanner> withRoof =
+      params.roof ? std::optional<synth::Scanner>(std::in_place, std::move(roofed)) : std::nullopt;
+  const synth::Scanner& scanner = withRoof ? *withRoof : calibration;
   const int stationCount = static_cast<int>(layout.stations.size());
 
   synth::ScanSettings settings;
@@ -107,7 +117,7 @@ SceneSummary generateScene(const SceneParams& params, PipeNetwork& truth, const 
   // step gives the preset's point count (outliers come on top of the surface points).
   settings.angularStep = kCalibrationStep;
   std::uint64_t sparseHits = 0;
-  for (const Eigen::Vector3d& station : layout.stations) sparseHits += scanner.countHits(station, settings);
+  for (const Eigen::Vector3d& station : layout.stations) sparseHits += calibration.countHits(station, settings);
   const double wantedHits = targetPoints(params.preset) * params.densityScale / (1.0 + params.outlierFraction);
   settings.angularStep =
       std::max(kFinestStep,

@@ -1275,6 +1275,11 @@ SceneLayout LayoutBuilder::finish(std::vector<Eigen::Vector3d> stations) {
   }
   layout.room = OrientedBox{toWorld(Eigen::Vector3d(0.5 * width_, 0.5 * depth_, 0.5 * height_)), rotation,
                             Eigen::Vector3d(0.5 * width_, 0.5 * depth_, 0.5 * height_)};
+  constexpr double kRoof = 0.3;  // slab thickness (m), as the floor's
+  constexpr double kWall = 0.25;  // the roof covers the walls standing outside the room box
+  layout.roof = Surface{OrientedBox{toWorld(Eigen::Vector3d(0.5 * width_, 0.5 * depth_, height_ + 0.5 * kRoof)), rotation,
+                                    Eigen::Vector3d(0.5 * width_ + kWall, 0.5 * depth_ + kWall, 0.5 * kRoof)},
+                        0, 0.3f};
   for (const Eigen::Vector3d& station : stations) layout.stations.push_back(toWorld(station));
   return layout;
 }

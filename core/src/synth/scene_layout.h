@@ -15,6 +15,9 @@ struct SceneLayout {
   PipeNetwork truth;                      ///< Pipes 1..P, joints P+1..; runs are connected components.
   std::vector<Surface> surfaces;          ///< Labelled with truth ids; 0 for distractors.
   OrientedBox room;                       ///< The scene box (floor to roof height); outliers fall in it.
+  /// A concrete roof slab over the room and its walls (a distractor, label 0), scanned only when
+  /// SceneParams::roof asks for it.
+  Surface roof;
   /// Scanner positions, in free space 1.5–1.8 m above the floor, set up where they see the most
   /// piping (later stations: the most piping the earlier ones do not see).
   std::vector<Eigen::Vector3d> stations;

@@ -36,6 +36,9 @@ struct SceneParams {
   /// The scene's up direction: the z-up scene is turned so that this axis is up, points and truth
   /// alike, as a scan written by a tool that puts y up.
   UpAxis up = UpAxis::PlusZ;
+  /// Close the room with a concrete roof slab at its height (a pump house, a building). The
+  /// scanner's sampling is set without it, so the pipes get the points they get without a roof.
+  bool roof = false;
 };
 
 struct SceneSummary {
