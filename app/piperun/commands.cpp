@@ -565,7 +565,7 @@ int runReconstruct(const ReconstructOptions& options) {
   };
   const auto accepted = std::count_if(network.joints.begin(), network.joints.end(),
                                       [](const Joint& j) { return j.status == JointStatus::Accepted; });
-  if (pipeline.isFresh(Stage::Joints)) std::printf("joints: %zu elbows, %zu tees, %zu boundary joints (%zu accepted, %zu proposed), %zu runs, %zu %s completed beyond free ends (%zu between two ends, %zu carried on past the completion length), %zu %s found off pipes, %zu %s split and %zu %s found at gentle bends, %zu %s across hidden corners, %zu %s onto pipes running on thinly and %zu hardly seen, %zu %s between seen bends and %zu between unseen, %zu hidden %s from an end to a main, %zu %s merged into the pipe on whose line %s, %zu weakly supported %s left out for taking no joint, %zu %s reaching below the ground left out  [%.2f s]\n",
+  if (pipeline.isFresh(Stage::Joints)) std::printf("joints: %zu elbows, %zu tees, %zu boundary joints (%zu accepted, %zu proposed), %zu runs, %zu %s completed beyond free ends (%zu between two ends, %zu carried on past the completion length), %zu %s found off pipes, %zu %s split and %zu %s found at gentle bends, %zu %s across hidden corners, %zu %s onto pipes running on thinly and %zu hardly seen, %zu %s between seen bends and %zu between unseen, %zu hidden %s from an end to a main, %zu %s merged into the pipe on whose line %s, %zu weakly supported %s left out for taking no joint, %zu %s reaching below the ground left out, %zu %s over a removed plane's edge left out  [%.2f s]\n",
               static_cast<std::size_t>(countJoints(JointType::Elbow)), static_cast<std::size_t>(countJoints(JointType::Tee)),
               static_cast<std::size_t>(countJoints(JointType::Boundary)), static_cast<std::size_t>(accepted),
               network.joints.size() - static_cast<std::size_t>(accepted), network.runs.size(),
@@ -595,6 +595,8 @@ int runReconstruct(const ReconstructOptions& options) {
               pipeline.jointsResult()->diagnostics.unjoinedPipes == 1 ? "pipe" : "pipes",
               pipeline.jointsResult()->diagnostics.underGround,
               pipeline.jointsResult()->diagnostics.underGround == 1 ? "pipe or leg" : "pipes or legs",
+              pipeline.jointsResult()->diagnostics.planeResidue,
+              pipeline.jointsResult()->diagnostics.planeResidue == 1 ? "pipe" : "pipes",
               pipeline.stageSeconds(Stage::Joints));
   std::printf("(per-tile stage times are summed over tiles, which run in parallel)\n");
   std::printf("network: %s\n", options.output.c_str());

@@ -1708,6 +1708,32 @@ TEST(Joints, NoPipeOrLegReachesBelowTheGround) {
   EXPECT_TRUE(givenThroughFloor.joints.empty());
 }
 
+TEST(Joints, APipeOverPointsARemovedPlaneLeftIsThatPlanesAndLeftOut) {
+  // A floor removed as a plane but for a seam of three rows (1 cm apart, along x): a pipe fitted
+  // over the seam (r 5 cm, lying on it) has two thirds of its inliers by the plane's points. It is
+  // the plane's residue, as a fit along the edge where a wall meets the floor or the roof is. A
+  // pipe lying on the floor beside it has only its underside by the plane (the points within 2 cm
+  // of it, under a third of its ring), and stays.
+  ConstructedScene scene;
+  for (int i = -100; i < 100; ++i) {
+    const double x = 0.005 + 0.01 * i;
+    for (int k = -50; k < 50; ++k) {
+      const Eigen::Vector3d p(x, 0.005 + 0.01 * k, 0.0);
+      if (std::abs(k) <= 1) {
+        scene.addLonePoint(p, Eigen::Vector3d::UnitZ());
+      } else {
+        scene.addRemovedPlanePoint(p, Eigen::Vector3d::UnitZ());
+      }
+    }
+  }
+  scene.addFittedPipe({-0.9, 0.005, 0.05}, {0.9, 0.005, 0.05}, 0.05);
+  scene.addPipe({-0.9, 0.3, 0.05}, {0.9, 0.3, 0.05}, 0.05);
+  const JointsResult result = scene.connect();
+  EXPECT_EQ(result.diagnostics.planeResidue, 1u);
+  ASSERT_EQ(result.pipes.size(), 1u);
+  EXPECT_NEAR(result.pipes[0].start.y(), 0.3, 1e-9);
+}
+
 TEST(Joints, TheGroundLiesAcrossTheUpDirectionGiven) {
   // The scene of NoPipeOrLegReachesBelowTheGround turned so that each axis is up, and the stage
   // told so: the floor through the leg's bottom is the ground whichever axis is up.

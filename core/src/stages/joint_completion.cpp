@@ -407,7 +407,6 @@ class Completer {
   static constexpr std::size_t kBehindSections = 5;  // Sections looked at behind the corner (see completeAt).
   static constexpr double kMaxClutterShare = 0.5;  // Clutter (see isClutter), against points on the surface.
   static constexpr double kFaceNormalAngleDeg = 30.0;  // Normals this close to the axis: a face across it.
-  static constexpr double kMaxByPlaneShare = 0.5;     // A leg's inliers lying by a removed plane, at most.
   static constexpr double kMaxFlatShare = 0.4;          // Normals sharing one direction (see flatShare)...
   static constexpr double kLineToCircle = 0.9;          // ...with a line fit's RMS under this share of the
                                                         // circle's: a flat face.
@@ -1271,11 +1270,7 @@ class Completer {
       return std::nullopt;
     }
     std::sort(pipe.inliers.begin(), pipe.inliers.end());
-    // Points by a removed plane (a floor's seam the plane removal left) run along that plane: a
-    // leg over them mostly is the plane's.
-    const auto byPlane = std::count_if(pipe.inliers.begin(), pipe.inliers.end(),
-                                       [&](std::uint32_t i) { return planes_.by(input_.cloud.positions[i].cast<double>()); });
-    if (static_cast<double>(byPlane) > kMaxByPlaneShare * static_cast<double>(pipe.inliers.size())) return std::nullopt;
+    if (planes_.alongPlanes(input_.cloud, pipe.inliers)) return std::nullopt;
     const RadialOffsets onSurface = radialOffsets(pipe.inliers, corner, along, r);
     const RadialOffsets overBand = radialOffsets(inBand, corner, along, r);
     // The points must sit on the radius of the pipe being continued, not merely within the band: a

@@ -564,6 +564,12 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   pipes.erase(std::remove_if(pipes.begin(), pipes.end(), [&](const PipeSegment& pipe) { return ground.under(pipe); }),
               pipes.end());
   const std::size_t inputUnderGround = pipesBefore - pipes.size();
+  // A fit over the points along a room's edge or a floor's seam is the removed planes' residue.
+  const auto pipesOverGround = pipes.size();
+  pipes.erase(std::remove_if(pipes.begin(), pipes.end(),
+                             [&](const PipeSegment& pipe) { return planes.alongPlanes(input.cloud, pipe.inliers); }),
+              pipes.end());
+  const std::size_t planeResidue = pipesOverGround - pipes.size();
   // Every search for points near a place reads the cloud filed once by these cells.
   const PointCells cells(input.cloud, std::max(params.minSearchDistance, 0.25));
   std::size_t dropped = 0;
@@ -573,6 +579,7 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
       JointsResult& result = joined.result;
       result.diagnostics.unjoinedPipes = dropped;
       result.diagnostics.underGround += inputUnderGround;
+      result.diagnostics.planeResidue = planeResidue;
       progress.report("joints", 1.0);
       result.diagnostics.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
       return std::move(result);

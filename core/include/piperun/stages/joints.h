@@ -85,7 +85,7 @@ struct JointsInput {
 };
 
 /// The joined network in the cloud's frame. The pipes keep their input order, less those reaching
-/// below the ground, the fragments an elbow absorbed, the pieces merged into a pipe on whose line
+/// below the ground, those over points running along removed planes, the fragments an elbow absorbed, the pieces merged into a pipe on whose line
 /// they lay and the pipes that had to take a joint and took none; followed by the legs found beyond
 /// gentle bends that one pipe was fitted across, then the pipes completed beyond free ends or found
 /// as branches (round by round), then the legs between two bends (seen or hidden), with ids from 1
@@ -123,6 +123,8 @@ struct JointsResult {
                                            ///< into it, pieces fitted again) merged into it, their joints its.
     std::size_t underGround = 0;           ///< Input pipes and completed legs whose tube reached below the ground (the
                                            ///< lowest floor, with no scan under it), left out.
+    std::size_t planeResidue = 0;          ///< Input pipes over points running along removed planes (a room's edge,
+                                           ///< a floor's seam), left out.
     std::size_t unjoinedPipes = 0;         ///< Input pipes that had to take a joint (PipeSegment::mustJoin) and took
                                            ///< none: left out, the rest joined again without them.
     double seconds = 0.0;
