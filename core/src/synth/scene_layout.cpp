@@ -32,6 +32,8 @@ constexpr double kArcStep = 0.01;                 // elbow axis sampling (m)
 constexpr double kBuriedLength = 0.02;            // pipe ends continue this far into the surface they enter
 constexpr double kMaxEntryTilt = 25.0 * kDegree;  // between a pipe entering a surface and its normal
 constexpr double kLongRadiusShare = 0.7;          // long-radius elbows (1.5 D) against short-radius (1 D)
+constexpr double kSlab = 0.3;                     // thickness of the floor and roof slabs (m)
+constexpr double kWall = 0.25;                    // thickness of the walls (m)
 constexpr int kFloor = 0;                         // blocker index of the floor slab, laid first
 
 /// What a preset's scenes are made of; ranges are drawn uniformly per scene.
@@ -530,8 +532,7 @@ void LayoutBuilder::addSurface(const Shape& shape, Element element, int index, f
 
 void LayoutBuilder::addRoom() {
   // Concrete floor slab and walls standing outside the room box, so that the room box is free space.
-  addBlocker(alignedBox({0.0, 0.0, -0.3}, {width_, depth_, 0.0}), true, 0.3f);
-  constexpr double kWall = 0.25;
+  addBlocker(alignedBox({0.0, 0.0, -kSlab}, {width_, depth_, 0.0}), true, 0.3f);
   const int wallCount = rng_.uniformInt(config_.walls[0], config_.walls[1]);
   // The first wall faces h1 so that runs along h1 can end in it whatever the direction set.
   if (rng_.chance(0.5)) {
@@ -1275,10 +1276,9 @@ SceneLayout LayoutBuilder::finish(std::vector<Eigen::Vector3d> stations) {
   }
   layout.room = OrientedBox{toWorld(Eigen::Vector3d(0.5 * width_, 0.5 * depth_, 0.5 * height_)), rotation,
                             Eigen::Vector3d(0.5 * width_, 0.5 * depth_, 0.5 * height_)};
-  constexpr double kRoof = 0.3;  // slab thickness (m), as the floor's
-  constexpr double kWall = 0.25;  // the roof covers the walls standing outside the room box
-  layout.roof = Surface{OrientedBox{toWorld(Eigen::Vector3d(0.5 * width_, 0.5 * depth_, height_ + 0.5 * kRoof)), rotation,
-                                    Eigen::Vector3d(0.5 * width_ + kWall, 0.5 * depth_ + kWall, 0.5 * kRoof)},
+  // The roof covers the walls too, which stand outside the room box.
+  layout.roof = Surface{OrientedBox{toWorld(Eigen::Vector3d(0.5 * width_, 0.5 * depth_, height_ + 0.5 * kSlab)), rotation,
+                                    Eigen::Vector3d(0.5 * width_ + kWall, 0.5 * depth_ + kWall, 0.5 * kSlab)},
                         0, 0.3f};
   for (const Eigen::Vector3d& station : stations) layout.stations.push_back(toWorld(station));
   return layout;

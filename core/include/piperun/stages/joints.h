@@ -85,8 +85,9 @@ struct JointsInput {
 };
 
 /// The joined network in the cloud's frame. The pipes keep their input order, less those reaching
-/// below the ground, those over points running along removed planes, the fragments an elbow absorbed, the pieces merged into a pipe on whose line
-/// they lay and the pipes that had to take a joint and took none; followed by the legs found beyond
+/// below the ground, those over points running along removed planes, the fragments an elbow
+/// absorbed, the pieces merged into a pipe on whose line they lay and the pipes that had to take a
+/// joint and took none; followed by the legs found beyond
 /// gentle bends that one pipe was fitted across, then the pipes completed beyond free ends or found
 /// as branches (round by round), then the legs between two bends (seen or hidden), with ids from 1
 /// in that order (elbows move their ends to the tangent points, and two pipes overlapping at a
