@@ -10,12 +10,11 @@
 namespace piperun::app {
 
 /// `--up AXIS` (x, y, z, -x, -y, -z), read into `up`; left empty when not given, for the parameter
-/// document's, a network's or a project's (default z).
-inline void addUpOption(CLI::App& app, std::string& up) {
-  app.add_option("--up", up,
-                 "The scan's up direction: x, y, z, -x, -y or -z (sets the parameter up; default z, as scanners, "
-                 "LAS and E57 have it)")
-      ->check(CLI::IsMember(upAxisNames()));
+/// document's, a network's or a project's (default z). `help` says what the axis does for the tool.
+inline CLI::Option* addUpOption(CLI::App& app, std::string& up,
+                                const std::string& help = "The scan's up direction: x, y, z, -x, -y or -z (sets the "
+                                                          "parameter up; default z, as scanners, LAS and E57 have it)") {
+  return app.add_option("--up", up, help)->check(CLI::IsMember(upAxisNames()));
 }
 
 }  // namespace piperun::app

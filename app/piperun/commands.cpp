@@ -44,7 +44,7 @@ PipeNetwork readNetworkOrProject(const std::string& path, NetworkMetadata* metad
   if (metadata) {
     (*metadata)["project"] = "reviewed network, " + std::to_string(project.edits.position()) + " edits";
     if (!project.scanPath.empty()) (*metadata)["scan"] = project.scanPath.string();
-    if (project.params.up != UpAxis::PlusZ) (*metadata)["up"] = toString(project.params.up);
+    recordUpAxis(*metadata, project.params.up);
   }
   return project.edits.network();
 }
@@ -246,7 +246,7 @@ int runGenerate(const GenerateOptions& options) {
     // Only the scan effects a scene has, so the default scenes' truths stay as they were.
     if (options.registrationError > 0.0) metadata["registration_error_m"] = std::to_string(options.registrationError);
     if (options.mixedPixels > 0.0) metadata["mixed_pixel_share"] = std::to_string(options.mixedPixels);
-    if (params.up != UpAxis::PlusZ) metadata["up"] = options.up;
+    recordUpAxis(metadata, params.up);
     if (options.roof) metadata["roof"] = "true";
     writeNetwork(options.truth, truth, metadata);
   }
@@ -515,7 +515,7 @@ int runReconstruct(const ReconstructOptions& options) {
                               {"source", options.input},
                               {"source_units", report.units},
                               {"seed", std::to_string(params.seed)}};
-  if (params.up != UpAxis::PlusZ) metadata["up"] = toString(params.up);
+  recordUpAxis(metadata, params.up);
   writeNetwork(options.output, network, metadata);
   ExportOptions exportOptions;
   exportOptions.pcfBore = pcfBoreFromString(options.pcfBore).value_or(PcfBore::Nominal);

@@ -81,10 +81,9 @@ int main(int argc, char** argv) {
                               "(mixed pixels)")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
-  generateCommand->add_option("--up", generate.up,
-                              "Turn the scene so that this axis is up, points and truth (x, y, z, -x, -y or -z), as "
-                              "a tool that writes y up gives a scan")
-      ->check(CLI::IsMember(piperun::upAxisNames()))
+  piperun::app::addUpOption(*generateCommand, generate.up,
+                             "Turn the scene so that this axis is up, points and truth (x, y, z, -x, -y or -z), as "
+                             "a tool that writes y up gives a scan")
       ->capture_default_str();
   generateCommand->add_flag("--roof", generate.roof,
                             "Close the room with a concrete roof slab at its height (the pipes keep the points they "
@@ -170,11 +169,9 @@ int main(int argc, char** argv) {
       ->transform(CLI::IsMember({"nominal", "outside"}, CLI::ignore_case))
       ->capture_default_str();
   exportCommand->add_flag("--accepted-only", exportOptions.acceptedOnly, kAcceptedOnlyHelp);
-  exportCommand
-      ->add_option("--up", exportOptions.up,
-                   "The network's up axis, x, y, z, -x, -y or -z (default: the one `reconstruct --up` recorded, else "
-                   "z): a PCF is written turned so that it is z, as isometrics draw elevations")
-      ->check(CLI::IsMember(piperun::upAxisNames()));
+  piperun::app::addUpOption(*exportCommand, exportOptions.up,
+                             "The network's up axis, x, y, z, -x, -y or -z (default: the one `reconstruct --up` "
+                             "recorded, else z): a PCF is written turned so that it is z, as isometrics draw elevations");
   exportCommand->add_option("--chord-tolerance", exportOptions.chordTolerance,
                             "Meshes: largest gap between a tube's polygon and its circle, metres")
       ->check(CLI::PositiveNumber)

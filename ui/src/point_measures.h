@@ -37,9 +37,6 @@ inline constexpr double kCeilingMargin = 0.25;
 /// Share of a footprint cell's points above the network's top that makes the cell covered.
 inline constexpr double kCeilingShare = 0.05;
 
-/// The height of world point `p` along `up` (its coordinate on that axis, negated for -x, -y, -z).
-inline double heightAlong(UpAxis up, const Eigen::Vector3d& p) { return upSign(up) * p[upIndex(up)]; }
-
 /// The height (along `up`, m) above which the points hide the network from above, as a building's
 /// roof or a deck over the piping does: the network's top (its highest surface) plus
 /// kCeilingMargin, when at least half of the scan's footprint is covered above that height (square

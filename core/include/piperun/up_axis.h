@@ -23,6 +23,8 @@ Eigen::Vector3d upVector(UpAxis axis);
 /// The coordinate index (0, 1, 2) of `axis`, and its sign (+1 or -1): height = sign * p[index].
 int upIndex(UpAxis axis);
 double upSign(UpAxis axis);
+/// The height of point `p` along `axis`: its coordinate on that axis, negated for -x, -y, -z.
+inline double heightAlong(UpAxis axis, const Eigen::Vector3d& p) { return upSign(axis) * p[upIndex(axis)]; }
 
 /// The rotation that turns +z onto `axis` (identity for +z). Its entries are 0 and ±1, so turning
 /// a scene and back is exact.

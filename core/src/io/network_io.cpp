@@ -322,6 +322,10 @@ void writeNetwork(const std::filesystem::path& path, const PipeNetwork& network,
 
 bool isNetworkFile(const std::filesystem::path& path) { return io::lowerExtension(path) == ".json"; }
 
+void recordUpAxis(NetworkMetadata& metadata, UpAxis up) {
+  if (up != UpAxis::PlusZ) metadata["up"] = toString(up);
+}
+
 UpAxis recordedUpAxis(const NetworkMetadata& metadata, const std::filesystem::path& source) {
   const auto recorded = metadata.find("up");
   if (recorded == metadata.end()) return UpAxis::PlusZ;

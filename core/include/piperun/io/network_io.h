@@ -30,8 +30,10 @@ void writeNetwork(const std::filesystem::path& path, const PipeNetwork& network,
                   const NetworkMetadata& metadata = {});
 
 PipeNetwork readNetwork(const std::filesystem::path& path, NetworkMetadata* metadata = nullptr);
-/// The up axis a network's `metadata` records (`piperun reconstruct --up` writes "up"), z when it
-/// records none. Throws InputError (at /metadata/up of `source`) for an unknown axis.
+/// Records `up` in a network's `metadata` ("up"), unless it is z, which a network without the key has.
+void recordUpAxis(NetworkMetadata& metadata, UpAxis up);
+/// The up axis a network's `metadata` records (recordUpAxis), z when it records none. Throws
+/// InputError (at /metadata/up of `source`) for an unknown axis.
 UpAxis recordedUpAxis(const NetworkMetadata& metadata, const std::filesystem::path& source);
 /// Whether the path names a network file (`.json`, any case).
 bool isNetworkFile(const std::filesystem::path& path);
