@@ -10,6 +10,7 @@
 #include "piperun/eval/evaluation.h"
 #include "piperun/io/network_export.h"
 #include "piperun/io/network_io.h"
+#include "piperun/io/output_path.h"
 #include "piperun/io/point_reader.h"
 #include "piperun/io/point_writer.h"
 #include "piperun/params.h"
@@ -217,6 +218,7 @@ int runGenerate(const GenerateOptions& options) {
   params.up = upAxisFromString(options.up);
   params.roof = options.roof;
 
+  if (!options.truth.empty()) requireWritableFile(options.truth);  // the scan's file is made first
   const auto start = std::chrono::steady_clock::now();
   ProgressBar bar(options.quiet);
   const unsigned attributes = kIntensity | (options.labels ? kLabels : kNoAttributes);
@@ -484,6 +486,12 @@ int runReconstruct(const ReconstructOptions& options) {
   if (options.seed >= 0) params.seed = static_cast<std::uint64_t>(options.seed);
   if (!options.up.empty()) params.up = upAxisFromString(options.up);
   validateParams(params);  // before reading what may be a large scan
+  // Likewise every file the run writes or reads at its end.
+  requireWritableFile(options.output);
+  for (const auto& target : exports) requireWritableFile(target.path);
+  if (!options.dumpDirectory.empty()) requireWritableFolder(options.dumpDirectory);
+  std::optional<PipeNetwork> truth;
+  if (!options.truth.empty()) truth = readNetworkOrProject(options.truth);
   const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
   tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
 
@@ -618,7 +626,7 @@ int runReconstruct(const ReconstructOptions& options) {
     EvaluationParams params;
     params.nominalSizes = &sizes;
     const EvaluationResult figures =
-        evaluateNetwork(readNetworkOrProject(options.truth), network, params, labelledScan.get());
+        evaluateNetwork(*truth, network, params, labelledScan.get());
     std::printf("evaluation against %s: %s\n", options.truth.c_str(), formatEvaluation(figures).c_str());
   }
   std::printf("points=%zu kept=%zu directions=%zu pipes=%zu joints=%zu runs=%zu seconds=%.2f peak_mb=%.0f\n",

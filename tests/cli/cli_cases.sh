@@ -303,6 +303,23 @@ case "$CASE" in
     run 0 reconstruct "$WORK/scene.ply" -o "$WORK/net1.json" --threads 1
     run 0 reconstruct "$WORK/scene.ply" -o "$WORK/net2.json" --threads 2
     cmp -s "$WORK/net1.json" "$WORK/net2.json" || fail "1 and 2 threads gave different networks"
+    # Every file the run writes or reads at its end is checked before the scan is read: with a
+    # scan that is no point cloud, the error names the output.
+    run 2 reconstruct "$WORK/truth.json" -o "$WORK/missing/n.json"
+    expect_one_line_error "missing/n.json: cannot create: no folder .*missing$"
+    run 2 reconstruct "$WORK/truth.json" -o "$WORK"
+    expect_one_line_error "cannot create: it is a folder"
+    run 2 reconstruct "$WORK/truth.json" -o "$WORK/n.json" --export obj:"$WORK/missing/n.obj"
+    expect_one_line_error "missing/n.obj: cannot create: no folder"
+    run 2 reconstruct "$WORK/truth.json" -o "$WORK/n.json" --dump-stages "$WORK/scene.ply/stages"
+    expect_one_line_error "scene.ply/stages: cannot create the folder"
+    run 2 reconstruct "$WORK/truth.json" -o "$WORK/n.json" --truth "$WORK/absent.json"
+    expect_one_line_error "absent.json: no such file"
+    [ -e "$WORK/n.json" ] && fail "a failed check left a network"
+    ls "$WORK" | grep -q "tmp-" && fail "a check left its probe file"
+    run 2 generate --preset small --seed 2 --density 0.1 -o "$WORK/g.ply" --truth "$WORK/missing/g.json"
+    expect_one_line_error "missing/g.json: cannot create: no folder"
+    [ -e "$WORK/g.ply" ] && fail "generate wrote its scene though it could not write the truth"
     # What is left to review: the pump room's short casings that take no joint are proposed pipes.
     run 0 reconstruct "$DATA/pumpA_pump_station.pcd" -o "$WORK/n.json"
     expect_out "^review: 0 joints and [1-9][0-9]* pipes proposed \(piperun-studio $WORK/n.json, then N steps through them\)$"

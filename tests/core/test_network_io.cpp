@@ -1,5 +1,6 @@
 #include "piperun/error.h"
 #include "piperun/io/network_io.h"
+#include "piperun/io/output_path.h"
 #include "test_util.h"
 
 #include <gtest/gtest.h>
@@ -166,6 +167,38 @@ TEST(NetworkJson, WriteIsAtomicAndReportsUnwritablePaths) {
   std::size_t files = 0;
   for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator(dir.path())) ++files;
   EXPECT_EQ(files, 1u);  // no temporary left behind
+}
+
+TEST(OutputPath, AFileOrFolderThatCannotBeWrittenIsNamedBeforeAnythingIsWritten) {
+  TempDir dir;
+  const auto fileCount = [&] {
+    std::size_t files = 0;
+    for ([[maybe_unused]] const auto& entry : std::filesystem::recursive_directory_iterator(dir.path())) ++files;
+    return files;
+  };
+  EXPECT_NO_THROW(requireWritableFile(dir / "net.json"));
+  EXPECT_EQ(fileCount(), 0u);  // the probe is gone
+  const auto messageOf = [](const auto& check) -> std::string {
+    try {
+      check();
+    } catch (const OutputError& error) {
+      return error.what();
+    }
+    return "no error";
+  };
+  EXPECT_EQ(messageOf([&] { requireWritableFile(dir / "absent" / "net.json"); }),
+            (dir / "absent" / "net.json").string() + ": cannot create: no folder " + (dir / "absent").string());
+  EXPECT_EQ(messageOf([&] { requireWritableFile(dir.path()); }), dir.path().string() + ": cannot create: it is a folder");
+
+  test::writeFile(dir / "scan.ply", "ply");
+  EXPECT_EQ(messageOf([&] { requireWritableFile(dir / "scan.ply" / "net.json"); }),
+            (dir / "scan.ply" / "net.json").string() + ": cannot create: " + (dir / "scan.ply").string() +
+                " is not a folder");
+  EXPECT_NE(messageOf([&] { requireWritableFolder(dir / "scan.ply" / "stages"); }), "no error");
+  // A folder is made with its parents, and left empty.
+  EXPECT_NO_THROW(requireWritableFolder(dir / "stages" / "run 1"));
+  EXPECT_TRUE(std::filesystem::is_directory(dir / "stages" / "run 1"));
+  EXPECT_TRUE(std::filesystem::is_empty(dir / "stages" / "run 1"));
 }
 
 TEST(NetworkJson, RunFigures) {
