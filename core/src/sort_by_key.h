@@ -138,13 +138,44 @@ constexpr std::size_t kSlabItems = std::size_t{1} << 22;
 constexpr int kSliceBits = 12;
 }  // namespace sort_detail
 
+namespace sort_detail {
+/// groupItemsByKey for up to a slab's items: every pair made at once, each key computed once.
+template <typename KeyOf>
+KeyGroups groupAllByKey(std::size_t count, KeyOf keyOf) {
+  const std::size_t chunks = (count + kChunk - 1) / kChunk;
+  std::vector<KeyedItem> all(count);
+  std::vector<std::size_t> keyedBefore(chunks + 1, 0);  // chunk c's first place among the keyed pairs
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    std::size_t keyed = 0;
+    for (std::size_t i = c * kChunk, last = std::min(count, (c + 1) * kChunk); i < last; ++i) {
+      all[i] = {keyOf(i), static_cast<std::uint32_t>(i)};
+      keyed += all[i].first != kNoKey;
+    }
+    keyedBefore[c + 1] = keyed;
+  });
+  for (std::size_t c = 0; c < chunks; ++c) keyedBefore[c + 1] += keyedBefore[c];
+  std::vector<KeyedItem> pairs(keyedBefore[chunks]);
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    std::size_t place = keyedBefore[c];
+    for (std::size_t i = c * kChunk, last = std::min(count, (c + 1) * kChunk); i < last; ++i) {
+      if (all[i].first != kNoKey) pairs[place++] = all[i];
+    }
+  });
+  freeStorage(all);
+  stableSortByKey(pairs, keyOfItem);
+  return groupByKey(pairs);
+}
+}  // namespace sort_detail
+
 /// Items 0 … count − 1 grouped by keyOf(item) in (key, item) order, items whose key is kNoKey left
 /// out: the groups of the stably sorted (key, item) pairs, found a slab of the key range at a time so
 /// that beside the 4 bytes an item of the result only a slab's pairs are held (every pair of a
-/// 100 million point scan and the sort's buffer took 3.2 GB). keyOf is called a few times an item.
+/// 100 million point scan and the sort's buffer took 3.2 GB). keyOf is called a few times an item,
+/// once when there are no more items than a slab holds (then all are sorted at once).
 template <typename KeyOf>
 KeyGroups groupItemsByKey(std::size_t count, KeyOf keyOf, std::size_t slabItems = sort_detail::kSlabItems) {
   using sort_detail::kChunk;
+  if (count <= slabItems) return sort_detail::groupAllByKey(count, keyOf);
   KeyGroups groups;
   const std::uint64_t noKeys = 0;
   const auto [maxKey, keyed] = tbb::parallel_reduce(
