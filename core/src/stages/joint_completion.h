@@ -37,20 +37,30 @@ class PlaneCells {
   /// 20 %; but a 5 cm pipe lying on the floor has about a third, so the share must be over half.
   bool alongPlanes(const PointCloud& cloud, const std::vector<std::uint32_t>& points) const {
     if (numbers_.empty()) return false;
-    const auto byPlane = std::count_if(points.begin(), points.end(),
-                                       [&](std::uint32_t i) { return by(cloud.positions[i].cast<double>()); });
-    return static_cast<double>(byPlane) > kMaxByPlaneShare * static_cast<double>(points.size());
+    const double most = kMaxByPlaneShare * static_cast<double>(points.size());
+    std::size_t byPlane = 0;
+    for (std::size_t k = 0; k < points.size(); ++k) {
+      byPlane += by(cloud.positions[points[k]].cast<double>());
+      if (static_cast<double>(byPlane) > most) return true;
+      if (static_cast<double>(byPlane + points.size() - k - 1) <= most) return false;  // the rest cannot tip it
+    }
+    return false;
   }
 
   bool by(const Eigen::Vector3d& p) const {
     if (numbers_.empty()) return false;
+    // The 27 cells around p's are nine rows along x, each a range of consecutive numbers: one search
+    // a row.
     const Eigen::Vector3i cell = numbering_.cellOf(p);
-    for (int k = 0; k < 27; ++k) {
-      const Eigen::Vector3i near = cell + Eigen::Vector3i(k % 3 - 1, k / 3 % 3 - 1, k / 9 - 1);
-      if (numbering_.contains(near) &&
-          std::binary_search(numbers_.begin(), numbers_.end(), numbering_.numberOf(near))) {
-        return true;
-      }
+    const int lowestX = numbering_.lowest().x(), highestX = numbering_.highest().x();
+    for (int row = 0; row < 9; ++row) {
+      Eigen::Vector3i first = cell + Eigen::Vector3i(-1, row % 3 - 1, row / 3 - 1);
+      Eigen::Vector3i last = first + Eigen::Vector3i(2, 0, 0);
+      first.x() = std::max(first.x(), lowestX);
+      last.x() = std::min(last.x(), highestX);
+      if (first.x() > last.x() || !numbering_.contains(first)) continue;
+      const auto found = std::lower_bound(numbers_.begin(), numbers_.end(), numbering_.numberOf(first));
+      if (found != numbers_.end() && *found <= numbering_.numberOf(last)) return true;
     }
     return false;
   }

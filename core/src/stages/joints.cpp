@@ -62,6 +62,8 @@
 #include "stages/joint_hidden_legs.h"
 #include "stages/segment_axis.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -566,9 +568,16 @@ JointsResult connectPipes(const JointsInput& input, const JointsParams& params, 
   const std::size_t inputUnderGround = pipesBefore - pipes.size();
   // A fit over the points along a room's edge or a floor's seam is the removed planes' residue.
   const auto pipesOverGround = pipes.size();
-  pipes.erase(std::remove_if(pipes.begin(), pipes.end(),
-                             [&](const PipeSegment& pipe) { return planes.alongPlanes(input.cloud, pipe.inliers); }),
-              pipes.end());
+  std::vector<char> residue(pipes.size(), 0);
+  tbb::parallel_for(std::size_t{0}, pipes.size(),
+                    [&](std::size_t p) { residue[p] = planes.alongPlanes(input.cloud, pipes[p].inliers); });
+  std::size_t kept = 0;
+  for (std::size_t p = 0; p < pipes.size(); ++p) {
+    if (residue[p]) continue;
+    if (kept != p) pipes[kept] = std::move(pipes[p]);
+    ++kept;
+  }
+  pipes.resize(kept);
   const std::size_t planeResidue = pipesOverGround - pipes.size();
   // Every search for points near a place reads the cloud filed once by these cells.
   const PointCells cells(input.cloud, std::max(params.minSearchDistance, 0.25));
