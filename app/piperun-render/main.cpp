@@ -5,6 +5,7 @@
 
 #include "piperun/edit/project.h"
 #include "piperun/error.h"
+#include "piperun/io/output_path.h"
 #include "piperun/progress.h"
 #include "piperun/ui/studio.h"
 #include "parse_arguments.h"
@@ -61,6 +62,10 @@ int main(int argc, char** argv) {
   const int width = std::stoi(match[1]), height = std::stoi(match[2]);
 
   try {
+    if (!listCommands) {
+      piperun::requireWritableFile(output);  // before what may be a long run
+      if (!textOutput.empty()) piperun::requireWritableFile(textOutput);
+    }
     piperun::render::OsMesaContext context(width, height);
     vtkNew<vtkGenericOpenGLRenderWindow> window;
     context.attach(window);
@@ -104,9 +109,12 @@ int main(int argc, char** argv) {
     if (!textOutput.empty()) {
       std::ofstream text(textOutput);
       text << overlayText;
-      if (!text) throw piperun::InputError(textOutput, "", "cannot write");
+      if (!text) throw piperun::OutputError(textOutput, "cannot write");
     }
   } catch (const piperun::InputError& error) {
+    std::fprintf(stderr, "piperun-render: error: %s\n", error.what());
+    return 2;
+  } catch (const piperun::OutputError& error) {
     std::fprintf(stderr, "piperun-render: error: %s\n", error.what());
     return 2;
   } catch (const piperun::ui::CommandError& error) {

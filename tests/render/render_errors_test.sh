@@ -31,8 +31,17 @@ expect 2 "merge_one\.txt:1: select two pipes to merge" "$render" "$scene" --no-r
 expect 2 "split_nothing\.txt:1: select a pipe to split" "$render" "$scene" --no-run --script "$work/split_nothing.txt" -o "$work/out.png"
 expect 2 "no_box\.txt:1: no box shown" "$render" "$scene" --no-run --script "$work/no_box.txt" -o "$work/out.png"
 expect 2 "no_handle\.txt:1: no end handle shown" "$render" "$scene" --no-run --script "$work/no_handle.txt" -o "$work/out.png"
-expect 2 "piperun-render: error: .*/no-such-dir/texts\.txt: cannot write" "$render" "$scene" --no-run -o "$work/out.png" \
-  --text "$work/no-such-dir/texts.txt"
+# Outputs are checked before the scan is read and the pipeline run; a screenshot's before VTK's
+# writer, which says a missing folder is a full disk, over several lines.
+expect 2 "piperun-render: error: .*/no-such-dir/texts\.txt: cannot create: no folder" "$render" "$scene" \
+  -o "$work/out.png" --text "$work/no-such-dir/texts.txt"
+expect 2 "piperun-render: error: .*/no-such-dir/out\.png: cannot create: no folder" "$render" "$scene" \
+  -o "$work/no-such-dir/out.png"
+expect 2 "piperun-render: error: .*/out\.png: cannot create: no folder" "$render" "$work/missing.ply" \
+  -o "$work/no-such-dir/out.png"
+printf 'screenshot %s\n' "$work/no-such-dir/shot.png" >"$work/shot.txt"
+expect 2 "shot\.txt:1: .*/no-such-dir/shot\.png: cannot create: no folder" "$render" "$scene" --no-run \
+  --script "$work/shot.txt" -o "$work/out.png"
 expect 1 "--size: expected WIDTHxHEIGHT" "$render" "$scene" --size 12 -o "$work/out.png"
 expect 1 "--point-budget: expected at least 1 point" "$render" "$scene" --point-budget 0 -o "$work/out.png"
 expect 1 "INPUT and -o OUT.png are required" "$render" "$scene"

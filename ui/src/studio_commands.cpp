@@ -3,6 +3,7 @@
 #include "studio_impl.h"
 
 #include "piperun/error.h"
+#include "piperun/io/output_path.h"
 #include "piperun/spacing.h"
 
 #include <vtkActor.h>
@@ -567,6 +568,11 @@ void Studio::Impl::registerCommands() {
   commands.add("screenshot", "FILE.png", "write the window as a PNG image",
                [this](const std::vector<std::string>& args) {
                  expectArguments(args, 1, 1, "screenshot FILE.png");
+                 try {
+                   requireWritableFile(args[0]);  // VTK's writer would report a missing folder as a full disk
+                 } catch (const OutputError& error) {
+                   throw CommandError(error.what());
+                 }
                  owner.render();
                  vtkNew<vtkWindowToImageFilter> capture;
                  capture->SetInput(window);
