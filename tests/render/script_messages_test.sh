@@ -4,7 +4,8 @@
 # and box. The points' size (1 pixel at start on a scan of over 4 million points), their strays, their
 # budget (the scene's title counts the points drawn when a layer is over it). Selecting a tile:
 # its first direction, the next and previous tile (wrapping round); fly with nothing selected goes there.
-# The up axis set in a script: the ceiling looked for along it.
+# The up axis set in a script: the ceiling looked for along it. A selected pipe's heights and slope,
+# and two selected pipes' distance.
 # Usage: script_messages_test.sh PIPERUN_RENDER PIPERUN SCENE ROOFED_SCENE NETWORK WORK_DIR ROOFED_Y_UP_SCENE
 set -uo pipefail
 render=$1 piperun=$2 scene=$3 roofed=$4 network=$5 work=$6 roofed_y_up=$7
@@ -93,4 +94,21 @@ expect 0 "^selected direction 0 \(tile 0\)" "$scene" "select tile 1\nselect tile
 expect 0 "^camera on tile 2" "$scene" "select tile 2\nfly"
 expect 2 "script\.txt:1: no tile 9 \(there are 4\)" "$scene" "select tile 9"
 expect 2 "script\.txt:1: no directions yet: run the directions stage" "$scene" "select tile next" --no-run
+# What the selection says of a pipe's lie and of two pipes' distance: a level 8" pipe at 3 m and a
+# 4" one falling 0.2 m over 4 m (5 %) beside it, 0.4 m between the axes at the nearest.
+cat >"$work/two_pipes.json" <<'JSON'
+{"format": "piperun-network", "version": 1, "pipes": [
+  {"id": 1, "radius": 0.1, "axis": [[0, 0, 3], [6, 0, 3]]},
+  {"id": 2, "radius": 0.05, "axis": [[1, 0.4, 3.2], [5, 0.4, 3.0]]}]}
+JSON
+expect_info() {  # SCRIPT_LINES LINE: the info text drawn after the script holds LINE
+  expect 0 "^selected" "$work/two_pipes.json" "$1" --text "$work/info.txt"
+  if ! grep -qxF -- "$2" "$work/info.txt"; then
+    echo "FAIL: after '$1' the info lacks '$2': $(sed -n '/^\[info\]/,$p' "$work/info.txt")" >&2
+    failures=$((failures + 1))
+  fi
+}
+expect_info "select pipe 1" "height 3.000 m, slope 0.0° (0.0 %); bottom of pipe 2.900 m, top 3.100 m"
+expect_info "select pipe 2" "height 3.000 to 3.200 m, slope 2.9° (5.0 %); bottom of pipe 3.050 m, top 3.150 m"
+expect_info "select pipe 1 2" "apart: axes 0.400 m, surfaces 0.250 m, axes at 2.9°"
 exit $((failures > 0))

@@ -6,6 +6,7 @@
 
 #include "piperun/edit/review_queue.h"
 #include "piperun/error.h"
+#include "piperun/pipe_measures.h"
 
 #include <nlohmann/json.hpp>
 
@@ -25,6 +26,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <limits>
 #include <sstream>
 
@@ -667,6 +669,44 @@ void Studio::Impl::selectStage(Stage stage) {
   stageBar->setSelected(stage, parameter && pipeline ? parameterValue(pipeline->params(), parameter->key) : 0.0);
 }
 
+namespace {
+
+/// How a pipe lies, for the selection's description: the heights of its axis (to the millimetre, as
+/// elevations are given on drawings), and its slope; for a run (under 45°) the bottom and top of pipe
+/// at its middle too.
+std::string lieText(const Pipe& pipe, UpAxis up) {
+  const PipeLie lie = pipeLie(pipe, up);
+  std::ostringstream text;
+  text << std::fixed << std::setprecision(3) << "height " << lie.lowHeight;
+  if (std::round(1000.0 * lie.highHeight) != std::round(1000.0 * lie.lowHeight)) text << " to " << lie.highHeight;
+  text << " m, ";
+  if (lie.slopeDegrees < 45.0) {
+    const double middle = 0.5 * (lie.lowHeight + lie.highHeight);
+    text << "slope " << std::setprecision(1) << lie.slopeDegrees << "\u00b0 (" << lie.slopePercent() << " %); "
+         << std::setprecision(3) << "bottom of pipe " << middle - pipe.radius << " m, top " << middle + pipe.radius
+         << " m";
+  } else {
+    text << std::setprecision(1) << 90.0 - lie.slopeDegrees << "\u00b0 off vertical";
+  }
+  return text.str();
+}
+
+/// Where the second selected pipe is from the first.
+std::string apartText(const Pipe& first, const Pipe& second) {
+  const PipesApart apart = pipesApart(first, second);
+  std::ostringstream text;
+  text << std::fixed << std::setprecision(3) << "apart: axes " << apart.axisDistance << " m, surfaces ";
+  if (apart.clearance >= 0.0) {
+    text << apart.clearance << " m";
+  } else {
+    text << "overlap " << -apart.clearance << " m";
+  }
+  text << std::setprecision(1) << ", axes at " << apart.angleDegrees << "\u00b0";
+  return text.str();
+}
+
+}  // namespace
+
 std::string Studio::Impl::selectionInfo() const {
   const PipeNetwork& network = document.network();
   std::ostringstream info;
@@ -687,10 +727,13 @@ std::string Studio::Impl::selectionInfo() const {
     info << "pipe " << pipe.id << "  radius " << radius(pipe.radius) << "  length " << pipe.length()
          << " m\nconfidence " << pipe.confidence << "  fit RMS " << pipe.fitRms * 1000.0 << " mm  inliers "
          << pipe.inlierCount << "  run " << (pipe.runId >= 0 ? std::to_string(pipe.runId) : "-") << "  "
-         << toString(pipe.status);
-    if (const Pipe* second = network.findPipe(selection.secondPipe))
+         << toString(pipe.status) << "\n"
+         << lieText(pipe, upAxis());
+    if (const Pipe* second = network.findPipe(selection.secondPipe)) {
       info << "\nand pipe " << second->id << "  radius " << radius(second->radius) << "  length " << second->length()
-           << " m  (Shift+M merges it into pipe " << pipe.id << ", Shift+J joins them)";
+           << " m  (Shift+M merges it into pipe " << pipe.id << ", Shift+J joins them)\n"
+           << apartText(pipe, *second);
+    }
   } else if (selection.kind == Selection::Kind::Joint) {
     const Joint& joint = *network.findJoint(selection.id);
     info << "joint " << joint.id << "  " << toString(joint.type) << "  " << toString(joint.status) << "  radius "

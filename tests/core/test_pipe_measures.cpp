@@ -1,0 +1,66 @@
+#include "piperun/pipe_measures.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace piperun {
+namespace {
+
+Pipe pipeBetween(const Eigen::Vector3d& start, const Eigen::Vector3d& end, double radius) {
+  Pipe pipe;
+  pipe.start = start;
+  pipe.end = end;
+  pipe.radius = radius;
+  return pipe;
+}
+
+TEST(PipeMeasures, APipeLiesAtTheHeightsOfItsEndsAlongTheUpAxisWithItsSlope) {
+  // 10 m run falling 0.2 m: a 2 % slope (1.146°), whichever end comes first.
+  const Pipe run = pipeBetween({0, 0, 3.2}, {10, 0, 3.0}, 0.05);
+  const PipeLie lie = pipeLie(run, UpAxis::PlusZ);
+  EXPECT_DOUBLE_EQ(lie.lowHeight, 3.0);
+  EXPECT_DOUBLE_EQ(lie.highHeight, 3.2);
+  EXPECT_NEAR(lie.slopeDegrees, std::atan(0.02) * 45.0 / std::atan(1.0), 1e-6);
+  EXPECT_NEAR(lie.slopePercent(), 2.0, 1e-6);
+
+  // The same pipe turned so that y is up, and told so; with −z up its heights are negated.
+  const PipeLie turned = pipeLie(pipeBetween({0, 3.2, 0}, {10, 3.0, 0}, 0.05), UpAxis::PlusY);
+  EXPECT_DOUBLE_EQ(turned.lowHeight, 3.0);
+  EXPECT_DOUBLE_EQ(turned.highHeight, 3.2);
+  EXPECT_NEAR(turned.slopeDegrees, lie.slopeDegrees, 1e-12);
+  const PipeLie upsideDown = pipeLie(run, UpAxis::MinusZ);
+  EXPECT_DOUBLE_EQ(upsideDown.lowHeight, -3.2);
+  EXPECT_DOUBLE_EQ(upsideDown.highHeight, -3.0);
+
+  const PipeLie riser = pipeLie(pipeBetween({1, 1, 0.5}, {1, 1, 4.0}, 0.1), UpAxis::PlusZ);
+  EXPECT_DOUBLE_EQ(riser.slopeDegrees, 90.0);
+  EXPECT_DOUBLE_EQ(riser.lowHeight, 0.5);
+  EXPECT_DOUBLE_EQ(riser.highHeight, 4.0);
+  EXPECT_DOUBLE_EQ(pipeLie(pipeBetween({0, 0, 1}, {5, 5, 1}, 0.1), UpAxis::PlusZ).slopeDegrees, 0.0);
+}
+
+TEST(PipeMeasures, TwoPipesAreApartByTheirAxesNearestDistanceLessTheirRadii) {
+  // Two parallel rack pipes 0.4 m apart between centres: 0.25 m between their surfaces.
+  const Pipe a = pipeBetween({0, 0, 3}, {6, 0, 3}, 0.1);
+  const Pipe b = pipeBetween({1, 0.4, 3}, {5, 0.4, 3}, 0.05);
+  const PipesApart parallel = pipesApart(a, b);
+  EXPECT_NEAR(parallel.axisDistance, 0.4, 1e-12);
+  EXPECT_NEAR(parallel.clearance, 0.25, 1e-12);
+  EXPECT_NEAR(parallel.angleDegrees, 0.0, 1e-6);
+
+  // A pipe crossing under at 90°, its axis 0.12 m below: the tubes overlap by 0.03 m.
+  const PipesApart crossing = pipesApart(a, pipeBetween({3, -2, 2.88}, {3, 2, 2.88}, 0.05));
+  EXPECT_NEAR(crossing.axisDistance, 0.12, 1e-12);
+  EXPECT_NEAR(crossing.clearance, -0.03, 1e-12);
+  EXPECT_NEAR(crossing.angleDegrees, 90.0, 1e-9);
+
+  // Past the end: the nearest distance is the segments', not the lines' (a's end (6, 0) to (8, 2),
+  // halfway along b); the angle is the lines' whichever way the pipes run.
+  const PipesApart beyond = pipesApart(a, pipeBetween({9, 1, 3}, {7, 3, 3}, 0.05));
+  EXPECT_NEAR(beyond.axisDistance, 2.0 * std::sqrt(2.0), 1e-12);
+  EXPECT_NEAR(beyond.angleDegrees, 45.0, 1e-9);
+}
+
+}  // namespace
+}  // namespace piperun
