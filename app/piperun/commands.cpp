@@ -59,9 +59,10 @@ double peakResidentMegabytes() {
 
 json vectorJson(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
 
-std::string joinNames(const std::vector<const char*>& names) {
+template <typename Names>
+std::string joinNames(const Names& names) {
   std::string text;
-  for (const char* name : names) text += (text.empty() ? "" : ", ") + std::string(name);
+  for (const auto& name : names) text += (text.empty() ? "" : ", ") + std::string(name);
   return text.empty() ? "none" : text;
 }
 
@@ -476,6 +477,44 @@ int runConvert(const ConvertOptions& options) {
   return kExitOk;
 }
 
+/// "1 pipe", "3 pipes".
+std::string counted(std::size_t count, const char* one, const char* many) {
+  return std::to_string(count) + " " + (count == 1 ? one : many);
+}
+
+/// Under the joints line, what the stage added to the pipes the earlier stages found, merged and
+/// left out: a line for each that happened, naming only what did.
+void printJointsSteps(const JointsResult::Diagnostics& d) {
+  std::vector<std::string> found, merged, leftOut;
+  const auto add = [](std::vector<std::string>& list, std::size_t count, const char* one, const char* many,
+                      const std::string& rest) {
+    if (count > 0) list.push_back(counted(count, one, many) + " " + rest);
+  };
+  if (d.completedPipes > 0) {
+    std::vector<std::string> kinds;
+    add(kinds, d.legsBetweenEnds, "between", "between", "two ends");
+    add(kinds, d.carriedLegs, "carried", "carried", "on past the completion length");
+    found.push_back(counted(d.completedPipes, "pipe", "pipes") + " completed beyond free ends" +
+                    (kinds.empty() ? "" : " (" + joinNames(kinds) + ")"));
+  }
+  add(found, d.branchPipes, "branch", "branches", "off pipes");
+  add(found, d.splitKinks, "pair", "pairs", "split at gentle bends");
+  add(found, d.kinkLegs, "leg", "legs", "at gentle bends");
+  add(found, d.occludedElbows, "elbow", "elbows", "across hidden corners");
+  add(found, d.thinRunElbows, "elbow", "elbows", "onto pipes running on thinly");
+  add(found, d.hiddenRunElbows, "elbow", "elbows", "onto pipes hardly seen");
+  add(found, d.legsBetweenBends, "leg", "legs", "between seen bends");
+  add(found, d.hiddenLegs, "leg", "legs", "between unseen bends");
+  add(found, d.hiddenBranches, "hidden leg", "hidden legs", "from an end to a main");
+  add(merged, d.piecesAtEnds, "piece", "pieces", d.piecesAtEnds == 1 ? "into the pipe on whose line it lay" : "into the pipes on whose lines they lay");
+  add(leftOut, d.unjoinedPipes, "weakly supported pipe", "weakly supported pipes", "that took no joint");
+  add(leftOut, d.underGround, "pipe or leg", "pipes or legs", "reaching below the ground");
+  add(leftOut, d.planeResidue, "pipe", "pipes", "over a removed plane's edge");
+  for (const auto& [name, list] : {std::pair{"found", &found}, std::pair{"merged", &merged}, std::pair{"left out", &leftOut}}) {
+    if (!list->empty()) std::printf("  %s: %s\n", name, joinNames(*list).c_str());
+  }
+}
+
 int runReconstruct(const ReconstructOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   std::vector<ExportTarget> exports;
@@ -569,43 +608,20 @@ int runReconstruct(const ReconstructOptions& options) {
               merged.segments.size(), merged.diagnostics.retractedEnds, merged.diagnostics.extendedEnds,
               pipeline.stageSeconds(Stage::Merge));
   const auto countJoints = [&](JointType type) {
-    return std::count_if(network.joints.begin(), network.joints.end(), [&](const Joint& j) { return j.type == type; });
+    return static_cast<std::size_t>(
+        std::count_if(network.joints.begin(), network.joints.end(), [&](const Joint& j) { return j.type == type; }));
   };
   const auto accepted = std::count_if(network.joints.begin(), network.joints.end(),
                                       [](const Joint& j) { return j.status == JointStatus::Accepted; });
-  if (pipeline.isFresh(Stage::Joints)) std::printf("joints: %zu elbows, %zu tees, %zu boundary joints (%zu accepted, %zu proposed), %zu runs, %zu %s completed beyond free ends (%zu between two ends, %zu carried on past the completion length), %zu %s found off pipes, %zu %s split and %zu %s found at gentle bends, %zu %s across hidden corners, %zu %s onto pipes running on thinly and %zu hardly seen, %zu %s between seen bends and %zu between unseen, %zu hidden %s from an end to a main, %zu %s merged into the pipe on whose line %s, %zu weakly supported %s left out for taking no joint, %zu %s reaching below the ground left out, %zu %s over a removed plane's edge left out  [%.2f s]\n",
-              static_cast<std::size_t>(countJoints(JointType::Elbow)), static_cast<std::size_t>(countJoints(JointType::Tee)),
-              static_cast<std::size_t>(countJoints(JointType::Boundary)), static_cast<std::size_t>(accepted),
-              network.joints.size() - static_cast<std::size_t>(accepted), network.runs.size(),
-              pipeline.jointsResult()->diagnostics.completedPipes,
-              pipeline.jointsResult()->diagnostics.completedPipes == 1 ? "pipe" : "pipes",
-              pipeline.jointsResult()->diagnostics.legsBetweenEnds, pipeline.jointsResult()->diagnostics.carriedLegs,
-              pipeline.jointsResult()->diagnostics.branchPipes,
-              pipeline.jointsResult()->diagnostics.branchPipes == 1 ? "branch" : "branches",
-              pipeline.jointsResult()->diagnostics.splitKinks,
-              pipeline.jointsResult()->diagnostics.splitKinks == 1 ? "pair" : "pairs",
-              pipeline.jointsResult()->diagnostics.kinkLegs,
-              pipeline.jointsResult()->diagnostics.kinkLegs == 1 ? "leg" : "legs",
-              pipeline.jointsResult()->diagnostics.occludedElbows,
-              pipeline.jointsResult()->diagnostics.occludedElbows == 1 ? "elbow" : "elbows",
-              pipeline.jointsResult()->diagnostics.thinRunElbows,
-              pipeline.jointsResult()->diagnostics.thinRunElbows == 1 ? "elbow" : "elbows",
-              pipeline.jointsResult()->diagnostics.hiddenRunElbows,
-              pipeline.jointsResult()->diagnostics.legsBetweenBends,
-              pipeline.jointsResult()->diagnostics.legsBetweenBends == 1 ? "leg" : "legs",
-              pipeline.jointsResult()->diagnostics.hiddenLegs,
-              pipeline.jointsResult()->diagnostics.hiddenBranches,
-              pipeline.jointsResult()->diagnostics.hiddenBranches == 1 ? "leg" : "legs",
-              pipeline.jointsResult()->diagnostics.piecesAtEnds,
-              pipeline.jointsResult()->diagnostics.piecesAtEnds == 1 ? "piece" : "pieces",
-              pipeline.jointsResult()->diagnostics.piecesAtEnds == 1 ? "it lay" : "they lay",
-              pipeline.jointsResult()->diagnostics.unjoinedPipes,
-              pipeline.jointsResult()->diagnostics.unjoinedPipes == 1 ? "pipe" : "pipes",
-              pipeline.jointsResult()->diagnostics.underGround,
-              pipeline.jointsResult()->diagnostics.underGround == 1 ? "pipe or leg" : "pipes or legs",
-              pipeline.jointsResult()->diagnostics.planeResidue,
-              pipeline.jointsResult()->diagnostics.planeResidue == 1 ? "pipe" : "pipes",
-              pipeline.stageSeconds(Stage::Joints));
+  if (pipeline.isFresh(Stage::Joints)) {
+    std::printf("joints: %s, %s, %s (%zu accepted, %zu proposed), %s  [%.2f s]\n",
+                counted(countJoints(JointType::Elbow), "elbow", "elbows").c_str(),
+                counted(countJoints(JointType::Tee), "tee", "tees").c_str(),
+                counted(countJoints(JointType::Boundary), "boundary joint", "boundary joints").c_str(),
+                static_cast<std::size_t>(accepted), network.joints.size() - static_cast<std::size_t>(accepted),
+                counted(network.runs.size(), "run", "runs").c_str(), pipeline.stageSeconds(Stage::Joints));
+    printJointsSteps(pipeline.jointsResult()->diagnostics);
+  }
   std::printf("(per-tile stage times are summed over tiles, which run in parallel)\n");
   std::printf("network: %s\n", options.output.c_str());
   const int proposedJoints = countJointReview(network).left;

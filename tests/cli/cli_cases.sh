@@ -280,7 +280,10 @@ case "$CASE" in
     expect_out "^preprocess: "
     expect_out "^directions: "
     expect_out "^merge: [0-9]+ pipes"
-    expect_out "^joints: [0-9]+ elbows, [0-9]+ tees, [0-9]+ boundary joints \([0-9]+ accepted, [0-9]+ proposed\), [1-9][0-9]* runs"
+    expect_out "^joints: [0-9]+ elbows?, [0-9]+ tees?, [0-9]+ boundary joints? \([0-9]+ accepted, [0-9]+ proposed\), [1-9][0-9]* runs?  \[[0-9.]+ s\]$"
+    # Under it, what the stage added and left out, each named only when it happened.
+    expect_out "^  found: [1-9][0-9]* "
+    grep -q " 0 " <<<"$(grep -E "^  (found|merged|left out): " <<<"$OUT")" && fail "a step that did nothing is named: $OUT"
     expect_out "^points=[0-9]+ kept=[0-9]+ directions=[0-9]+ pipes=[1-9][0-9]* joints=[1-9][0-9]* runs=[1-9][0-9]* seconds=[0-9.]+ peak_mb=[1-9][0-9]*$"
     grep -q '"type": "elbow"' "$WORK/net.json" || fail "no elbow in the network"
     grep -q '"runs": \[' "$WORK/net.json" || fail "no runs in the network"
