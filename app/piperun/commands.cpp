@@ -143,7 +143,9 @@ ExportTarget parseExportTarget(const std::string& spec) {
   const auto colon = spec.find(':');
   const auto format = colon == std::string::npos ? std::nullopt : exportFormatFromString(spec.substr(0, colon));
   if (!format || colon + 1 >= spec.size()) {
-    throw std::invalid_argument("--export " + spec + ": expected FORMAT:FILE with FORMAT one of obj, ply, csv, dxf, pcf");
+    std::string names;
+    for (const std::string& name : exportFormatNames()) names += (names.empty() ? "" : ", ") + name;
+    throw std::invalid_argument("--export " + spec + ": expected FORMAT:FILE with FORMAT one of " + names);
   }
   return {*format, spec.substr(colon + 1)};
 }
@@ -657,7 +659,7 @@ int runExport(const ExportCommandOptions& options) {
       options.format.empty() ? exportFormatFromPath(options.output) : exportFormatFromString(options.format);
   if (!format) {
     throw std::invalid_argument("cannot tell the export format from \"" + options.output +
-                                "\": name a .obj .ply .csv .dxf or .pcf file, or give --format");
+                                "\": name a " + exportFileKinds() + " file, or give --format");
   }
   NetworkMetadata metadata;
   const PipeNetwork read = readNetworkOrProject(options.input, &metadata);

@@ -3,6 +3,7 @@
 #include "commands.h"
 #include "parse_arguments.h"
 #include "piperun/error.h"
+#include "piperun/io/network_export.h"
 #include "units_option.h"
 #include "up_option.h"
 
@@ -148,8 +149,10 @@ int main(int argc, char** argv) {
   reconstructCommand->add_option("--until", reconstruct.until,
                                  "Last stage to run: merge (pipes only, no joints or runs) or joints (default)")
       ->check(CLI::IsMember({"merge", "joints"}));
+  std::string formatNames;
+  for (const std::string& name : piperun::exportFormatNames()) formatNames += (formatNames.empty() ? "" : " ") + name;
   reconstructCommand->add_option("--export", reconstruct.exports,
-                                 "Also export the network, e.g. --export obj:net.obj (obj ply csv dxf pcf; repeatable)");
+                                 "Also export the network, e.g. --export obj:net.obj (" + formatNames + "; repeatable)");
   reconstructCommand->add_option("--pcf-bore", reconstruct.pcfBore, kPcfBoreHelp)
       ->transform(CLI::IsMember({"nominal", "outside"}, CLI::ignore_case))
       ->capture_default_str();
@@ -157,14 +160,14 @@ int main(int argc, char** argv) {
 
   ExportCommandOptions exportOptions;
   auto* exportCommand =
-      app.add_subcommand("export", "Export a network as a mesh (OBJ, PLY), table (CSV), CAD lines (DXF) or PCF");
+      app.add_subcommand("export", "Export a network as a mesh (OBJ, PLY), table (CSV), CAD lines (DXF), PCF or IFC");
   addVersion(*exportCommand);
   exportCommand
       ->add_option("network", exportOptions.input, "Network to export (.json, or a .piperun project's reviewed network)")
       ->required();
   exportCommand->add_option("-o,--output", exportOptions.output, "File to write")->required();
-  exportCommand->add_option("--format", exportOptions.format, "obj, ply, csv, dxf or pcf (default: from the file name)")
-      ->transform(CLI::IsMember({"obj", "ply", "csv", "dxf", "pcf"}, CLI::ignore_case));
+  exportCommand->add_option("--format", exportOptions.format, formatNames + " (default: from the file name)")
+      ->transform(CLI::IsMember(piperun::exportFormatNames(), CLI::ignore_case));
   exportCommand->add_option("--pcf-bore", exportOptions.pcfBore, kPcfBoreHelp)
       ->transform(CLI::IsMember({"nominal", "outside"}, CLI::ignore_case))
       ->capture_default_str();

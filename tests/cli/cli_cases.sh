@@ -331,7 +331,7 @@ case "$CASE" in
     run 0 generate --preset small --seed 1 --density 0.1 -o "$WORK/scene.ply" --truth "$WORK/truth.json"
     elements=$(tail -1 <<<"$OUT" | sed -E 's/.*pipes=([0-9]+) elbows=([0-9]+) tees=([0-9]+).*/\1 + \2 + \3/')
     elements=$((elements))
-    for format in obj ply csv dxf pcf; do
+    for format in obj ply csv dxf pcf ifc; do
       run 0 export "$WORK/truth.json" -o "$WORK/net.$format"
       expect_out "^exported: .*truth.json -> .*net.$format \($format\)$"
       expect_out "^pipes=[1-9][0-9]* elbows=[1-9][0-9]* tees=[1-9][0-9]* boundary=0 left_out=0$"
@@ -341,6 +341,9 @@ case "$CASE" in
     [ "$(wc -l <"$WORK/net.csv")" -eq $((elements + 1)) ] || fail "net.csv lacks one row per element"
     head -c 4 "$WORK/net.ply" | grep -q "^ply" || fail "net.ply is not PLY"
     grep -q "^AC1009" "$WORK/net.dxf" || fail "net.dxf is not DXF R12"
+    grep -qx "FILE_SCHEMA(('IFC4'));" "$WORK/net.ifc" || fail "net.ifc is not IFC4"
+    [ "$(grep -cE '^#[0-9]+=IFCPIPE(SEGMENT|FITTING)\(' "$WORK/net.ifc")" -eq "$elements" ] ||
+      fail "net.ifc lacks one product per element"
     # Read by a DXF library of CAD scripting (Debian's python3-ezdxf): a clean audit, every element's
     # centre line and extended data as in the network.
     ezdxf_reads() {

@@ -1,5 +1,6 @@
 // Tests of the network exports: every format is written, read back (OBJ and PLY with VTK's
-// readers, CSV, DXF and PCF with the small parsers below) and its geometry compared with the network.
+// readers, CSV, DXF, PCF and IFC with the small parsers below) and its geometry compared with the
+// network.
 
 #include <gtest/gtest.h>
 
@@ -180,7 +181,8 @@ void expectBounds(const MeshPart& part, const Vector3d& low, const Vector3d& hig
 }
 
 TEST(Export, FormatNamesAndExtensions) {
-  for (ExportFormat format : {ExportFormat::Obj, ExportFormat::Ply, ExportFormat::Csv, ExportFormat::Dxf, ExportFormat::Pcf}) {
+  for (ExportFormat format :
+       {ExportFormat::Obj, ExportFormat::Ply, ExportFormat::Csv, ExportFormat::Dxf, ExportFormat::Pcf, ExportFormat::Ifc}) {
     EXPECT_EQ(exportFormatFromString(toString(format)), format);
     EXPECT_EQ(exportFormatFromPath("out/net." + toString(format)), format);
   }
@@ -189,6 +191,8 @@ TEST(Export, FormatNamesAndExtensions) {
   EXPECT_FALSE(exportFormatFromString("stl"));
   EXPECT_FALSE(exportFormatFromPath("net.json"));
   EXPECT_FALSE(exportFormatFromPath("net"));
+  EXPECT_EQ(exportFormatNames(), (std::vector<std::string>{"obj", "ply", "csv", "dxf", "pcf", "ifc"}));
+  EXPECT_EQ(exportFileKinds(), ".obj .ply .csv .dxf .pcf or .ifc");
 }
 
 TEST(Export, SegmentsGrowWithRadiusInFours) {
@@ -797,6 +801,314 @@ TEST(Export, PcfKeepsABendFittedAFewDegreesPastNinetyOneElbow) {
 // ---------------------------------------------------------------------------------------------
 // A generated truth network through every format.
 
+// ---------------------------------------------------------------------------------------------
+// IFC: a small reader of ISO 10303-21 text (the DATA section's instances and their arguments)
+
+// An argument: a list, a reference (#12), a string, a typed value (IFCREAL(0.5)), or a bare token
+// (a number, an enumeration such as .BEND., $ or *).
+struct StepValue {
+  enum class Kind { List, Reference, String, Typed, Token } kind = Kind::Token;
+  std::string text;               // the reference's number, the string, the type's or token's text
+  std::vector<StepValue> items;   // a list's items, a typed value's one argument
+
+  int reference() const { return kind == Kind::Reference ? std::stoi(text) : -1; }
+  double real() const { return std::stod(kind == Kind::Typed ? items.at(0).text : text); }
+};
+
+struct StepInstance {
+  std::string type;
+  std::vector<StepValue> arguments;
+};
+
+struct IfcFile {
+  std::vector<std::string> header;  // the lines before DATA;
+  std::map<int, StepInstance> instances;
+  bool endsProperly = false;
+
+  std::vector<int> ofType(const std::string& type) const {
+    std::vector<int> found;
+    for (const auto& [id, instance] : instances) {
+      if (instance.type == type) found.push_back(id);
+    }
+    return found;
+  }
+  const StepInstance& at(const StepValue& reference) const { return instances.at(reference.reference()); }
+  // Every reference in every argument names an instance of the file.
+  bool referencesResolve() const {
+    std::vector<const StepValue*> open;
+    for (const auto& [id, instance] : instances) {
+      for (const auto& argument : instance.arguments) open.push_back(&argument);
+    }
+    while (!open.empty()) {
+      const StepValue* value = open.back();
+      open.pop_back();
+      if (value->kind == StepValue::Kind::Reference && !instances.count(value->reference())) return false;
+      for (const auto& item : value->items) open.push_back(&item);
+    }
+    return true;
+  }
+};
+
+class StepParser {
+ public:
+  explicit StepParser(const std::string& text) : text_(text) {}
+
+  std::vector<StepValue> arguments() {
+    expect('(');
+    std::vector<StepValue> values;
+    if (peek() == ')') {
+      ++at_;
+      return values;
+    }
+    for (;;) {
+      values.push_back(value());
+      const char next = text_.at(at_++);
+      if (next == ')') return values;
+      if (next != ',') throw std::runtime_error("expected , or ) at " + std::to_string(at_));
+    }
+  }
+
+ private:
+  StepValue value() {
+    StepValue v;
+    const char c = peek();
+    if (c == '(') {
+      v.kind = StepValue::Kind::List;
+      v.items = arguments();
+    } else if (c == '#') {
+      ++at_;
+      v.kind = StepValue::Kind::Reference;
+      while (std::isdigit(static_cast<unsigned char>(peek()))) v.text += text_[at_++];
+    } else if (c == '\'') {
+      ++at_;
+      v.kind = StepValue::Kind::String;
+      for (;;) {
+        const char d = text_.at(at_++);
+        if (d == '\'' && peek() == '\'') {
+          v.text += '\'';
+          ++at_;
+        } else if (d == '\'') {
+          break;
+        } else {
+          v.text += d;
+        }
+      }
+    } else {
+      while (peek() != ',' && peek() != ')' && peek() != '(') v.text += text_[at_++];
+      if (peek() == '(') {
+        v.kind = StepValue::Kind::Typed;
+        v.items = arguments();
+      }
+    }
+    return v;
+  }
+  char peek() const { return text_.at(at_); }
+  void expect(char c) {
+    if (text_.at(at_++) != c) throw std::runtime_error(std::string("expected ") + c + " at " + std::to_string(at_));
+  }
+
+  const std::string& text_;
+  std::size_t at_ = 0;
+};
+
+IfcFile parseIfc(const std::string& text) {
+  IfcFile file;
+  bool data = false;
+  for (const std::string& line : splitLines(text)) {
+    if (line == "DATA;") {
+      data = true;
+    } else if (!data) {
+      file.header.push_back(line);
+    } else if (line == "END-ISO-10303-21;") {
+      file.endsProperly = true;
+    } else if (!line.empty() && line[0] == '#') {
+      const std::size_t equals = line.find('='), open = line.find('(');
+      StepInstance instance;
+      instance.type = line.substr(equals + 1, open - equals - 1);
+      const std::string arguments = line.substr(open, line.size() - open - 1);  // without the ';'
+      instance.arguments = StepParser(arguments).arguments();
+      EXPECT_TRUE(file.instances.emplace(std::stoi(line.substr(1, equals - 1)), instance).second) << line;
+    }
+  }
+  return file;
+}
+
+// One product of an IFC export as read back: its entity, name, predefined type, centre line and
+// radius, and its PipeRun_Element properties.
+struct IfcProduct {
+  std::string type, globalId, name, predefined;
+  std::vector<Vector3d> axis;
+  double radius = 0.0;
+  std::map<std::string, StepValue> properties;
+};
+
+std::map<std::string, IfcProduct> ifcProducts(const IfcFile& file) {
+  std::map<int, IfcProduct> byId;
+  for (const std::string type : {"IFCPIPESEGMENT", "IFCPIPEFITTING"}) {
+    for (const int id : file.ofType(type)) {
+      const StepInstance& product = file.instances.at(id);
+      IfcProduct read;
+      read.type = type;
+      read.globalId = product.arguments.at(0).text;
+      read.name = product.arguments.at(2).text;
+      read.predefined = product.arguments.at(8).text;
+      const StepInstance& definition = file.at(product.arguments.at(6));
+      const StepInstance& shape = file.at(definition.arguments.at(2).items.at(0));
+      EXPECT_EQ(shape.arguments.at(2).text, "AdvancedSweptSolid");
+      const StepInstance& solid = file.at(shape.arguments.at(3).items.at(0));
+      EXPECT_EQ(solid.type, "IFCSWEPTDISKSOLID");
+      read.radius = solid.arguments.at(1).real();
+      const StepInstance& line = file.at(solid.arguments.at(0));
+      EXPECT_EQ(line.type, "IFCPOLYLINE");
+      for (const StepValue& vertex : line.arguments.at(0).items) {
+        const auto& xyz = file.at(vertex).arguments.at(0).items;
+        read.axis.emplace_back(xyz.at(0).real(), xyz.at(1).real(), xyz.at(2).real());
+      }
+      byId.emplace(id, read);
+    }
+  }
+  for (const int relation : file.ofType("IFCRELDEFINESBYPROPERTIES")) {
+    const StepInstance& defines = file.instances.at(relation);
+    const StepInstance& set = file.at(defines.arguments.at(5));
+    EXPECT_EQ(set.arguments.at(2).text, "PipeRun_Element");
+    for (const StepValue& object : defines.arguments.at(4).items) {
+      for (const StepValue& property : set.arguments.at(4).items) {
+        const StepInstance& single = file.at(property);
+        byId.at(object.reference()).properties[single.arguments.at(0).text] = single.arguments.at(2);
+      }
+    }
+  }
+  std::map<std::string, IfcProduct> byName;
+  for (auto& [id, product] : byId) byName.emplace(product.name, std::move(product));
+  return byName;
+}
+
+TEST(Export, IfcProductsAreSweptAlongTheCentreLinesAndRunsAreSystems) {
+  const PipeNetwork network = sampleNetwork();
+  TempDir dir;
+  exportNetwork(network, ExportFormat::Ifc, dir / "net.ifc");
+  const IfcFile file = parseIfc(test::readFile(dir / "net.ifc"));
+  ASSERT_FALSE(file.header.empty());
+  EXPECT_EQ(file.header.front(), "ISO-10303-21;");
+  EXPECT_NE(std::find(file.header.begin(), file.header.end(), "FILE_SCHEMA(('IFC4'));"), file.header.end());
+  EXPECT_TRUE(file.endsProperly);
+  EXPECT_TRUE(file.referencesResolve());
+  // Metres.
+  const auto units = file.ofType("IFCSIUNIT");
+  EXPECT_TRUE(std::any_of(units.begin(), units.end(), [&](int id) {
+    return file.instances.at(id).arguments.at(1).text == ".LENGTHUNIT." && file.instances.at(id).arguments.at(3).text == ".METRE.";
+  }));
+
+  // Every element kept, as its product, along its centre line.
+  const auto products = ifcProducts(file);
+  std::set<std::string> names, globalIds;
+  for (const auto& [name, product] : products) {
+    names.insert(name);
+    globalIds.insert(product.globalId);
+    ASSERT_EQ(product.globalId.size(), 22u) << name;
+    EXPECT_EQ(product.globalId.find_first_not_of(
+                  "0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz_$"),
+              std::string::npos)
+        << name;
+    EXPECT_LE(product.globalId[0], '3') << name;  // the first character holds two bits
+  }
+  EXPECT_EQ(names, kExportedNames);
+  EXPECT_EQ(globalIds.size(), products.size());
+  for (const Pipe& pipe : network.pipes) {
+    if (pipe.status == PipeStatus::Deleted) continue;
+    const IfcProduct& product = products.at("pipe-" + std::to_string(pipe.id));
+    EXPECT_EQ(product.type, "IFCPIPESEGMENT");
+    EXPECT_EQ(product.predefined, ".RIGIDSEGMENT.");
+    EXPECT_EQ(product.radius, pipe.radius);
+    ASSERT_EQ(product.axis.size(), 2u);
+    EXPECT_EQ(product.axis[0], pipe.start);
+    EXPECT_EQ(product.axis[1], pipe.end);
+    EXPECT_EQ(product.properties.at("ReviewStatus").items.at(0).text, toString(pipe.status));
+    EXPECT_EQ(product.properties.at("Confidence").real(), pipe.confidence);
+    EXPECT_EQ(product.properties.at("OutsideDiameter").real(), 2.0 * pipe.radius);
+  }
+  const IfcProduct& elbow = products.at("elbow-1");
+  EXPECT_EQ(elbow.type, "IFCPIPEFITTING");
+  EXPECT_EQ(elbow.predefined, ".BEND.");
+  EXPECT_EQ(elbow.axis, network.joints[0].axis);
+  EXPECT_EQ(elbow.properties.at("BendRadius").real(), kBendRadius);
+  EXPECT_EQ(elbow.properties.at("NominalSize").items.at(0).text, "3-1/2\" DN 90");
+  const IfcProduct& tee = products.at("tee-2");
+  EXPECT_EQ(tee.predefined, ".JUNCTION.");
+  EXPECT_EQ(tee.radius, kBranchRadius);
+  EXPECT_EQ(products.at("boundary-4").type, "IFCPIPESEGMENT");
+  EXPECT_EQ(products.at("boundary-4").properties.at("ReviewStatus").items.at(0).text, "proposed");
+
+  // All in the site, and the run a system of its five elements (pipes in no run are in none).
+  const auto contained = file.ofType("IFCRELCONTAINEDINSPATIALSTRUCTURE");
+  ASSERT_EQ(contained.size(), 1u);
+  EXPECT_EQ(file.at(file.instances.at(contained[0]).arguments.at(5)).type, "IFCSITE");
+  EXPECT_EQ(file.instances.at(contained[0]).arguments.at(4).items.size(), kExportedNames.size());
+  const auto systems = file.ofType("IFCDISTRIBUTIONSYSTEM");
+  ASSERT_EQ(systems.size(), 1u);
+  EXPECT_EQ(file.instances.at(systems[0]).arguments.at(2).text, "run 0");
+  const auto groups = file.ofType("IFCRELASSIGNSTOGROUP");
+  ASSERT_EQ(groups.size(), 1u);
+  std::set<std::string> members;
+  for (const StepValue& member : file.instances.at(groups[0]).arguments.at(4).items) {
+    members.insert(file.at(member).arguments.at(2).text);
+  }
+  EXPECT_EQ(members, (std::set<std::string>{"pipe-1", "pipe-2", "pipe-3", "elbow-1", "tee-2"}));
+  EXPECT_EQ(file.instances.at(groups[0]).arguments.at(6).reference(), systems[0]);
+  EXPECT_FALSE(products.at("pipe-6").properties.count("Run"));
+  EXPECT_EQ(products.at("pipe-1").properties.at("Run").items.at(0).text, "0");
+}
+
+TEST(Export, IfcIdsAreStableForANetworkAndItsModelStandsOnZ) {
+  // The same network exported twice gives the same GlobalIds (a model updated in a BIM tool keeps
+  // its elements); a network moved gives others. Turned to another axis up and told so, it gives
+  // the z-up network's model (an IFC model's z is up), but for the time of export.
+  const auto withoutTime = [](const std::filesystem::path& path) {
+    std::string kept;
+    for (const std::string& line : splitLines(test::readFile(path))) {
+      if (line.rfind("FILE_NAME(", 0) != 0) kept += line + "\n";
+    }
+    return kept;
+  };
+  TempDir dir;
+  exportNetwork(sampleNetwork(), ExportFormat::Ifc, dir / "a.ifc");
+  exportNetwork(sampleNetwork(), ExportFormat::Ifc, dir / "b.ifc");
+  EXPECT_EQ(withoutTime(dir / "a.ifc"), withoutTime(dir / "b.ifc"));
+  PipeNetwork moved = sampleNetwork();
+  const Vector3d shift(0.001, 0, 0);
+  for (Pipe& pipe : moved.pipes) {
+    pipe.start += shift;
+    pipe.end += shift;
+  }
+  for (Joint& joint : moved.joints) {
+    for (Vector3d& point : joint.axis) point += shift;
+  }
+  exportNetwork(moved, ExportFormat::Ifc, dir / "moved.ifc");
+  const auto idsOf = [](const std::filesystem::path& path) {
+    const IfcFile file = parseIfc(test::readFile(path));
+    std::set<std::string> ids;
+    for (const auto& [name, product] : ifcProducts(file)) ids.insert(product.globalId);
+    for (const std::string type : {"IFCPROJECT", "IFCSITE", "IFCDISTRIBUTIONSYSTEM"}) {
+      for (const int id : file.ofType(type)) ids.insert(file.instances.at(id).arguments.at(0).text);
+    }
+    return ids;
+  };
+  const auto original = idsOf(dir / "a.ifc"), movedIds = idsOf(dir / "moved.ifc");
+  std::vector<std::string> shared;
+  std::set_intersection(original.begin(), original.end(), movedIds.begin(), movedIds.end(), std::back_inserter(shared));
+  EXPECT_TRUE(shared.empty());
+
+  for (const std::string& name : upAxisNames()) {
+    const UpAxis up = upAxisFromString(name);
+    PipeNetwork turned = sampleNetwork();
+    turned.turn(turnZUpTo(up));
+    ExportOptions options;
+    options.up = up;
+    exportNetwork(turned, ExportFormat::Ifc, dir / "turned.ifc", options);
+    EXPECT_EQ(withoutTime(dir / "turned.ifc"), withoutTime(dir / "a.ifc")) << name;
+  }
+}
+
 double distanceToLine(const Vector3d& p, const Vector3d& a, const Vector3d& b) {
   return (p - a).cross((b - a).normalized()).norm();
 }
@@ -867,7 +1179,8 @@ TEST(Export, EmptyNetworkGivesValidEmptyFiles) {
   network.joints[0].pipeIds = {4};
   network.runs.clear();
   TempDir dir;
-  for (ExportFormat format : {ExportFormat::Obj, ExportFormat::Ply, ExportFormat::Csv, ExportFormat::Dxf, ExportFormat::Pcf}) {
+  for (ExportFormat format :
+       {ExportFormat::Obj, ExportFormat::Ply, ExportFormat::Csv, ExportFormat::Dxf, ExportFormat::Pcf, ExportFormat::Ifc}) {
     exportNetwork(network, format, dir / ("empty." + toString(format)));
   }
   vtkNew<vtkOBJReader> obj;
@@ -885,6 +1198,10 @@ TEST(Export, EmptyNetworkGivesValidEmptyFiles) {
   const PcfFile pcf = parsePcf(test::readFile(dir / "empty.pcf"));
   EXPECT_TRUE(pcf.pipelines.empty());
   EXPECT_EQ(pcf.units.at("UNITS-BORE"), "MM");
+  const IfcFile ifc = parseIfc(test::readFile(dir / "empty.ifc"));
+  EXPECT_TRUE(ifc.ofType("IFCPIPESEGMENT").empty());
+  EXPECT_EQ(ifc.ofType("IFCSITE").size(), 1u);
+  EXPECT_TRUE(ifc.referencesResolve());
 }
 
 TEST(Export, RefusesBadOptionsAndUnwritablePaths) {

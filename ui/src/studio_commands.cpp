@@ -3,6 +3,7 @@
 #include "studio_impl.h"
 
 #include "piperun/error.h"
+#include "piperun/io/network_export.h"
 #include "piperun/io/output_path.h"
 #include "piperun/spacing.h"
 
@@ -357,7 +358,7 @@ void Studio::Impl::registerCommands() {
                });
 
   commands.add("export", "FILE [accepted]",
-               "export the reviewed network (.obj .ply .csv .dxf or .pcf: docs/FORMATS.md); accepted: what is proposed left out",
+               "export the reviewed network (" + exportFileKinds() + ": docs/FORMATS.md); accepted: what is proposed left out",
                [this](const std::vector<std::string>& args) {
                  expectArguments(args, 1, 2, "export FILE [accepted]");
                  if (args.size() == 2 && args[1] != "accepted") throw CommandError("expected \"export FILE [accepted]\"");

@@ -194,11 +194,11 @@ CommandOutcome CommandInterpreter::dispatch(const std::vector<std::string>& word
   if (verb == "export") {
     const bool acceptedOnly = words.size() == 3 && words[2] == "accepted";
     if (words.size() != 2 && !acceptedOnly) {
-      throw EditError("expected \"export FILE [accepted]\" (.obj .ply .csv .dxf or .pcf)");
+      throw EditError("expected \"export FILE [accepted]\" (" + exportFileKinds() + ")");
     }
     const auto format = exportFormatFromPath(words[1]);
     if (!format) {
-      throw EditError("cannot tell the export format from \"" + words[1] + "\": name a .obj .ply .csv .dxf or .pcf file");
+      throw EditError("cannot tell the export format from \"" + words[1] + "\": name a " + exportFileKinds() + " file");
     }
     const PipeNetwork& network = project_.edits.network();
     ExportOptions options;

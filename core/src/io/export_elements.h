@@ -48,5 +48,8 @@ std::string csvDocument(const std::vector<ExportElement>& elements, const Nomina
 std::string dxfDocument(const std::vector<ExportElement>& elements);
 /// `nominal`: the table of nominal bores; nullptr: the fitted outside diameters.
 std::string pcfDocument(const std::vector<ExportElement>& elements, const NominalSizes* nominal);
+/// `fileName` is recorded in the file's header.
+std::string ifcDocument(const std::vector<ExportElement>& elements, const NominalSizes& sizes,
+                        const std::string& fileName);
 
 }  // namespace piperun::io

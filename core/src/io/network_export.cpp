@@ -15,7 +15,7 @@ namespace piperun {
 namespace {
 
 constexpr ExportFormat kFormats[] = {ExportFormat::Obj, ExportFormat::Ply, ExportFormat::Csv, ExportFormat::Dxf,
-                                     ExportFormat::Pcf};
+                                     ExportFormat::Pcf, ExportFormat::Ifc};
 
 void checkOptions(const ExportOptions& options) {
   if (!(options.chordTolerance > 0.0)) throw std::invalid_argument("export: the chord tolerance must be positive");
@@ -34,8 +34,27 @@ std::string toString(ExportFormat format) {
     case ExportFormat::Csv: return "csv";
     case ExportFormat::Dxf: return "dxf";
     case ExportFormat::Pcf: return "pcf";
+    case ExportFormat::Ifc: return "ifc";
   }
   return "obj";
+}
+
+const std::vector<std::string>& exportFormatNames() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> all;
+    for (ExportFormat format : kFormats) all.push_back(toString(format));
+    return all;
+  }();
+  return names;
+}
+
+std::string exportFileKinds() {
+  const auto& names = exportFormatNames();
+  std::string kinds;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    kinds += (i == 0 ? "." : i + 1 == names.size() ? " or ." : " .") + names[i];
+  }
+  return kinds;
 }
 
 std::string toString(PcfBore bore) { return bore == PcfBore::Nominal ? "nominal" : "outside"; }
@@ -74,13 +93,15 @@ void exportNetwork(const PipeNetwork& network, ExportFormat format, const std::f
                    const ExportOptions& options) {
   checkOptions(options);
   std::optional<PipeNetwork> upright;
-  if (format == ExportFormat::Pcf && options.up != UpAxis::PlusZ) {
+  const bool zUp = format == ExportFormat::Pcf || format == ExportFormat::Ifc;
+  if (zUp && options.up != UpAxis::PlusZ) {
     upright = network;
     upright->turn(turnZUpTo(options.up).transpose());
   }
   const auto elements = io::exportedElements(upright ? *upright : network);
   std::optional<NominalSizes> sizes;
-  if (format == ExportFormat::Csv || (format == ExportFormat::Pcf && options.pcfBore == PcfBore::Nominal)) {
+  if (format == ExportFormat::Csv || format == ExportFormat::Ifc ||
+      (format == ExportFormat::Pcf && options.pcfBore == PcfBore::Nominal)) {
     sizes = NominalSizes::shipped();
   }
   std::string document;
@@ -90,6 +111,7 @@ void exportNetwork(const PipeNetwork& network, ExportFormat format, const std::f
     case ExportFormat::Csv: document = io::csvDocument(elements, *sizes); break;
     case ExportFormat::Dxf: document = io::dxfDocument(elements); break;
     case ExportFormat::Pcf: document = io::pcfDocument(elements, sizes ? &*sizes : nullptr); break;
+    case ExportFormat::Ifc: document = io::ifcDocument(elements, *sizes, path.filename().string()); break;
   }
   io::writeFileAtomically(path, document);
 }

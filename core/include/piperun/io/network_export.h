@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace piperun {
 
@@ -20,6 +21,7 @@ enum class ExportFormat {
   Csv,  ///< One row per element (RFC 4180).
   Dxf,  ///< ASCII DXF R12: 3-D polylines of the centre lines, properties in XDATA.
   Pcf,  ///< Piping Component File (ISOGEN): one pipeline per run, millimetres.
+  Ifc,  ///< IFC4 STEP file (BIM): pipe segments and fittings as swept disks, runs as systems.
 };
 
 /// What a PCF END-POINT's bore says.
@@ -37,8 +39,8 @@ struct ExportOptions {
   int maxSegments = 128;  ///< Meshes: most sides around a tube.
   PcfBore pcfBore = PcfBore::Nominal;  ///< PCF: the bores written.
   /// The network's up direction. PCF co-ordinates are East, North, Up (isometrics draw elevations
-  /// along z), so a network with another axis up is turned so that it is z; the other formats keep
-  /// the network's co-ordinates, those of its scan.
+  /// along z) and an IFC model's z is up, so for those a network with another axis up is turned so
+  /// that it is z; the other formats keep the network's co-ordinates, those of its scan.
   UpAxis up = UpAxis::PlusZ;
 };
 
@@ -47,8 +49,12 @@ std::string toString(PcfBore bore);
 /// Parses "nominal" or "outside" (case-insensitive); nullopt otherwise.
 std::optional<PcfBore> pcfBoreFromString(const std::string& name);
 
-/// "obj", "ply", "csv", "dxf", "pcf".
+/// "obj", "ply", "csv", "dxf", "pcf", "ifc".
 std::string toString(ExportFormat format);
+/// Every format's name, in the order above.
+const std::vector<std::string>& exportFormatNames();
+/// The file names the formats take, for messages: ".obj .ply .csv .dxf .pcf or .ifc".
+std::string exportFileKinds();
 /// Parses a format name (case-insensitive); nullopt for an unknown name.
 std::optional<ExportFormat> exportFormatFromString(const std::string& name);
 /// The format a file name's extension asks for (".obj" → Obj, case-insensitive); nullopt otherwise.
@@ -60,8 +66,8 @@ std::optional<ExportFormat> exportFormatFromPath(const std::filesystem::path& pa
 int meshSegments(double radius, const ExportOptions& options);
 
 /// Writes `network` to `path` in `format`, atomically (a temporary file beside `path` is renamed
-/// over it). Throws OutputError when the file cannot be written, InputError when PCF's nominal
-/// sizes are asked for and their table is not found, and std::invalid_argument for options out of
+/// over it). Throws OutputError when the file cannot be written, InputError when nominal sizes are
+/// needed (CSV, IFC, PCF's nominal bores) and their table is not found, and std::invalid_argument for options out of
 /// range (chordTolerance ≤ 0, minSegments < 3, maxSegments < minSegments).
 void exportNetwork(const PipeNetwork& network, ExportFormat format, const std::filesystem::path& path,
                    const ExportOptions& options = {});

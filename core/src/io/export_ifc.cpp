@@ -1,0 +1,224 @@
+// IFC4 (ISO 16739-1), the open exchange format of building and plant models, as an ISO 10303-21
+// (STEP) text file that BIM tools read for coordination and clash detection. Each element is a
+// product contained in one IfcSite: a pipe (and a boundary joint, a pipe piece closing a gap) an
+// IfcPipeSegment, an elbow an IfcPipeFitting BEND and a tee an IfcPipeFitting JUNCTION (its branch
+// stub from the main's axis). Its body is an IfcSweptDiskSolid: a disk of its radius swept along its
+// centre line, an IfcPolyline in metres. Each run is an IfcDistributionSystem grouping its
+// elements, and each element carries the property set PipeRun_Element (confidence, review status,
+// outside diameter, nominal size, length, bend radius, run). GlobalIds are derived from each
+// element's name and centre line: the same network exports the same ids.
+
+#include "io/export_elements.h"
+
+#include <cstdint>
+#include <cstring>
+#include <ctime>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace piperun::io {
+
+namespace {
+
+/// FNV-1a over bytes, continuing from `hash`.
+std::uint64_t fnv1a(const void* data, std::size_t size, std::uint64_t hash) {
+  const auto* bytes = static_cast<const unsigned char*>(data);
+  for (std::size_t i = 0; i < size; ++i) {
+    hash ^= bytes[i];
+    hash *= 0x100000001b3ULL;
+  }
+  return hash;
+}
+
+/// SplitMix64's finaliser: spreads a hash over all 64 bits.
+std::uint64_t mixed(std::uint64_t x) {
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+constexpr std::uint64_t kFnvBasis = 0xcbf29ce484222325ULL;
+
+/// A hash of `key` and `points`, continuing from `hash`.
+std::uint64_t hashOf(const std::string& key, const std::vector<Eigen::Vector3d>& points, std::uint64_t hash) {
+  hash = fnv1a(key.data(), key.size(), hash);
+  for (const auto& p : points) hash = fnv1a(p.data(), 3 * sizeof(double), hash);
+  return hash;
+}
+
+/// An IFC GlobalId: 128 bits written as 22 characters of IFC's base-64 alphabet (the first carries
+/// 2 bits, the others 6 each), from a hash of `key` and `points`.
+std::string globalId(const std::string& key, const std::vector<Eigen::Vector3d>& points = {}) {
+  static constexpr char kDigits[] = "0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz_$";
+  const std::uint64_t hash = hashOf(key, points, kFnvBasis);
+  const std::uint64_t high = mixed(hash), low = mixed(hash ^ 0x9e3779b97f4a7c15ULL);
+  std::string id(22, '0');
+  id[0] = kDigits[high >> 62];
+  for (int i = 1; i < 22; ++i) {
+    // Bits 125 - 6 (i - 1) down to 120 - 6 (i - 1) of the 128 (high then low).
+    const int shift = 120 - 6 * (i - 1);
+    const std::uint64_t digit = shift >= 64   ? (high >> (shift - 64)) & 63
+                                : shift > 58 ? ((high << (64 - shift)) | (low >> shift)) & 63
+                                             : (low >> shift) & 63;
+    id[static_cast<std::size_t>(i)] = kDigits[digit];
+  }
+  return id;
+}
+
+/// A STEP string literal: apostrophes doubled, backslashes escaped (the text is ASCII).
+std::string stepString(const std::string& text) {
+  std::string quoted = "'";
+  for (const char c : text) {
+    if (c == '\'' || c == '\\') quoted += c;
+    quoted += c;
+  }
+  return quoted + "'";
+}
+
+/// A STEP real: the shortest exact decimal, always with a point and an upper-case exponent.
+std::string stepReal(double value) {
+  std::string text = shortestNumber(value);
+  const std::size_t exponent = text.find('e');
+  std::string mantissa = text.substr(0, exponent);
+  if (mantissa.find('.') == std::string::npos) mantissa += '.';
+  return exponent == std::string::npos ? mantissa : mantissa + "E" + text.substr(exponent + 1);
+}
+
+/// The DATA section's instances, numbered as they are added.
+class StepData {
+ public:
+  /// Adds `#n=ENTITY(arguments);` and returns "#n".
+  std::string add(const std::string& entity, const std::string& arguments) {
+    const std::string reference = "#" + std::to_string(++count_);
+    text_ += reference + "=" + entity + "(" + arguments + ");\n";
+    return reference;
+  }
+  const std::string& text() const { return text_; }
+
+ private:
+  int count_ = 0;
+  std::string text_;
+};
+
+/// "(#1,#2,#3)".
+std::string referenceList(const std::vector<std::string>& references) {
+  std::string list = "(";
+  for (std::size_t i = 0; i < references.size(); ++i) list += (i == 0 ? "" : ",") + references[i];
+  return list + ")";
+}
+
+std::string point(const Eigen::Vector3d& p) {
+  return "(" + stepReal(p.x()) + "," + stepReal(p.y()) + "," + stepReal(p.z()) + ")";
+}
+
+/// The IFC entity and predefined type of an element.
+std::pair<const char*, const char*> productOf(ElementKind kind) {
+  switch (kind) {
+    case ElementKind::Elbow: return {"IFCPIPEFITTING", ".BEND."};
+    case ElementKind::Tee: return {"IFCPIPEFITTING", ".JUNCTION."};
+    case ElementKind::Pipe:
+    case ElementKind::Boundary: break;
+  }
+  return {"IFCPIPESEGMENT", ".RIGIDSEGMENT."};
+}
+
+/// "2026-12-05T13:40:00", UTC.
+std::string timestampNow() {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%S", &utc);
+  return text;
+}
+
+}  // namespace
+
+std::string ifcDocument(const std::vector<ExportElement>& elements, const NominalSizes& sizes,
+                        const std::string& fileName) {
+  StepData data;
+  const std::string origin = data.add("IFCCARTESIANPOINT", "(0.,0.,0.)");
+  const std::string world = data.add("IFCAXIS2PLACEMENT3D", origin + ",$,$");
+  const std::string model = data.add("IFCGEOMETRICREPRESENTATIONCONTEXT", "$,'Model',3,1.E-05," + world + ",$");
+  const std::string body =
+      data.add("IFCGEOMETRICREPRESENTATIONSUBCONTEXT", "'Body','Model',*,*,*,*," + model + ",$,.MODEL_VIEW.,$");
+  const std::string metre = data.add("IFCSIUNIT", "*,.LENGTHUNIT.,$,.METRE.");
+  const std::string radian = data.add("IFCSIUNIT", "*,.PLANEANGLEUNIT.,$,.RADIAN.");
+  const std::string units = data.add("IFCUNITASSIGNMENT", referenceList({metre, radian}));
+  // The ids of what the whole network has (project, site, runs) follow from every element's name
+  // and centre line, so another network's differ.
+  std::uint64_t networkHash = kFnvBasis;
+  for (const auto& element : elements) networkHash = hashOf(element.name, element.axis, networkHash);
+  const std::string network = std::to_string(networkHash);
+  const std::string project = data.add(
+      "IFCPROJECT", stepString(globalId("project " + network)) + ",$,'PipeRun network',$,$,$,$,(" + model + ")," + units);
+  const std::string sitePlacement = data.add("IFCLOCALPLACEMENT", "$," + world);
+  const std::string site = data.add("IFCSITE", stepString(globalId("site " + network)) + ",$,'Site',$,$," +
+                                                   sitePlacement + ",$,$,.ELEMENT.,$,$,$,$,$");
+  data.add("IFCRELAGGREGATES", stepString(globalId("aggregates " + network)) + ",$,$,$," + project + ",(" + site + ")");
+
+  std::vector<std::string> products;
+  std::map<int, std::vector<std::string>> productsOfRun;
+  for (const auto& element : elements) {
+    std::vector<std::string> vertices;
+    for (const auto& p : element.axis) vertices.push_back(data.add("IFCCARTESIANPOINT", point(p)));
+    const std::string line = data.add("IFCPOLYLINE", referenceList(vertices));
+    const std::string solid = data.add("IFCSWEPTDISKSOLID", line + "," + stepReal(element.radius) + ",$,$,$");
+    const std::string shape =
+        data.add("IFCSHAPEREPRESENTATION", body + ",'Body','AdvancedSweptSolid',(" + solid + ")");
+    const std::string definition = data.add("IFCPRODUCTDEFINITIONSHAPE", "$,$,(" + shape + ")");
+    const std::string placement = data.add("IFCLOCALPLACEMENT", sitePlacement + "," + world);
+    const auto [entity, predefined] = productOf(element.kind);
+    const std::string product =
+        data.add(entity, stepString(globalId(element.name, element.axis)) + ",$," + stepString(element.name) + "," +
+                             stepString(kindName(element.kind)) + ",$," + placement + "," + definition + "," +
+                             stepString(std::to_string(element.id)) + "," + predefined);
+    products.push_back(product);
+    if (element.runId >= 0) productsOfRun[element.runId].push_back(product);
+
+    const NominalSize& size = sizes.nearest(element.radius);
+    std::vector<std::string> properties = {
+        data.add("IFCPROPERTYSINGLEVALUE", "'Confidence',$,IFCREAL(" + stepReal(element.confidence) + "),$"),
+        data.add("IFCPROPERTYSINGLEVALUE", "'ReviewStatus',$,IFCLABEL(" + stepString(element.status) + "),$"),
+        data.add("IFCPROPERTYSINGLEVALUE",
+                 "'OutsideDiameter',$,IFCPOSITIVELENGTHMEASURE(" + stepReal(2.0 * element.radius) + "),$"),
+        data.add("IFCPROPERTYSINGLEVALUE",
+                 "'NominalSize',$,IFCLABEL(" + stepString(size.nps + "\" DN " + std::to_string(size.dn)) + "),$"),
+        data.add("IFCPROPERTYSINGLEVALUE", "'Length',$,IFCLENGTHMEASURE(" + stepReal(element.length()) + "),$")};
+    if (element.kind == ElementKind::Elbow) {
+      properties.push_back(data.add("IFCPROPERTYSINGLEVALUE",
+                                    "'BendRadius',$,IFCPOSITIVELENGTHMEASURE(" + stepReal(element.bendRadius) + "),$"));
+    }
+    if (element.runId >= 0) {
+      properties.push_back(
+          data.add("IFCPROPERTYSINGLEVALUE", "'Run',$,IFCINTEGER(" + std::to_string(element.runId) + "),$"));
+    }
+    const std::string set = data.add("IFCPROPERTYSET", stepString(globalId("properties " + element.name, element.axis)) +
+                                                           ",$,'PipeRun_Element',$," + referenceList(properties));
+    data.add("IFCRELDEFINESBYPROPERTIES",
+             stepString(globalId("defines " + element.name, element.axis)) + ",$,$,$,(" + product + ")," + set);
+  }
+  if (!products.empty()) {
+    data.add("IFCRELCONTAINEDINSPATIALSTRUCTURE",
+             stepString(globalId("contained " + network)) + ",$,$,$," + referenceList(products) + "," + site);
+  }
+  for (const auto& [run, members] : productsOfRun) {
+    const std::string key = "run " + std::to_string(run) + " " + network;
+    const std::string system = data.add("IFCDISTRIBUTIONSYSTEM", stepString(globalId(key)) + ",$," +
+                                                                     stepString("run " + std::to_string(run)) +
+                                                                     ",$,$,$,.NOTDEFINED.");
+    data.add("IFCRELASSIGNSTOGROUP",
+             stepString(globalId("assigns " + key)) + ",$,$,$," + referenceList(members) + ",$," + system);
+    data.add("IFCRELSERVICESBUILDINGS", stepString(globalId("services " + key)) + ",$,$,$," + system + ",(" + site + ")");
+  }
+
+  return "ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION(('ViewDefinition [ReferenceView_V1.2]'),'2;1');\n"
+         "FILE_NAME(" +
+         stepString(fileName) + "," + stepString(timestampNow()) +
+         ",(''),(''),'PipeRun " PIPERUN_VERSION "','PipeRun " PIPERUN_VERSION "','');\n"
+         "FILE_SCHEMA(('IFC4'));\nENDSEC;\nDATA;\n" +
+         data.text() + "ENDSEC;\nEND-ISO-10303-21;\n";
+}
+
+}  // namespace piperun::io
