@@ -88,6 +88,18 @@ PipeNetwork sampleNetwork() {
   return network;
 }
 
+/// `network` moved by `offset`.
+PipeNetwork shifted(PipeNetwork network, const Vector3d& offset) {
+  for (Pipe& pipe : network.pipes) {
+    pipe.start += offset;
+    pipe.end += offset;
+  }
+  for (Joint& joint : network.joints) {
+    for (Vector3d& point : joint.axis) point += offset;
+  }
+  return network;
+}
+
 const std::set<std::string> kExportedNames = {"pipe-1", "pipe-2", "pipe-3",  "pipe-5",    "pipe-6",
                                               "pipe-7", "elbow-1", "tee-2", "boundary-4"};
 
@@ -334,15 +346,8 @@ TEST(Export, PlyReadBackByVtkWithElementIds) {
 }
 
 TEST(Export, PlyFarFromOriginStoresDoubles) {
-  PipeNetwork network = sampleNetwork();
   const Vector3d offset(500000.0, 4000000.0, 0.0);
-  for (auto& pipe : network.pipes) {
-    pipe.start += offset;
-    pipe.end += offset;
-  }
-  for (auto& joint : network.joints) {
-    for (auto& p : joint.axis) p += offset;
-  }
+  const PipeNetwork network = shifted(sampleNetwork(), offset);
   TempDir dir;
   exportNetwork(network, ExportFormat::Ply, dir / "far.ply");
   vtkNew<vtkPLYReader> reader;
@@ -1074,16 +1079,7 @@ TEST(Export, IfcIdsAreStableForANetworkAndItsModelStandsOnZ) {
   exportNetwork(sampleNetwork(), ExportFormat::Ifc, dir / "a.ifc");
   exportNetwork(sampleNetwork(), ExportFormat::Ifc, dir / "b.ifc");
   EXPECT_EQ(withoutTime(dir / "a.ifc"), withoutTime(dir / "b.ifc"));
-  PipeNetwork moved = sampleNetwork();
-  const Vector3d shift(0.001, 0, 0);
-  for (Pipe& pipe : moved.pipes) {
-    pipe.start += shift;
-    pipe.end += shift;
-  }
-  for (Joint& joint : moved.joints) {
-    for (Vector3d& point : joint.axis) point += shift;
-  }
-  exportNetwork(moved, ExportFormat::Ifc, dir / "moved.ifc");
+  exportNetwork(shifted(sampleNetwork(), Vector3d(0.001, 0, 0)), ExportFormat::Ifc, dir / "moved.ifc");
   const auto idsOf = [](const std::filesystem::path& path) {
     const IfcFile file = parseIfc(test::readFile(path));
     std::set<std::string> ids;
