@@ -174,7 +174,8 @@ int main(int argc, char** argv) {
   exportCommand->add_flag("--accepted-only", exportOptions.acceptedOnly, kAcceptedOnlyHelp);
   piperun::app::addUpOption(*exportCommand, exportOptions.up,
                              "The network's up axis, x, y, z, -x, -y or -z (default: the one `reconstruct --up` "
-                             "recorded, else z): a PCF is written turned so that it is z, as isometrics draw elevations");
+                             "recorded, else z): a PCF or IFC file is written turned so that it is z, as isometrics "
+                             "draw elevations and IFC models stand");
   exportCommand->add_option("--chord-tolerance", exportOptions.chordTolerance,
                             "Meshes: largest gap between a tube's polygon and its circle, metres")
       ->check(CLI::PositiveNumber)
