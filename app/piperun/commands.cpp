@@ -143,9 +143,8 @@ ExportTarget parseExportTarget(const std::string& spec) {
   const auto colon = spec.find(':');
   const auto format = colon == std::string::npos ? std::nullopt : exportFormatFromString(spec.substr(0, colon));
   if (!format || colon + 1 >= spec.size()) {
-    std::string names;
-    for (const std::string& name : exportFormatNames()) names += (names.empty() ? "" : ", ") + name;
-    throw std::invalid_argument("--export " + spec + ": expected FORMAT:FILE with FORMAT one of " + names);
+    throw std::invalid_argument("--export " + spec + ": expected FORMAT:FILE with FORMAT one of " +
+                                joinNames(exportFormatNames()));
   }
   return {*format, spec.substr(colon + 1)};
 }
@@ -221,7 +220,8 @@ int runGenerate(const GenerateOptions& options) {
   params.up = upAxisFromString(options.up);
   params.roof = options.roof;
 
-  if (!options.truth.empty()) requireWritableFile(options.truth);  // the scan's file is made first
+  // The truth is written after the scene; the scan's file is checked by opening it, below.
+  if (!options.truth.empty()) requireWritableFile(options.truth);
   const auto start = std::chrono::steady_clock::now();
   ProgressBar bar(options.quiet);
   const unsigned attributes = kIntensity | (options.labels ? kLabels : kNoAttributes);
@@ -508,11 +508,13 @@ void printJointsSteps(const JointsResult::Diagnostics& d) {
   add(found, d.legsBetweenBends, "leg", "legs", "between seen bends");
   add(found, d.hiddenLegs, "leg", "legs", "between unseen bends");
   add(found, d.hiddenBranches, "hidden leg", "hidden legs", "from an end to a main");
-  add(merged, d.piecesAtEnds, "piece", "pieces", d.piecesAtEnds == 1 ? "into the pipe on whose line it lay" : "into the pipes on whose lines they lay");
+  add(merged, d.piecesAtEnds, "piece", "pieces",
+      d.piecesAtEnds == 1 ? "into the pipe on whose line it lay" : "into the pipes on whose lines they lay");
   add(leftOut, d.unjoinedPipes, "weakly supported pipe", "weakly supported pipes", "that took no joint");
   add(leftOut, d.underGround, "pipe or leg", "pipes or legs", "reaching below the ground");
   add(leftOut, d.planeResidue, "pipe", "pipes", "over a removed plane's edge");
-  for (const auto& [name, list] : {std::pair{"found", &found}, std::pair{"merged", &merged}, std::pair{"left out", &leftOut}}) {
+  for (const auto& [name, list] :
+       {std::pair{"found", &found}, std::pair{"merged", &merged}, std::pair{"left out", &leftOut}}) {
     if (!list->empty()) std::printf("  %s: %s\n", name, joinNames(*list).c_str());
   }
 }
