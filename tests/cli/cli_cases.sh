@@ -246,6 +246,11 @@ case "$CASE" in
     run 0 export "$WORK/y.json" -o "$WORK/y-as-z.pcf" --up z
     cmp -s "$WORK/z.pcf" "$WORK/y-as-z.pcf" && fail "export --up z did not override the recorded axis"
     run 1 export "$WORK/y.json" -o "$WORK/y.pcf" --up w
+    # So is an IFC model, which stands on z (the header's FILE_NAME, with the time, left out).
+    run 0 export "$WORK/z.json" -o "$WORK/z.ifc"
+    run 0 export "$WORK/y.json" -o "$WORK/y.ifc"
+    cmp -s <(grep -v "^FILE_NAME(" "$WORK/z.ifc") <(grep -v "^FILE_NAME(" "$WORK/y.ifc") ||
+      fail "the y-up truth's IFC is not the z-up truth's"
     ;;
   params)
     run 0 params
