@@ -12,10 +12,10 @@ echo "== read it back"
 ./build/app/piperun info example/scene.ply
 echo "== reconstruct its pipe network (pipes, elbows, tees, runs), export it and evaluate it against the truth"
 ./build/app/piperun reconstruct example/scene.ply -o example/network.json --truth example/truth.json \
-  --export obj:example/network.obj --export pcf:example/network.pcf
+  --export obj:example/network.obj --export pcf:example/network.pcf --export ifc:example/network.ifc
 echo "== the metric's sanity check: the truth against itself (F1 = 1)"
 ./build/app/piperun eval example/truth.json example/truth.json
-echo "== outputs: example/scene.ply, example/truth.json, example/network.json, example/network.obj, example/network.pcf"
+echo "== outputs: example/scene.ply, example/truth.json, example/network.json, example/network.obj, example/network.pcf, example/network.ifc"
 if [ -n "${DISPLAY:-}" ] && xdpyinfo >/dev/null 2>&1; then
   echo "== PipeRun Studio on the example (H lists the keys; docs/STUDIO.md)"
   ./build/app/piperun-studio example/scene.ply
