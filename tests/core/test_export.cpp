@@ -1094,6 +1094,12 @@ TEST(Export, IfcIdsAreStableForANetworkAndItsModelStandsOnZ) {
   std::set_intersection(original.begin(), original.end(), movedIds.begin(), movedIds.end(), std::back_inserter(shared));
   EXPECT_TRUE(shared.empty());
 
+  // The header names the file: STEP strings are ASCII, with other characters written as their codes.
+  exportNetwork(sampleNetwork(), ExportFormat::Ifc, dir / "r\u00e9seau 'n\u00b0 2'.ifc");
+  EXPECT_EQ(splitLines(test::readFile(dir / "r\u00e9seau 'n\u00b0 2'.ifc")).at(3).rfind(
+                "FILE_NAME('r\\X2\\00E9\\X0\\seau ''n\\X2\\00B0\\X0\\ 2''.ifc','", 0),
+            0u);
+
   for (const std::string& name : upAxisNames()) {
     const UpAxis up = upAxisFromString(name);
     PipeNetwork turned = sampleNetwork();

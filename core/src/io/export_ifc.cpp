@@ -11,6 +11,7 @@
 #include "io/export_elements.h"
 
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <ctime>
 #include <map>
@@ -66,12 +67,37 @@ std::string globalId(const std::string& key, const std::vector<Eigen::Vector3d>&
   return id;
 }
 
-/// A STEP string literal: apostrophes doubled, backslashes escaped (the text is ASCII).
+/// A STEP string literal of UTF-8 `text`: apostrophes doubled, backslashes escaped, and each
+/// character beyond ASCII (a file name's) as \X2\hhhh\X0\ (\X4\hhhhhhhh\X0\ beyond 16 bits), as
+/// ISO 10303-21 has it; a byte that starts no UTF-8 character becomes '?'.
 std::string stepString(const std::string& text) {
   std::string quoted = "'";
-  for (const char c : text) {
-    if (c == '\'' || c == '\\') quoted += c;
-    quoted += c;
+  for (std::size_t i = 0; i < text.size();) {
+    const auto byte = static_cast<unsigned char>(text[i]);
+    if (byte < 0x80) {
+      if (byte == '\'' || byte == '\\') quoted += static_cast<char>(byte);
+      quoted += static_cast<char>(byte);
+      ++i;
+      continue;
+    }
+    const std::size_t length = byte >= 0xF8 ? 0 : byte >= 0xF0 ? 4 : byte >= 0xE0 ? 3 : byte >= 0xC0 ? 2 : 0;
+    bool whole = length > 0 && i + length <= text.size();
+    std::uint32_t code = length > 0 ? byte & (0x7F >> length) : 0;
+    for (std::size_t k = 1; whole && k < length; ++k) {
+      const auto next = static_cast<unsigned char>(text[i + k]);
+      whole = (next & 0xC0) == 0x80;
+      code = (code << 6) | (next & 0x3F);
+    }
+    if (!whole) {
+      quoted += '?';
+      ++i;
+      continue;
+    }
+    char hex[16];
+    std::snprintf(hex, sizeof hex, code > 0xFFFF ? "\\X4\\%08X" : "\\X2\\%04X", code);
+    quoted += hex;
+    quoted += "\\X0\\";
+    i += length;
   }
   return quoted + "'";
 }
