@@ -17,9 +17,10 @@ review delete
 save review.piperun
 export studio.csv
 export studio.pcf
+export studio.ifc
 SCRIPT
 env -u DISPLAY "$render" "$scene" --script review.txt -o shot.png --size 320x200 --view scene
-[[ -s studio.csv && -s studio.pcf ]] || fail "the studio wrote no export"
+[[ -s studio.csv && -s studio.pcf && -s studio.ifc ]] || fail "the studio wrote no export"
 grep -q "^3,pipe," studio.csv && fail "the deleted pipe 3 was exported"
 [[ $(grep -c "^[0-9]*,pipe," studio.csv) -gt 0 ]] || fail "no pipe exported"
 
@@ -27,6 +28,10 @@ grep -q "^3,pipe," studio.csv && fail "the deleted pipe 3 was exported"
 cmp studio.csv cli.csv || fail "piperun export of the project differs from the studio's export"
 "$piperun" export review.piperun -o cli.pcf
 cmp studio.pcf cli.pcf || fail "the PCF exports differ"
+"$piperun" export review.piperun -o cli.ifc
+# An IFC file's header names the file and the time of export.
+cmp <(grep -v "^FILE_NAME(" studio.ifc) <(grep -v "^FILE_NAME(" cli.ifc) || fail "the IFC exports differ"
+grep -q "'pipe-3'" studio.ifc && fail "the deleted pipe 3 was exported to IFC"
 "$piperun" info review.piperun >info.txt
 grep -q "^format: piperun-project version 1" info.txt || fail "info does not name the project format"
 grep -q "^metadata: project = reviewed network, 2 edits" info.txt || fail "info does not count the edits"
