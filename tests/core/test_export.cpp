@@ -375,11 +375,12 @@ TEST(Export, CsvOneRowPerElement) {
   const auto lines = splitLines(text);
   ASSERT_EQ(lines.size(), 1 + kExportedNames.size());
   EXPECT_EQ(lines[0],
-            "id,type,run,radius_m,length_m,start_x,start_y,start_z,end_x,end_y,end_z,bend_radius_m,confidence,status,nps,dn");
+            "id,type,run,radius_m,length_m,start_x,start_y,start_z,end_x,end_y,end_z,bend_radius_m,confidence,status,nps,dn,"
+            "lowest_m,highest_m,slope_deg");
   std::map<std::string, std::vector<std::string>> rows;
   for (std::size_t i = 1; i < lines.size(); ++i) {
     auto fields = splitFields(lines[i]);
-    ASSERT_EQ(fields.size(), 16u) << lines[i];
+    ASSERT_EQ(fields.size(), 19u) << lines[i];
     rows[fields[1] + "-" + fields[0]] = fields;
   }
   std::set<std::string> names;
@@ -410,6 +411,49 @@ TEST(Export, CsvOneRowPerElement) {
   EXPECT_EQ(main[15], "90");
   EXPECT_EQ(rows.at("tee-2")[14], "2");  // the branch's 60 mm: 2" (60.3)
   EXPECT_EQ(rows.at("tee-2")[15], "50");
+
+  // Heights along z the tubes reach: the level main's bottom and top of pipe, the branch riser's
+  // end faces; a straight piece's slope.
+  const auto heights = [&](const std::string& name) {
+    const auto& row = rows.at(name);
+    return std::array<std::string, 3>{row[16], row[17], row[18]};
+  };
+  EXPECT_DOUBLE_EQ(std::stod(heights("pipe-1")[0]), 1 - kMainRadius);
+  EXPECT_DOUBLE_EQ(std::stod(heights("pipe-1")[1]), 1 + kMainRadius);
+  EXPECT_EQ(heights("pipe-1")[2], "0");
+  EXPECT_DOUBLE_EQ(std::stod(heights("pipe-3")[0]), 0.2);
+  EXPECT_DOUBLE_EQ(std::stod(heights("pipe-3")[1]), 1 - kMainRadius);
+  EXPECT_EQ(heights("pipe-3")[2], "90");
+  EXPECT_NEAR(std::stod(heights("elbow-1")[0]), 1 - kMainRadius, 1e-12);
+  EXPECT_NEAR(std::stod(heights("elbow-1")[1]), 1 + kMainRadius, 1e-12);
+  EXPECT_EQ(heights("elbow-1")[2], "");  // no slope for a bend...
+  EXPECT_EQ(heights("tee-2")[2], "");    // ...nor a tee
+  EXPECT_EQ(heights("boundary-4")[2], "0");
+}
+
+TEST(Export, CsvHeightsAreAlongTheNetworksUpAxis) {
+  // The sample network turned so that y is up, and told so: its heights are the z-up network's
+  // (its co-ordinates stay the scan's).
+  TempDir dir;
+  exportNetwork(sampleNetwork(), ExportFormat::Csv, dir / "z.csv");
+  PipeNetwork turned = sampleNetwork();
+  turned.turn(turnZUpTo(UpAxis::PlusY));
+  ExportOptions options;
+  options.up = UpAxis::PlusY;
+  exportNetwork(turned, ExportFormat::Csv, dir / "y.csv", options);
+  const auto z = splitLines(test::readFile(dir / "z.csv")), y = splitLines(test::readFile(dir / "y.csv"));
+  ASSERT_EQ(z.size(), y.size());
+  for (std::size_t i = 1; i < z.size(); ++i) {
+    const auto zFields = splitFields(z[i]), yFields = splitFields(y[i]);
+    for (std::size_t column = 16; column < 19; ++column) {
+      if (zFields[column].empty()) {
+        EXPECT_EQ(yFields[column], "") << z[i];
+      } else {
+        EXPECT_NEAR(std::stod(yFields[column]), std::stod(zFields[column]), 1e-12) << z[i];
+      }
+    }
+    EXPECT_NE(zFields[7], yFields[7]);  // start_z: the co-ordinates are turned's
+  }
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -40,6 +40,28 @@ TEST(PipeMeasures, APipeLiesAtTheHeightsOfItsEndsAlongTheUpAxisWithItsSlope) {
   EXPECT_DOUBLE_EQ(pipeLie(pipeBetween({0, 0, 1}, {5, 5, 1}, 0.1), UpAxis::PlusZ).slopeDegrees, 0.0);
 }
 
+TEST(PipeMeasures, ATubeReachesItsBottomAndTopOfPipeWhenLevelAndItsEndFacesWhenPlumb) {
+  const double r = 0.1;
+  const TubeHeights level = tubeHeights({{0, 0, 3}, {6, 0, 3}}, r, UpAxis::PlusZ);
+  EXPECT_DOUBLE_EQ(level.lowest, 3 - r);
+  EXPECT_DOUBLE_EQ(level.highest, 3 + r);
+  const TubeHeights riser = tubeHeights({{1, 1, 0.5}, {1, 1, 4.0}}, r, UpAxis::PlusZ);
+  EXPECT_DOUBLE_EQ(riser.lowest, 0.5);
+  EXPECT_DOUBLE_EQ(riser.highest, 4.0);
+  // At 45° an end circle reaches r cos 45° above and below its centre.
+  const TubeHeights leaning = tubeHeights({{0, 0, 1}, {1, 0, 2}}, r, UpAxis::PlusZ);
+  EXPECT_NEAR(leaning.lowest, 1 - r * std::sqrt(0.5), 1e-12);
+  EXPECT_NEAR(leaning.highest, 2 + r * std::sqrt(0.5), 1e-12);
+  // A bend from level to plumb: the level leg's bottom, the plumb leg's top end.
+  const TubeHeights bend = tubeHeights({{0, 0, 0}, {1, 0, 0}, {1, 0, 1}}, r, UpAxis::PlusZ);
+  EXPECT_DOUBLE_EQ(bend.lowest, -r);
+  EXPECT_DOUBLE_EQ(bend.highest, 1.0);
+  // Along y up, the level pipe turned.
+  const TubeHeights turned = tubeHeights({{0, 3, 0}, {6, 3, 0}}, r, UpAxis::PlusY);
+  EXPECT_DOUBLE_EQ(turned.lowest, 3 - r);
+  EXPECT_DOUBLE_EQ(turned.highest, 3 + r);
+}
+
 TEST(PipeMeasures, TwoPipesAreApartByTheirAxesNearestDistanceLessTheirRadii) {
   // Two parallel rack pipes 0.4 m apart between centres: 0.25 m between their surfaces.
   const Pipe a = pipeBetween({0, 0, 3}, {6, 0, 3}, 0.1);

@@ -5,6 +5,10 @@
 #include "piperun/pipe_network.h"
 #include "piperun/up_axis.h"
 
+#include <Eigen/Core>
+
+#include <vector>
+
 namespace piperun {
 
 /// How a pipe's axis lies against the up axis.
@@ -18,6 +22,17 @@ struct PipeLie {
 };
 
 PipeLie pipeLie(const Pipe& pipe, UpAxis up);
+
+/// The lowest and highest heights (along the up axis) that the tube of `radius` around the centre
+/// line `axis` reaches: a level pipe's bottom and top of pipe, a riser's end faces.
+struct TubeHeights {
+  double lowest = 0.0;
+  double highest = 0.0;
+};
+
+/// Over each segment of `axis` (at least one point): its ends' heights, less and plus how far its
+/// end circles reach along the up axis (the radius for a level segment, nothing for a plumb one).
+TubeHeights tubeHeights(const std::vector<Eigen::Vector3d>& axis, double radius, UpAxis up);
 
 /// Where two pipes are to each other.
 struct PipesApart {

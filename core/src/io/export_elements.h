@@ -44,7 +44,8 @@ std::string shortestNumber(double value);
 // Document writers, one per format (export_<format>.cpp).
 std::string objDocument(const std::vector<ExportElement>& elements, const ExportOptions& options);
 std::string plyDocument(const std::vector<ExportElement>& elements, const ExportOptions& options);
-std::string csvDocument(const std::vector<ExportElement>& elements, const NominalSizes& sizes);
+/// Heights along `up`, in the network's co-ordinates.
+std::string csvDocument(const std::vector<ExportElement>& elements, const NominalSizes& sizes, UpAxis up);
 std::string dxfDocument(const std::vector<ExportElement>& elements);
 /// `nominal`: the table of nominal bores; nullptr: the fitted outside diameters.
 std::string pcfDocument(const std::vector<ExportElement>& elements, const NominalSizes* nominal);

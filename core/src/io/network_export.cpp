@@ -108,7 +108,7 @@ void exportNetwork(const PipeNetwork& network, ExportFormat format, const std::f
   switch (format) {
     case ExportFormat::Obj: document = io::objDocument(elements, options); break;
     case ExportFormat::Ply: document = io::plyDocument(elements, options); break;
-    case ExportFormat::Csv: document = io::csvDocument(elements, *sizes); break;
+    case ExportFormat::Csv: document = io::csvDocument(elements, *sizes, options.up); break;
     case ExportFormat::Dxf: document = io::dxfDocument(elements); break;
     case ExportFormat::Pcf: document = io::pcfDocument(elements, sizes ? &*sizes : nullptr); break;
     case ExportFormat::Ifc: document = io::ifcDocument(elements, *sizes, path.filename().string()); break;
