@@ -550,6 +550,18 @@ int runReconstruct(const ReconstructOptions& options) {
   const std::size_t inputPoints = cloud->size();
   bar.finish();
   for (const auto& warning : report.warnings) warn(warning);
+  // Each stage's lines are printed as soon as it has run, so that a log shows how far a long run is.
+  const auto flushed = [&] {
+    bar.finish();
+    std::fflush(stdout);
+  };
+  std::printf("input: %zu points from %s, %d thread(s)  [read %.2f s]\n", inputPoints, options.input.c_str(), threads,
+              readSeconds);
+  if (report.units != "m") {
+    std::printf("units: %s, read as metres\n", unitsNote(report.info, options.units, report.units).c_str());
+  }
+  if (params.up != UpAxis::PlusZ) std::printf("up: %s\n", toString(params.up).c_str());
+  flushed();
 
   // Past the voxel grid the scan is read only by an evaluation over its labels: freed otherwise
   // (12 bytes a point, the largest part of a site scan's run).
@@ -560,8 +572,60 @@ int runReconstruct(const ReconstructOptions& options) {
   // What the tiles keep for views (sphere samples, stripes, circle candidates) is read here only
   // by the stage dump.
   if (options.dumpDirectory.empty()) pipeline.releaseTileDetails();
+
+  pipeline.run(bar.progress(), Stage::Preprocess);
+  bar.finish();
+  const PreprocessResult& prepared = *pipeline.preprocessResult();
+  const auto& d = prepared.diagnostics;
+  if (const auto sparse = sparseScanWarning(d.inputSpacing)) warn(options.input + ": " + *sparse);
+  std::printf("preprocess: %zu after voxel grid (leaf %.1f mm), %zu outliers removed, %zu plane points in %d planes, "
+              "%zu kept, %zu tiles  [%.2f s]\n",
+              d.afterVoxel, d.voxelSize * 1000.0, d.outliersRemoved, d.planePoints, d.planes, d.keptPoints, prepared.tiles.size(),
+              pipeline.stageSeconds(Stage::Preprocess));
+  std::printf("  steps: voxel grid %.2f s, outliers %.2f s, normals %.2f s%s, planes %.2f s, tiles %.2f s\n",
+              d.voxelSeconds, d.outlierSeconds, d.normalSeconds,
+              d.neighborSearches == 2 ? " (a second neighbour search)" : "", d.planeSeconds, d.tileSeconds);
+  flushed();
+
+  pipeline.run(bar.progress(), Stage::Merge);
+  std::size_t directions = 0, cylinders = 0, segments = 0;
+  for (const auto& tile : *pipeline.tileResults()) {
+    for (const auto& round : tile.rounds) {
+      directions += round.directions.directions.size();
+      cylinders += round.placement.cylinders.size();
+      segments += round.extents.segments.size();
+    }
+  }
+  std::printf("directions: %zu over all tiles and rounds  [%.2f s]\n", directions,
+              pipeline.stageSeconds(Stage::Directions));
+  std::printf("placement: %zu cylinders  [%.2f s]\n", cylinders, pipeline.stageSeconds(Stage::Placement));
+  std::printf("extents: %zu pipe pieces  [%.2f s]\n", segments, pipeline.stageSeconds(Stage::Extents));
+  std::printf("(per-tile stage times are summed over tiles, which run in parallel)\n");
+  const auto& merged = *pipeline.mergeResult();
+  std::printf("merge: %zu pipes, %zu ends moved back off crossing pipes, %zu carried on over sparse points  [%.2f s]\n",
+              merged.segments.size(), merged.diagnostics.retractedEnds, merged.diagnostics.extendedEnds,
+              pipeline.stageSeconds(Stage::Merge));
+  flushed();
+
   pipeline.run(bar.progress(), stageFromName(options.until).value_or(Stage::Joints));
   const PipeNetwork network = pipeline.network();
+  const auto countJoints = [&](JointType type) {
+    return static_cast<std::size_t>(
+        std::count_if(network.joints.begin(), network.joints.end(), [&](const Joint& j) { return j.type == type; }));
+  };
+  const auto accepted = std::count_if(network.joints.begin(), network.joints.end(),
+                                      [](const Joint& j) { return j.status == JointStatus::Accepted; });
+  if (pipeline.isFresh(Stage::Joints)) {
+    std::printf("joints: %s, %s, %s (%zu accepted, %zu proposed), %s  [%.2f s]\n",
+                counted(countJoints(JointType::Elbow), "elbow", "elbows").c_str(),
+                counted(countJoints(JointType::Tee), "tee", "tees").c_str(),
+                counted(countJoints(JointType::Boundary), "boundary joint", "boundary joints").c_str(),
+                static_cast<std::size_t>(accepted), network.joints.size() - static_cast<std::size_t>(accepted),
+                counted(network.runs.size(), "run", "runs").c_str(), pipeline.stageSeconds(Stage::Joints));
+    printJointsSteps(pipeline.jointsResult()->diagnostics);
+  }
+  flushed();
+
   NetworkMetadata metadata = {{"generator", std::string("piperun reconstruct ") + PIPERUN_VERSION},
                               {"source", options.input},
                               {"source_units", report.units},
@@ -579,54 +643,6 @@ int runReconstruct(const ReconstructOptions& options) {
   if (!options.dumpDirectory.empty()) dumped = dumpStages(pipeline, options.dumpDirectory);
   bar.finish();
 
-  const PreprocessResult& prepared = *pipeline.preprocessResult();
-  const auto& d = prepared.diagnostics;
-  std::size_t directions = 0, cylinders = 0, segments = 0;
-  for (const auto& tile : *pipeline.tileResults()) {
-    for (const auto& round : tile.rounds) {
-      directions += round.directions.directions.size();
-      cylinders += round.placement.cylinders.size();
-      segments += round.extents.segments.size();
-    }
-  }
-  std::printf("input: %zu points from %s, %d thread(s)  [read %.2f s]\n", inputPoints, options.input.c_str(), threads,
-              readSeconds);
-  if (report.units != "m") {
-    std::printf("units: %s, read as metres\n", unitsNote(report.info, options.units, report.units).c_str());
-  }
-  if (params.up != UpAxis::PlusZ) std::printf("up: %s\n", toString(params.up).c_str());
-  if (const auto sparse = sparseScanWarning(d.inputSpacing)) warn(options.input + ": " + *sparse);
-  std::printf("preprocess: %zu after voxel grid (leaf %.1f mm), %zu outliers removed, %zu plane points in %d planes, "
-              "%zu kept, %zu tiles  [%.2f s]\n",
-              d.afterVoxel, d.voxelSize * 1000.0, d.outliersRemoved, d.planePoints, d.planes, d.keptPoints, prepared.tiles.size(),
-              pipeline.stageSeconds(Stage::Preprocess));
-  std::printf("  steps: voxel grid %.2f s, outliers %.2f s, normals %.2f s%s, planes %.2f s, tiles %.2f s\n",
-              d.voxelSeconds, d.outlierSeconds, d.normalSeconds,
-              d.neighborSearches == 2 ? " (a second neighbour search)" : "", d.planeSeconds, d.tileSeconds);
-  std::printf("directions: %zu over all tiles and rounds  [%.2f s]\n", directions,
-              pipeline.stageSeconds(Stage::Directions));
-  std::printf("placement: %zu cylinders  [%.2f s]\n", cylinders, pipeline.stageSeconds(Stage::Placement));
-  std::printf("extents: %zu pipe pieces  [%.2f s]\n", segments, pipeline.stageSeconds(Stage::Extents));
-  const auto& merged = *pipeline.mergeResult();
-  std::printf("merge: %zu pipes, %zu ends moved back off crossing pipes, %zu carried on over sparse points  [%.2f s]\n",
-              merged.segments.size(), merged.diagnostics.retractedEnds, merged.diagnostics.extendedEnds,
-              pipeline.stageSeconds(Stage::Merge));
-  const auto countJoints = [&](JointType type) {
-    return static_cast<std::size_t>(
-        std::count_if(network.joints.begin(), network.joints.end(), [&](const Joint& j) { return j.type == type; }));
-  };
-  const auto accepted = std::count_if(network.joints.begin(), network.joints.end(),
-                                      [](const Joint& j) { return j.status == JointStatus::Accepted; });
-  if (pipeline.isFresh(Stage::Joints)) {
-    std::printf("joints: %s, %s, %s (%zu accepted, %zu proposed), %s  [%.2f s]\n",
-                counted(countJoints(JointType::Elbow), "elbow", "elbows").c_str(),
-                counted(countJoints(JointType::Tee), "tee", "tees").c_str(),
-                counted(countJoints(JointType::Boundary), "boundary joint", "boundary joints").c_str(),
-                static_cast<std::size_t>(accepted), network.joints.size() - static_cast<std::size_t>(accepted),
-                counted(network.runs.size(), "run", "runs").c_str(), pipeline.stageSeconds(Stage::Joints));
-    printJointsSteps(pipeline.jointsResult()->diagnostics);
-  }
-  std::printf("(per-tile stage times are summed over tiles, which run in parallel)\n");
   std::printf("network: %s\n", options.output.c_str());
   const int proposedJoints = countJointReview(network).left;
   const int proposedPipes = countPipeReview(network).left;
