@@ -94,7 +94,8 @@ int networkInfo(const InfoOptions& options) {
     out["sizes"] = json::array();
     for (const SizeTally& size : sizes) {
       out["sizes"].push_back({{"nps", size.size.nps}, {"dn", size.size.dn}, {"pipes", size.pipes},
-                              {"pipe_length_m", size.pipeLength}, {"elbows", size.elbows}, {"tees", size.tees},
+                              {"pipe_length_m", size.pipeLength}, {"elbows", size.elbows},
+                              {"elbows_90", size.elbows90}, {"elbows_45", size.elbows45}, {"tees", size.tees},
                               {"boundary_joints", size.boundaries}, {"proposed", size.proposed}});
     }
     if (options.runs) {
@@ -115,9 +116,19 @@ int networkInfo(const InfoOptions& options) {
   std::printf("joints: %zu (elbows %d, tees %d, boundary %d)\n", network.joints.size(), elbows, tees, boundaries);
   std::printf("runs: %zu\n", network.runs.size());
   for (const SizeTally& size : sizes) {
-    std::printf("size %s\" (DN %d): pipes %d (%.2f m), elbows %d, tees %d, boundary %d, proposed %d\n",
-                size.size.nps.c_str(), size.size.dn, size.pipes, size.pipeLength, size.elbows, size.tees,
-                size.boundaries, size.proposed);
+    // The elbows by fitting: those at 90° and 45°, and the others.
+    std::string fittings;
+    if (size.elbows > 0) {
+      std::vector<std::string> kinds;
+      if (size.elbows90 > 0) kinds.push_back(std::to_string(size.elbows90) + " at 90\u00b0");
+      if (size.elbows45 > 0) kinds.push_back(std::to_string(size.elbows45) + " at 45\u00b0");
+      const int other = size.elbows - size.elbows90 - size.elbows45;
+      if (other > 0) kinds.push_back(std::to_string(other) + " other");
+      fittings = " (" + joinNames(kinds) + ")";
+    }
+    std::printf("size %s\" (DN %d): pipes %d (%.2f m), elbows %d%s, tees %d, boundary %d, proposed %d\n",
+                size.size.nps.c_str(), size.size.dn, size.pipes, size.pipeLength, size.elbows, fittings.c_str(),
+                size.tees, size.boundaries, size.proposed);
   }
   for (const RunSummary& run : runs) {
     std::printf("run %d: %.2f m, %s\" (DN %d), pipes %d, elbows %d, tees %d, proposed %d\n", run.id, run.length,

@@ -3,6 +3,8 @@
 #include "angles.h"
 #include "segment_distance.h"
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -35,6 +37,36 @@ TubeHeights tubeHeights(const std::vector<Eigen::Vector3d>& axis, double radius,
     heights.highest = std::max(heights.highest, std::max(heightAlong(up, a), heightAlong(up, b)) + reach);
   }
   return heights;
+}
+
+double Bend::angleDegrees() const { return angle / kDegree; }
+
+std::optional<Bend> bendOf(const std::vector<Eigen::Vector3d>& arc) {
+  if (arc.size() < 3) return std::nullopt;
+  const Eigen::Vector3d& a = arc.front();
+  const Eigen::Vector3d& m = arc[arc.size() / 2];
+  const Eigen::Vector3d& b = arc.back();
+  // Circumcentre of a, m, b.
+  const Eigen::Vector3d ab = m - a;
+  const Eigen::Vector3d ac = b - a;
+  const Eigen::Vector3d normal = ab.cross(ac);
+  if (normal.norm() <= 1e-9 * ab.norm() * ac.norm()) return std::nullopt;
+  Bend bend;
+  bend.centre =
+      a + (ac.squaredNorm() * normal.cross(ab) + ab.squaredNorm() * ac.cross(normal)) / (2.0 * normal.squaredNorm());
+  const Eigen::Vector3d fromCentre = a - bend.centre;
+  bend.axis = fromCentre.cross(m - bend.centre).normalized();
+  bend.radius = fromCentre.norm();
+  bend.angle = std::atan2(fromCentre.cross(b - bend.centre).dot(bend.axis), fromCentre.dot(b - bend.centre));
+  if (bend.angle <= 0.0) bend.angle += 2.0 * kPi;
+  return bend;
+}
+
+ElbowAngle elbowAngleOf(double degrees) {
+  constexpr double kTolerance = 7.5;
+  if (std::abs(degrees - 90.0) <= kTolerance) return ElbowAngle::Ninety;
+  if (std::abs(degrees - 45.0) <= kTolerance) return ElbowAngle::FortyFive;
+  return ElbowAngle::Other;
 }
 
 PipesApart pipesApart(const Pipe& a, const Pipe& b) {

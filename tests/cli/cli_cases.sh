@@ -143,7 +143,14 @@ case "$CASE" in
     run 0 info "$WORK/truth.json"
     expect_out "^pipes: [0-9]+"
     # A bill of materials by nominal size: every pipe and joint counted under one size.
-    expect_out '^size [0-9/-]+" \(DN [0-9]+\): pipes [0-9]+ \([0-9.]+ m\), elbows [0-9]+, tees [0-9]+, boundary [0-9]+, proposed 0$'
+    expect_out '^size [0-9/-]+" \(DN [0-9]+\): pipes [0-9]+ \([0-9.]+ m\), elbows [0-9]+( \([^)]*\))?, tees [0-9]+, boundary [0-9]+, proposed 0$'
+    # The elbows by fitting (the generator bends mostly by 90°, a few gently), every one listed once.
+    expect_out '^size .*, elbows [1-9][0-9]* \([1-9][0-9]* at 90°'
+    grep -q "^size .*, elbows 0 (" <<<"$OUT" && fail "a size without elbows lists their fittings"
+    elbows=$(sed -nE 's/^joints: [0-9]+ \(elbows ([0-9]+),.*/\1/p' <<<"$OUT")
+    fittings=$(sed -nE 's/^size .*, elbows [0-9]+ \(([^)]*)\), tees.*/\1/p' <<<"$OUT" | grep -oE "[0-9]+ (at 90°|at 45°|other)" |
+      awk '{ n += $1 } END { print n + 0 }')
+    [ "$fittings" -eq "$elbows" ] || fail "the fittings listed ($fittings) are not the $elbows elbows"
     pipes=$(sed -nE 's/^pipes: ([0-9]+) .*/\1/p' <<<"$OUT")
     [ "$(sed -nE 's/^size .*: pipes ([0-9]+) .*/\1/p' <<<"$OUT" | awk '{ n += $1 } END { print n }')" -eq "$pipes" ] ||
       fail "the sizes do not add up to the $pipes pipes"
@@ -154,6 +161,7 @@ case "$CASE" in
     [ "$(grep -c '^run [0-9]*:' <<<"$OUT")" -eq "$runs" ] || fail "info --runs does not list the $runs runs"
     run 0 info --json "$WORK/truth.json"
     expect_out '"sizes": \['
+    expect_out '"elbows_90": [0-9]+'
     run 0 eval "$WORK/truth.json" "$WORK/truth.json"
     expect_out "precision=1.000 recall=1.000 f1=1.000 radius_err_mm=0.0"
     expect_out " accepted_matched=([0-9]+)/\1 proposed_matched=0/0 spurious_accepted=0/[1-9][0-9]* spurious_proposed=0/0"

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <optional>
+#include <vector>
 
 namespace piperun {
 namespace {
@@ -60,6 +62,35 @@ TEST(PipeMeasures, ATubeReachesItsBottomAndTopOfPipeWhenLevelAndItsEndFacesWhenP
   const TubeHeights turned = tubeHeights({{0, 3, 0}, {6, 3, 0}}, r, UpAxis::PlusY);
   EXPECT_DOUBLE_EQ(turned.lowest, 3 - r);
   EXPECT_DOUBLE_EQ(turned.highest, 3 + r);
+}
+
+TEST(PipeMeasures, AnElbowsBendIsTheCircleThroughItsArcAndNamesItsFitting) {
+  // A 45° arc of radius 0.3 about (1, 2, 3), turning about +z.
+  const Eigen::Vector3d centre(1, 2, 3);
+  const double radius = 0.3, angle = std::atan(1.0);
+  const auto arc = sampleArc(centre, centre + Eigen::Vector3d(radius, 0, 0),
+                             centre + radius * Eigen::Vector3d(std::cos(angle), std::sin(angle), 0), 0.01);
+  const std::optional<Bend> bend = bendOf(arc);
+  ASSERT_TRUE(bend);
+  EXPECT_NEAR((bend->centre - centre).norm(), 0.0, 1e-9);
+  EXPECT_NEAR(bend->radius, radius, 1e-9);
+  EXPECT_NEAR(bend->angleDegrees(), 45.0, 1e-6);
+  EXPECT_NEAR(bend->axis.z(), 1.0, 1e-9);
+  EXPECT_EQ(elbowAngleOf(bend->angleDegrees()), ElbowAngle::FortyFive);
+  // Turning the other way, the axis turns over and the angle stays.
+  const std::optional<Bend> back = bendOf(std::vector<Eigen::Vector3d>(arc.rbegin(), arc.rend()));
+  ASSERT_TRUE(back);
+  EXPECT_NEAR(back->angleDegrees(), 45.0, 1e-6);
+  EXPECT_NEAR(back->axis.z(), -1.0, 1e-9);
+  // Straight or too short: no bend.
+  EXPECT_FALSE(bendOf({{0, 0, 0}, {0.5, 0, 0}, {1, 0, 0}}));
+  EXPECT_FALSE(bendOf({{0, 0, 0}, {1, 0, 0}}));
+  // Fittings: 90° and 45° within 7.5°.
+  EXPECT_EQ(elbowAngleOf(88.9), ElbowAngle::Ninety);
+  EXPECT_EQ(elbowAngleOf(97.5), ElbowAngle::Ninety);
+  EXPECT_EQ(elbowAngleOf(37.7), ElbowAngle::FortyFive);
+  EXPECT_EQ(elbowAngleOf(60.0), ElbowAngle::Other);
+  EXPECT_EQ(elbowAngleOf(180.0), ElbowAngle::Other);
 }
 
 TEST(PipeMeasures, TwoPipesAreApartByTheirAxesNearestDistanceLessTheirRadii) {

@@ -318,6 +318,8 @@ TEST(NominalSizes, BillOfMaterialsCountsEachSizeAndEachRun) {
   EXPECT_EQ(tallies[0].pipes, 1);
   EXPECT_DOUBLE_EQ(tallies[0].pipeLength, 2.0);
   EXPECT_EQ(tallies[0].elbows, 1);
+  EXPECT_EQ(tallies[0].elbows90, 1);  // the 90° fitting
+  EXPECT_EQ(tallies[0].elbows45, 0);
   EXPECT_EQ(tallies[0].tees, 0);
   EXPECT_EQ(tallies[0].proposed, 0);
   EXPECT_EQ(tallies[1].size.nps, "8");

@@ -738,11 +738,13 @@ std::string Studio::Impl::selectionInfo() const {
     const Joint& joint = *network.findJoint(selection.id);
     info << "joint " << joint.id << "  " << toString(joint.type) << "  " << toString(joint.status) << "  radius "
          << radius(joint.radius) << "  length " << joint.length() << " m";
-    if (joint.type == JointType::Elbow && joint.bendRadius > 0.0) {
-      // The arc's angle from its length: 90° or 45° says which fitting it is.
-      info << "  bend radius " << joint.bendRadius << " m, turning " << std::fixed << std::setprecision(1)
-           << joint.length() / joint.bendRadius * 180.0 / std::acos(-1.0) << "\u00b0" << std::defaultfloat
-           << std::setprecision(3);
+    if (joint.type == JointType::Elbow) {
+      info << "  bend radius " << joint.bendRadius << " m";
+      // 90° or 45° says which fitting it is.
+      if (const auto bend = bendOf(joint.axis)) {
+        info << ", turning " << std::fixed << std::setprecision(1) << bend->angleDegrees() << "\u00b0"
+             << std::defaultfloat << std::setprecision(3);
+      }
     }
     info << "\nconfidence " << joint.confidence << "  pipes";
     for (int id : joint.pipeIds) info << " " << id;

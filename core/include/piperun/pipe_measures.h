@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 
+#include <optional>
 #include <vector>
 
 namespace piperun {
@@ -33,6 +34,24 @@ struct TubeHeights {
 /// Over each segment of `axis` (at least one point): its ends' heights, less and plus how far its
 /// end circles reach along the up axis (the radius for a level segment, nothing for a plumb one).
 TubeHeights tubeHeights(const std::vector<Eigen::Vector3d>& axis, double radius, UpAxis up);
+
+/// The circle an elbow's centre line follows, through its first, middle and last points.
+struct Bend {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  ///< Unit normal; the arc turns about it (right hand).
+  double radius = 0.0;                              ///< The bend radius.
+  double angle = 0.0;                               ///< Radians, in (0, 2π).
+
+  double angleDegrees() const;
+};
+
+/// nullopt when those three points are collinear (a straight "arc").
+std::optional<Bend> bendOf(const std::vector<Eigen::Vector3d>& arc);
+
+/// Standard elbow fittings by the angle they turn: 90° and 45°, each within 7.5° (halfway to a 60°
+/// fitting), else other (a fit between them, a 180° return).
+enum class ElbowAngle { Ninety, FortyFive, Other };
+ElbowAngle elbowAngleOf(double degrees);
 
 /// Where two pipes are to each other.
 struct PipesApart {

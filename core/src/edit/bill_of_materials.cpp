@@ -1,6 +1,7 @@
 #include "piperun/edit/bill_of_materials.h"
 
 #include "piperun/io/network_io.h"
+#include "piperun/pipe_measures.h"
 
 #include <map>
 #include <utility>
@@ -65,6 +66,12 @@ std::vector<SizeTally> tallyBySize(const PipeNetwork& network, const NominalSize
     SizeTally& tally = tallyOf(joint.radius);
     ++(joint.type == JointType::Elbow ? tally.elbows : joint.type == JointType::Tee ? tally.tees : tally.boundaries);
     tally.proposed += joint.status == JointStatus::Proposed;
+    if (joint.type != JointType::Elbow) continue;
+    if (const auto bend = bendOf(joint.axis)) {
+      const ElbowAngle angle = elbowAngleOf(bend->angleDegrees());
+      tally.elbows90 += angle == ElbowAngle::Ninety;
+      tally.elbows45 += angle == ElbowAngle::FortyFive;
+    }
   }
   std::vector<SizeTally> tallies;
   for (const auto& [dn, tally] : byDn) tallies.push_back(tally);

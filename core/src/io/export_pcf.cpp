@@ -16,6 +16,7 @@
 // meet (so connected END-POINTs agree), or the fitted outside diameter of each element.
 
 #include "angles.h"
+#include "piperun/pipe_measures.h"
 #include "io/export_elements.h"
 
 #include <Eigen/Geometry>
@@ -190,22 +191,16 @@ std::optional<TeeLayout> teeLayout(const ExportElement& tee, const std::map<int,
 // last points are `boreFirst` and `boreLast` (a reducing elbow split in pieces reduces in its first).
 void writeElbow(const ExportElement& elbow, double boreFirst, double boreLast, PcfText& pcf) {
   const Eigen::Vector3d& a = elbow.axis.front();
-  const Eigen::Vector3d& m = elbow.axis[elbow.axis.size() / 2];
   const Eigen::Vector3d& b = elbow.axis.back();
-  // Circumcentre of a, m, b.
-  const Eigen::Vector3d ab = m - a;
-  const Eigen::Vector3d ac = b - a;
-  const Eigen::Vector3d normal = ab.cross(ac);
-  if (normal.norm() <= 1e-9 * ab.norm() * ac.norm()) {
+  const std::optional<Bend> bend = bendOf(elbow.axis);
+  if (!bend) {
     pcf.straight(a, boreFirst, b, boreLast);
     return;
   }
-  const Eigen::Vector3d centre =
-      a + (ac.squaredNorm() * normal.cross(ab) + ab.squaredNorm() * ac.cross(normal)) / (2.0 * normal.squaredNorm());
+  const Eigen::Vector3d& centre = bend->centre;
   const Eigen::Vector3d fromCentre = a - centre;
-  const Eigen::Vector3d axis = fromCentre.cross(m - centre).normalized();
-  double angle = std::atan2(fromCentre.cross(b - centre).dot(axis), fromCentre.dot(b - centre));
-  if (angle <= 0.0) angle += 2.0 * kPi;
+  const Eigen::Vector3d& axis = bend->axis;
+  const double angle = bend->angle;
   const int pieces = std::max(1, static_cast<int>(std::ceil((angle - kElbowAngleSlack) / (0.5 * kPi) - 1e-6)));
   const double step = angle / pieces;
   const double bendRadius = fromCentre.norm();

@@ -16,6 +16,8 @@ struct SizeTally {
   int pipes = 0;
   double pipeLength = 0.0;  ///< Metres.
   int elbows = 0;
+  int elbows90 = 0;  ///< Of the elbows, those turning 90° and 45° (elbowAngleOf, piperun/pipe_measures.h).
+  int elbows45 = 0;
   int tees = 0;
   int boundaries = 0;
   int proposed = 0;  ///< Of those pipes and joints, the ones still to review.
