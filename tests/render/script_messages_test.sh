@@ -17,7 +17,7 @@ expect() {  # CODE PATTERN INPUT SCRIPT_LINES [OPTIONS...]: the last message (or
   shift 4
   printf '%b\n' "$lines" >"$work/script.txt"
   local output
-  output=$(env -u DISPLAY "$render" "$input" --script "$work/script.txt" --size 160x100 -o "$work/out.png" "$@" 2>&1)
+  output=$(env -u DISPLAY "$render" "$input" --script "$work/script.txt" --size "${size:-160x100}" -o "$work/out.png" "$@" 2>&1)
   local actual=$?
   if [[ $actual -ne $code || ! "$output" =~ $pattern ]]; then
     echo "FAIL: $input with '$lines' -> exit $actual: $output (expected exit $code matching '$pattern')" >&2
@@ -101,8 +101,8 @@ cat >"$work/two_pipes.json" <<'JSON'
   {"id": 1, "radius": 0.1, "axis": [[0, 0, 3], [6, 0, 3]]},
   {"id": 2, "radius": 0.05, "axis": [[1, 0.4, 3.2], [5, 0.4, 3.0]]}]}
 JSON
-expect_info() {  # SCRIPT_LINES LINE: the info text drawn after the script holds LINE
-  expect 0 "^selected" "$work/two_pipes.json" "$1" --text "$work/info.txt"
+expect_info() {  # SCRIPT_LINES LINE: the info text drawn after the script (in a window wide enough) holds LINE
+  size=1280x800 expect 0 "^selected" "$work/two_pipes.json" "$1" --text "$work/info.txt"
   if ! grep -qxF -- "$2" "$work/info.txt"; then
     echo "FAIL: after '$1' the info lacks '$2': $(sed -n '/^\[info\]/,$p' "$work/info.txt")" >&2
     failures=$((failures + 1))
@@ -111,4 +111,10 @@ expect_info() {  # SCRIPT_LINES LINE: the info text drawn after the script holds
 expect_info "select pipe 1" "height 3.000 m, slope 0.0° (0.0 %); bottom of pipe 2.900 m, top 3.100 m"
 expect_info "select pipe 2" "height 3.000 to 3.200 m, slope 2.9° (5.0 %); bottom of pipe 3.050 m, top 3.150 m"
 expect_info "select pipe 1 2" "apart: axes 0.400 m, surfaces 0.250 m, axes at 2.9°"
+# In a narrow window the info's lines are broken to its width, between fields where they fit.
+size=480x300 expect 0 "^selected" "$work/two_pipes.json" "select pipe 1 2" --text "$work/narrow.txt"
+if [[ "$(sed -n '/^\[info\]/,$p' "$work/narrow.txt" | sed -n '7,8p')" != $'and pipe 2  radius 50 mm (3-1/2" DN 90)  length 4 m\n(Shift+M merges it into pipe 1, Shift+J joins them)' ]]; then
+  echo "FAIL: the narrow window's info is not broken between fields: $(cat "$work/narrow.txt")" >&2
+  failures=$((failures + 1))
+fi
 exit $((failures > 0))

@@ -55,26 +55,26 @@ double parameterValue(const PipelineParams& params, const std::string& key) {
   return value.is_boolean() ? (value.get<bool>() ? 1.0 : 0.0) : value.get<double>();
 }
 
-/// `text` with each line broken at blanks into lines of at most `columns` characters (a longer
-/// word keeps a line of its own).
+/// `text` with each line longer than `columns` characters broken at blanks into lines of at most
+/// that many (a longer word keeps a line of its own); the blanks at a break go, the others stay. A
+/// break goes between fields, which the info text spaces by two blanks, where one fits.
 std::string wrapLines(const std::string& text, std::size_t columns) {
   std::string wrapped;
   std::istringstream lines(text);
   for (std::string line; std::getline(lines, line);) {
     if (!wrapped.empty()) wrapped += '\n';
-    std::size_t used = 0;
-    std::istringstream words(line);
-    for (std::string word; words >> word;) {
-      if (used > 0 && used + 1 + word.size() > columns) {
-        wrapped += '\n';
-        used = 0;
-      } else if (used > 0) {
-        wrapped += ' ';
-        ++used;
-      }
-      wrapped += word;
-      used += word.size();
+    while (line.size() > columns) {
+      const std::size_t first = line.find_first_not_of(' ');
+      const auto within = [&](std::size_t cut) { return cut != std::string::npos && first != std::string::npos && cut > first; };
+      std::size_t cut = line.rfind("  ", columns);
+      if (!within(cut)) cut = line.rfind(' ', columns);
+      if (!within(cut)) cut = line.find(' ', columns);
+      if (cut == std::string::npos) break;
+      wrapped += line.substr(0, line.find_last_not_of(' ', cut) + 1) + '\n';
+      const std::size_t rest = line.find_first_not_of(' ', cut);
+      line = rest == std::string::npos ? std::string() : line.substr(rest);
     }
+    wrapped += line;
   }
   return wrapped;
 }
@@ -569,6 +569,11 @@ void Studio::Impl::layout() {
   noticeColumns = static_cast<std::size_t>(
       std::max(20.0, ((textRect.x1 - textRect.x0) * width - 4.0 * pad) / (0.6 * 14.0 * scale)));
   showNotice();
+  // The info's font (digits and letters about half its size wide on average) across the view, less
+  // the padding and the colour bar at its right, so its lines stay in the view and clear of the bar.
+  infoColumns = static_cast<std::size_t>(
+      std::max(20.0, ((textRect.x1 - textRect.x0) * width - 4.0 * pad - 100.0 * scale) / (0.5 * 13.0 * scale)));
+  showInfo();
   helpCommandsText->SetPosition(pad * 2, height - 84.0 * scale);  // Below the status lines.
   placeKeysHelp();
 
@@ -783,6 +788,8 @@ void Studio::Impl::showNotice() {
   noticeText->SetInput(wrapLines(notice, noticeColumns).c_str());
 }
 
+void Studio::Impl::showInfo() { infoText->SetInput(wrapLines(selectionInfo(), infoColumns).c_str()); }
+
 void Studio::Impl::updateOverlays() {
   const Pipeline* pipeline = document.pipeline();
   const PipeNetwork& network = document.network();
@@ -813,7 +820,7 @@ void Studio::Impl::updateOverlays() {
     status << "\n" << message;
   }
   statusText->SetInput(status.str().c_str());
-  infoText->SetInput(selectionInfo().c_str());
+  showInfo();
 
   sceneTitle->SetInput(sceneCaption().c_str());
   std::string sphereCaption = "Gaussian sphere";

@@ -318,6 +318,8 @@ struct Studio::Impl {
   void updateOverlays();
   /// The notice (warnings from opening, an autosave to recover), wrapped to the view's width.
   void showNotice();
+  /// The selection's description, its lines broken to the view's width (infoColumns).
+  void showInfo();
   /// The 3-D scene's title: colours, clip, points drawn.
   std::string sceneCaption() const;
   void placeKeysHelp();
@@ -460,6 +462,7 @@ struct Studio::Impl {
   std::unique_ptr<StageBar> stageBar;
   int laidOutWidth = 0, laidOutHeight = 0;
   std::size_t noticeColumns = 120;  ///< Characters a notice line holds across the view (layout()).
+  std::size_t infoColumns = 120;    ///< Characters an info line holds left of the colour bar (layout()).
 
   // Background run: the worker thread alone touches the pipeline until `finished`.
   std::thread worker;
