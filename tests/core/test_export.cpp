@@ -376,11 +376,11 @@ TEST(Export, CsvOneRowPerElement) {
   ASSERT_EQ(lines.size(), 1 + kExportedNames.size());
   EXPECT_EQ(lines[0],
             "id,type,run,radius_m,length_m,start_x,start_y,start_z,end_x,end_y,end_z,bend_radius_m,confidence,status,nps,dn,"
-            "lowest_m,highest_m,slope_deg");
+            "lowest_m,highest_m,slope_deg,bend_angle_deg");
   std::map<std::string, std::vector<std::string>> rows;
   for (std::size_t i = 1; i < lines.size(); ++i) {
     auto fields = splitFields(lines[i]);
-    ASSERT_EQ(fields.size(), 19u) << lines[i];
+    ASSERT_EQ(fields.size(), 20u) << lines[i];
     rows[fields[1] + "-" + fields[0]] = fields;
   }
   std::set<std::string> names;
@@ -429,6 +429,10 @@ TEST(Export, CsvOneRowPerElement) {
   EXPECT_EQ(heights("elbow-1")[2], "");  // no slope for a bend...
   EXPECT_EQ(heights("tee-2")[2], "");    // ...nor a tee
   EXPECT_EQ(heights("boundary-4")[2], "0");
+  // An elbow's angle, from the circle through its arc; none for the others.
+  EXPECT_NEAR(std::stod(rows.at("elbow-1")[19]), 90.0, 1e-9);
+  EXPECT_EQ(rows.at("pipe-1")[19], "");
+  EXPECT_EQ(rows.at("tee-2")[19], "");
 }
 
 TEST(Export, CsvHeightsAreAlongTheNetworksUpAxis) {
@@ -445,7 +449,7 @@ TEST(Export, CsvHeightsAreAlongTheNetworksUpAxis) {
   ASSERT_EQ(z.size(), y.size());
   for (std::size_t i = 1; i < z.size(); ++i) {
     const auto zFields = splitFields(z[i]), yFields = splitFields(y[i]);
-    for (std::size_t column = 16; column < 19; ++column) {
+    for (std::size_t column = 16; column < 20; ++column) {
       if (zFields[column].empty()) {
         EXPECT_EQ(yFields[column], "") << z[i];
       } else {
@@ -1081,6 +1085,7 @@ TEST(Export, IfcProductsAreSweptAlongTheCentreLinesAndRunsAreSystems) {
   EXPECT_EQ(elbow.predefined, ".BEND.");
   EXPECT_EQ(elbow.axis, network.joints[0].axis);
   EXPECT_EQ(elbow.properties.at("BendRadius").real(), kBendRadius);
+  EXPECT_NEAR(elbow.properties.at("BendAngle").real(), 0.5 * kPi, 1e-9);  // radians, the model's unit
   EXPECT_EQ(elbow.properties.at("NominalSize").items.at(0).text, "3-1/2\" DN 90");
   const IfcProduct& tee = products.at("tee-2");
   EXPECT_EQ(tee.predefined, ".JUNCTION.");

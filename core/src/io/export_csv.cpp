@@ -1,6 +1,6 @@
 // CSV (RFC 4180: CRLF line ends, a header row): one row per element, with the nominal size nearest
 // its radius (NPS and DN), the lowest and highest heights its tube reaches along the up axis (a
-// level pipe's bottom and top of pipe) and a straight piece's slope. No field ever holds a comma,
+// level pipe's bottom and top of pipe), a straight piece's slope and an elbow's angle. No field ever holds a comma,
 // quote or line break, so none is quoted.
 
 #include "io/export_elements.h"
@@ -12,7 +12,7 @@ namespace piperun::io {
 std::string csvDocument(const std::vector<ExportElement>& elements, const NominalSizes& sizes, UpAxis up) {
   std::string text =
       "id,type,run,radius_m,length_m,start_x,start_y,start_z,end_x,end_y,end_z,bend_radius_m,confidence,status,nps,dn,"
-      "lowest_m,highest_m,slope_deg\r\n";
+      "lowest_m,highest_m,slope_deg,bend_angle_deg\r\n";
   for (const auto& element : elements) {
     const Eigen::Vector3d& start = element.axis.front();
     const Eigen::Vector3d& end = element.axis.back();
@@ -34,6 +34,10 @@ std::string csvDocument(const std::vector<ExportElement>& elements, const Nomina
       straight.start = start;
       straight.end = end;
       text += shortestNumber(pipeLie(straight, up).slopeDegrees);
+    }
+    text += ",";
+    if (element.kind == ElementKind::Elbow) {
+      if (const auto bend = bendOf(element.axis)) text += shortestNumber(bend->angleDegrees());
     }
     text += "\r\n";
   }

@@ -5,10 +5,12 @@
 // stub from the main's axis). Its body is an IfcSweptDiskSolid: a disk of its radius swept along its
 // centre line, an IfcPolyline in metres. Each run is an IfcDistributionSystem grouping its
 // elements, and each element carries the property set PipeRun_Element (confidence, review status,
-// outside diameter, nominal size, length, bend radius, run). GlobalIds are derived from each
+// outside diameter, nominal size, length, bend radius and angle, run). GlobalIds are derived from each
 // element's name and centre line: the same network exports the same ids.
 
 #include "io/export_elements.h"
+
+#include "piperun/pipe_measures.h"
 
 #include <cstdint>
 #include <cstdio>
@@ -215,6 +217,10 @@ std::string ifcDocument(const std::vector<ExportElement>& elements, const Nomina
     if (element.kind == ElementKind::Elbow) {
       properties.push_back(data.add("IFCPROPERTYSINGLEVALUE",
                                     "'BendRadius',$,IFCPOSITIVELENGTHMEASURE(" + stepReal(element.bendRadius) + "),$"));
+      if (const auto bend = bendOf(element.axis)) {
+        properties.push_back(data.add("IFCPROPERTYSINGLEVALUE",
+                                      "'BendAngle',$,IFCPLANEANGLEMEASURE(" + stepReal(bend->angle) + "),$"));
+      }
     }
     if (element.runId >= 0) {
       properties.push_back(
