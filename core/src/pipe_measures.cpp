@@ -13,15 +13,17 @@ namespace piperun {
 
 double PipeLie::slopePercent() const { return 100.0 * std::tan(slopeDegrees * kDegree); }
 
-PipeLie pipeLie(const Pipe& pipe, UpAxis up) {
+PipeLie pipeLie(const Eigen::Vector3d& start, const Eigen::Vector3d& end, UpAxis up) {
   PipeLie lie;
-  const double startHeight = heightAlong(up, pipe.start), endHeight = heightAlong(up, pipe.end);
+  const double startHeight = heightAlong(up, start), endHeight = heightAlong(up, end);
   lie.lowHeight = std::min(startHeight, endHeight);
   lie.highHeight = std::max(startHeight, endHeight);
-  const double length = pipe.length();
+  const double length = (end - start).norm();
   if (length > 0.0) lie.slopeDegrees = std::asin(std::min(1.0, (lie.highHeight - lie.lowHeight) / length)) / kDegree;
   return lie;
 }
+
+PipeLie pipeLie(const Pipe& pipe, UpAxis up) { return pipeLie(pipe.start, pipe.end, up); }
 
 TubeHeights tubeHeights(const std::vector<Eigen::Vector3d>& axis, double radius, UpAxis up) {
   TubeHeights heights{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};

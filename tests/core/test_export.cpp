@@ -100,6 +100,15 @@ PipeNetwork shifted(PipeNetwork network, const Vector3d& offset) {
   return network;
 }
 
+/// The sample network turned so that `up` is its up axis, and export options that say so.
+std::pair<PipeNetwork, ExportOptions> turnedSample(UpAxis up) {
+  PipeNetwork turned = sampleNetwork();
+  turned.turn(turnZUpTo(up));
+  ExportOptions options;
+  options.up = up;
+  return {turned, options};
+}
+
 const std::set<std::string> kExportedNames = {"pipe-1", "pipe-2", "pipe-3",  "pipe-5",    "pipe-6",
                                               "pipe-7", "elbow-1", "tee-2", "boundary-4"};
 
@@ -440,10 +449,7 @@ TEST(Export, CsvHeightsAreAlongTheNetworksUpAxis) {
   // (its co-ordinates stay the scan's).
   TempDir dir;
   exportNetwork(sampleNetwork(), ExportFormat::Csv, dir / "z.csv");
-  PipeNetwork turned = sampleNetwork();
-  turned.turn(turnZUpTo(UpAxis::PlusY));
-  ExportOptions options;
-  options.up = UpAxis::PlusY;
+  const auto [turned, options] = turnedSample(UpAxis::PlusY);
   exportNetwork(turned, ExportFormat::Csv, dir / "y.csv", options);
   const auto z = splitLines(test::readFile(dir / "z.csv")), y = splitLines(test::readFile(dir / "y.csv"));
   ASSERT_EQ(z.size(), y.size());
@@ -722,10 +728,7 @@ TEST(Export, PcfIsWrittenWithTheNetworksUpAxisAsZ) {
   const std::string upright = test::readFile(dir / "z.pcf");
   for (const std::string& name : upAxisNames()) {
     const UpAxis up = upAxisFromString(name);
-    PipeNetwork turned = sampleNetwork();
-    turned.turn(turnZUpTo(up));
-    ExportOptions options;
-    options.up = up;
+    const auto [turned, options] = turnedSample(up);
     exportNetwork(turned, ExportFormat::Pcf, dir / "turned.pcf", options);
     EXPECT_EQ(test::readFile(dir / "turned.pcf"), upright) << name;
     exportNetwork(turned, ExportFormat::Obj, dir / "turned.obj", options);
@@ -1150,11 +1153,7 @@ TEST(Export, IfcIdsAreStableForANetworkAndItsModelStandsOnZ) {
             0u);
 
   for (const std::string& name : upAxisNames()) {
-    const UpAxis up = upAxisFromString(name);
-    PipeNetwork turned = sampleNetwork();
-    turned.turn(turnZUpTo(up));
-    ExportOptions options;
-    options.up = up;
+    const auto [turned, options] = turnedSample(upAxisFromString(name));
     exportNetwork(turned, ExportFormat::Ifc, dir / "turned.ifc", options);
     EXPECT_EQ(withoutTime(dir / "turned.ifc"), withoutTime(dir / "a.ifc")) << name;
   }

@@ -1,6 +1,7 @@
 #pragma once
-// What a plant engineer reads off a pipe: how it lies against the up axis (level, sloping or
-// vertical, and at which heights), and how far it is from another pipe.
+// What a plant engineer reads off a network: how a pipe lies against the up axis (level, sloping
+// or vertical, and at which heights), how high and low a tube reaches, the angle an elbow turns and
+// the fitting that names, and how far two pipes are from each other.
 
 #include "piperun/pipe_network.h"
 #include "piperun/up_axis.h"
@@ -22,6 +23,7 @@ struct PipeLie {
   double slopePercent() const;
 };
 
+PipeLie pipeLie(const Eigen::Vector3d& start, const Eigen::Vector3d& end, UpAxis up);
 PipeLie pipeLie(const Pipe& pipe, UpAxis up);
 
 /// The lowest and highest heights (along the up axis) that the tube of `radius` around the centre

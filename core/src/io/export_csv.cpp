@@ -1,7 +1,7 @@
 // CSV (RFC 4180: CRLF line ends, a header row): one row per element, with the nominal size nearest
 // its radius (NPS and DN), the lowest and highest heights its tube reaches along the up axis (a
-// level pipe's bottom and top of pipe), a straight piece's slope and an elbow's angle. No field ever holds a comma,
-// quote or line break, so none is quoted.
+// level pipe's bottom and top of pipe), a straight piece's slope and an elbow's angle. No field
+// ever holds a comma, quote or line break, so none is quoted.
 
 #include "io/export_elements.h"
 
@@ -30,10 +30,7 @@ std::string csvDocument(const std::vector<ExportElement>& elements, const Nomina
     const TubeHeights heights = tubeHeights(element.axis, element.radius, up);
     text += "," + shortestNumber(heights.lowest) + "," + shortestNumber(heights.highest) + ",";
     if (element.kind == ElementKind::Pipe || element.kind == ElementKind::Boundary) {
-      Pipe straight;
-      straight.start = start;
-      straight.end = end;
-      text += shortestNumber(pipeLie(straight, up).slopeDegrees);
+      text += shortestNumber(pipeLie(start, end, up).slopeDegrees);
     }
     text += ",";
     if (element.kind == ElementKind::Elbow) {
