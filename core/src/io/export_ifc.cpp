@@ -52,7 +52,7 @@ std::uint64_t hashOf(const std::string& key, const std::vector<Eigen::Vector3d>&
 
 /// An IFC GlobalId: 128 bits written as 22 characters of IFC's base-64 alphabet (the first carries
 /// 2 bits, the others 6 each), from a hash of `key` and `points`.
-std::string globalId(const std::string& key, const std::vector<Eigen::Vector3d>& points = {}) {
+std::string globalId(const std::string& key, const std::vector<Eigen::Vector3d>& points) {
   static constexpr char kDigits[] = "0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz_$";
   const std::uint64_t hash = hashOf(key, points, kFnvBasis);
   const std::uint64_t high = mixed(hash), low = mixed(hash ^ 0x9e3779b97f4a7c15ULL);
@@ -179,12 +179,21 @@ std::string ifcDocument(const std::vector<ExportElement>& elements, const Nomina
   std::uint64_t networkHash = kFnvBasis;
   for (const auto& element : elements) networkHash = hashOf(element.name, element.axis, networkHash);
   const std::string network = std::to_string(networkHash);
-  const std::string project = data.add(
-      "IFCPROJECT", stepString(globalId("project " + network)) + ",$,'PipeRun network',$,$,$,$,(" + model + ")," + units);
+  // A rooted instance: its GlobalId (from `key` and `points`), no owner history, then `rest`.
+  const auto rooted = [&](const char* entity, const std::string& key, const std::vector<Eigen::Vector3d>& points,
+                          const std::string& rest) {
+    return data.add(entity, stepString(globalId(key, points)) + ",$," + rest);
+  };
+  const auto property = [&](const std::string& name, const std::string& value) {
+    return data.add("IFCPROPERTYSINGLEVALUE", stepString(name) + ",$," + value + ",$");
+  };
+
+  const std::string project =
+      rooted("IFCPROJECT", "project " + network, {}, "'PipeRun network',$,$,$,$,(" + model + ")," + units);
   const std::string sitePlacement = data.add("IFCLOCALPLACEMENT", "$," + world);
-  const std::string site = data.add("IFCSITE", stepString(globalId("site " + network)) + ",$,'Site',$,$," +
-                                                   sitePlacement + ",$,$,.ELEMENT.,$,$,$,$,$");
-  data.add("IFCRELAGGREGATES", stepString(globalId("aggregates " + network)) + ",$,$,$," + project + ",(" + site + ")");
+  const std::string site =
+      rooted("IFCSITE", "site " + network, {}, "'Site',$,$," + sitePlacement + ",$,$,.ELEMENT.,$,$,$,$,$");
+  rooted("IFCRELAGGREGATES", "aggregates " + network, {}, "$,$," + project + ",(" + site + ")");
 
   std::vector<std::string> products;
   std::map<int, std::vector<std::string>> productsOfRun;
@@ -199,50 +208,41 @@ std::string ifcDocument(const std::vector<ExportElement>& elements, const Nomina
     const std::string placement = data.add("IFCLOCALPLACEMENT", sitePlacement + "," + world);
     const auto [entity, predefined] = productOf(element.kind);
     const std::string product =
-        data.add(entity, stepString(globalId(element.name, element.axis)) + ",$," + stepString(element.name) + "," +
-                             stepString(kindName(element.kind)) + ",$," + placement + "," + definition + "," +
-                             stepString(std::to_string(element.id)) + "," + predefined);
+        rooted(entity, element.name, element.axis,
+               stepString(element.name) + "," + stepString(kindName(element.kind)) + ",$," + placement + "," +
+                   definition + "," + stepString(std::to_string(element.id)) + "," + predefined);
     products.push_back(product);
     if (element.runId >= 0) productsOfRun[element.runId].push_back(product);
 
     const NominalSize& size = sizes.nearest(element.radius);
     std::vector<std::string> properties = {
-        data.add("IFCPROPERTYSINGLEVALUE", "'Confidence',$,IFCREAL(" + stepReal(element.confidence) + "),$"),
-        data.add("IFCPROPERTYSINGLEVALUE", "'ReviewStatus',$,IFCLABEL(" + stepString(element.status) + "),$"),
-        data.add("IFCPROPERTYSINGLEVALUE",
-                 "'OutsideDiameter',$,IFCPOSITIVELENGTHMEASURE(" + stepReal(2.0 * element.radius) + "),$"),
-        data.add("IFCPROPERTYSINGLEVALUE",
-                 "'NominalSize',$,IFCLABEL(" + stepString(size.nps + "\" DN " + std::to_string(size.dn)) + "),$"),
-        data.add("IFCPROPERTYSINGLEVALUE", "'Length',$,IFCLENGTHMEASURE(" + stepReal(element.length()) + "),$")};
+        property("Confidence", "IFCREAL(" + stepReal(element.confidence) + ")"),
+        property("ReviewStatus", "IFCLABEL(" + stepString(element.status) + ")"),
+        property("OutsideDiameter", "IFCPOSITIVELENGTHMEASURE(" + stepReal(2.0 * element.radius) + ")"),
+        property("NominalSize", "IFCLABEL(" + stepString(size.nps + "\" DN " + std::to_string(size.dn)) + ")"),
+        property("Length", "IFCLENGTHMEASURE(" + stepReal(element.length()) + ")")};
     if (element.kind == ElementKind::Elbow) {
-      properties.push_back(data.add("IFCPROPERTYSINGLEVALUE",
-                                    "'BendRadius',$,IFCPOSITIVELENGTHMEASURE(" + stepReal(element.bendRadius) + "),$"));
+      properties.push_back(property("BendRadius", "IFCPOSITIVELENGTHMEASURE(" + stepReal(element.bendRadius) + ")"));
       if (const auto bend = bendOf(element.axis)) {
-        properties.push_back(data.add("IFCPROPERTYSINGLEVALUE",
-                                      "'BendAngle',$,IFCPLANEANGLEMEASURE(" + stepReal(bend->angle) + "),$"));
+        properties.push_back(property("BendAngle", "IFCPLANEANGLEMEASURE(" + stepReal(bend->angle) + ")"));
       }
     }
-    if (element.runId >= 0) {
-      properties.push_back(
-          data.add("IFCPROPERTYSINGLEVALUE", "'Run',$,IFCINTEGER(" + std::to_string(element.runId) + "),$"));
-    }
-    const std::string set = data.add("IFCPROPERTYSET", stepString(globalId("properties " + element.name, element.axis)) +
-                                                           ",$,'PipeRun_Element',$," + referenceList(properties));
-    data.add("IFCRELDEFINESBYPROPERTIES",
-             stepString(globalId("defines " + element.name, element.axis)) + ",$,$,$,(" + product + ")," + set);
+    if (element.runId >= 0) properties.push_back(property("Run", "IFCINTEGER(" + std::to_string(element.runId) + ")"));
+    const std::string set = rooted("IFCPROPERTYSET", "properties " + element.name, element.axis,
+                                   "'PipeRun_Element',$," + referenceList(properties));
+    rooted("IFCRELDEFINESBYPROPERTIES", "defines " + element.name, element.axis,
+           "$,$,(" + product + ")," + set);
   }
   if (!products.empty()) {
-    data.add("IFCRELCONTAINEDINSPATIALSTRUCTURE",
-             stepString(globalId("contained " + network)) + ",$,$,$," + referenceList(products) + "," + site);
+    rooted("IFCRELCONTAINEDINSPATIALSTRUCTURE", "contained " + network, {},
+           "$,$," + referenceList(products) + "," + site);
   }
   for (const auto& [run, members] : productsOfRun) {
-    const std::string key = "run " + std::to_string(run) + " " + network;
-    const std::string system = data.add("IFCDISTRIBUTIONSYSTEM", stepString(globalId(key)) + ",$," +
-                                                                     stepString("run " + std::to_string(run)) +
-                                                                     ",$,$,$,.NOTDEFINED.");
-    data.add("IFCRELASSIGNSTOGROUP",
-             stepString(globalId("assigns " + key)) + ",$,$,$," + referenceList(members) + ",$," + system);
-    data.add("IFCRELSERVICESBUILDINGS", stepString(globalId("services " + key)) + ",$,$,$," + system + ",(" + site + ")");
+    const std::string name = "run " + std::to_string(run);
+    const std::string key = name + " " + network;
+    const std::string system = rooted("IFCDISTRIBUTIONSYSTEM", key, {}, stepString(name) + ",$,$,$,.NOTDEFINED.");
+    rooted("IFCRELASSIGNSTOGROUP", "assigns " + key, {}, "$,$," + referenceList(members) + ",$," + system);
+    rooted("IFCRELSERVICESBUILDINGS", "services " + key, {}, "$,$," + system + ",(" + site + ")");
   }
 
   return "ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION(('ViewDefinition [ReferenceView_V1.2]'),'2;1');\n"
