@@ -17,7 +17,8 @@ trap 'rm -rf "$work"' EXIT
 data=../shared/data/real
 for scan in "$data/pumpAVisualReferenceImage.e57" "$data/table_scene_mug_stereo_textured.pcd"; do
   build-sanitize/app/piperun -q reconstruct "$scan" -o "$work/net.json" --export obj:"$work/net.obj" \
-    --export ply:"$work/net.ply" --export csv:"$work/net.csv" --export dxf:"$work/net.dxf" --export pcf:"$work/net.pcf"
+    --export ply:"$work/net.ply" --export csv:"$work/net.csv" --export dxf:"$work/net.dxf" --export pcf:"$work/net.pcf" \
+    --export ifc:"$work/net.ifc"
   build-sanitize/app/piperun info "$work/net.json" --runs >/dev/null
 done
 echo "sanitize: clean"
