@@ -1114,6 +1114,40 @@ TEST(Export, IfcProductsAreSweptAlongTheCentreLinesAndRunsAreSystems) {
   EXPECT_EQ(file.instances.at(groups[0]).arguments.at(6).reference(), systems[0]);
   EXPECT_FALSE(products.at("pipe-6").properties.count("Run"));
   EXPECT_EQ(products.at("pipe-1").properties.at("Run").items.at(0).text, "0");
+
+  // Each product typed once, by its kind and nominal size; the types declared in the project; a
+  // segment type with its diameters in Pset_PipeSegmentTypeCommon.
+  std::map<std::string, std::string> typeOf;  // product name -> type name
+  for (const int relation : file.ofType("IFCRELDEFINESBYTYPE")) {
+    const StepInstance& defines = file.instances.at(relation);
+    const StepInstance& type = file.at(defines.arguments.at(5));
+    for (const StepValue& object : defines.arguments.at(4).items) {
+      EXPECT_TRUE(typeOf.emplace(file.at(object).arguments.at(2).text, type.arguments.at(2).text).second);
+    }
+  }
+  EXPECT_EQ(typeOf.size(), kExportedNames.size());
+  EXPECT_EQ(typeOf.at("pipe-1"), "pipe 3-1/2\" DN 90");  // 100 mm outside: 3-1/2" (101.6)
+  EXPECT_EQ(typeOf.at("pipe-2"), "pipe 3-1/2\" DN 90");
+  EXPECT_EQ(typeOf.at("boundary-4"), typeOf.at("pipe-6"));  // a gap piece is a pipe of its size
+  EXPECT_EQ(typeOf.at("elbow-1"), "elbow 3-1/2\" DN 90");
+  EXPECT_EQ(typeOf.at("tee-2"), "tee 2\" DN 50");
+  const auto declares = file.ofType("IFCRELDECLARES");
+  ASSERT_EQ(declares.size(), 1u);
+  EXPECT_EQ(file.at(file.instances.at(declares[0]).arguments.at(4)).type, "IFCPROJECT");
+  EXPECT_EQ(file.instances.at(declares[0]).arguments.at(5).items.size(),
+            file.ofType("IFCPIPESEGMENTTYPE").size() + file.ofType("IFCPIPEFITTINGTYPE").size());
+  for (const int id : file.ofType("IFCPIPESEGMENTTYPE")) {
+    const StepInstance& type = file.instances.at(id);
+    if (type.arguments.at(2).text != "pipe 3-1/2\" DN 90") continue;
+    const StepInstance& set = file.at(type.arguments.at(5).items.at(0));
+    EXPECT_EQ(set.arguments.at(2).text, "Pset_PipeSegmentTypeCommon");
+    std::map<std::string, double> diameters;
+    for (const StepValue& property : set.arguments.at(4).items) {
+      diameters[file.at(property).arguments.at(0).text] = file.at(property).arguments.at(2).real();
+    }
+    EXPECT_DOUBLE_EQ(diameters.at("NominalDiameter"), 0.09);
+    EXPECT_DOUBLE_EQ(diameters.at("OuterDiameter"), 0.1016);
+  }
 }
 
 TEST(Export, IfcIdsAreStableForANetworkAndItsModelStandsOnZ) {

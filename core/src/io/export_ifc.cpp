@@ -2,11 +2,13 @@
 // (STEP) text file that BIM tools read for coordination and clash detection. Each element is a
 // product contained in one IfcSite: a pipe (and a boundary joint, a pipe piece closing a gap) an
 // IfcPipeSegment, an elbow an IfcPipeFitting BEND and a tee an IfcPipeFitting JUNCTION (its branch
-// stub from the main's axis). Its body is an IfcSweptDiskSolid: a disk of its radius swept along its
-// centre line, an IfcPolyline in metres. Each run is an IfcDistributionSystem grouping its
-// elements, and each element carries the property set PipeRun_Element (confidence, review status,
-// outside diameter, nominal size, length, bend radius and angle, run). GlobalIds are derived from each
-// element's name and centre line: the same network exports the same ids.
+// stub from the main's axis). Each is typed by its kind and nominal size (IfcPipeSegmentType with
+// Pset_PipeSegmentTypeCommon's diameters, IfcPipeFittingType; the types declared in the project).
+// Its body is an IfcSweptDiskSolid: a disk of its radius swept along its centre line, an
+// IfcPolyline in metres. Each run is an IfcDistributionSystem grouping its elements, and each
+// element carries the property set PipeRun_Element (confidence, review status, outside diameter,
+// nominal size, length, bend radius and angle, run). GlobalIds are derived from each element's name
+// and centre line: the same network exports the same ids.
 
 #include "io/export_elements.h"
 
@@ -18,6 +20,7 @@
 #include <ctime>
 #include <map>
 #include <string>
+#include <tuple>
 #include <vector>
 
 namespace piperun::io {
@@ -197,6 +200,15 @@ std::string ifcDocument(const std::vector<ExportElement>& elements, const Nomina
 
   std::vector<std::string> products;
   std::map<int, std::vector<std::string>> productsOfRun;
+  // The products of each type: a kind of segment or fitting in one nominal size.
+  struct TypeKey {
+    std::string entity, predefined;
+    int dn = 0;
+    bool operator<(const TypeKey& other) const {
+      return std::tie(entity, predefined, dn) < std::tie(other.entity, other.predefined, other.dn);
+    }
+  };
+  std::map<TypeKey, std::pair<NominalSize, std::vector<std::string>>> productsOfType;
   for (const auto& element : elements) {
     std::vector<std::string> vertices;
     for (const auto& p : element.axis) vertices.push_back(data.add("IFCCARTESIANPOINT", point(p)));
@@ -213,8 +225,11 @@ std::string ifcDocument(const std::vector<ExportElement>& elements, const Nomina
                    definition + "," + stepString(std::to_string(element.id)) + "," + predefined);
     products.push_back(product);
     if (element.runId >= 0) productsOfRun[element.runId].push_back(product);
-
     const NominalSize& size = sizes.nearest(element.radius);
+    auto& ofType = productsOfType[TypeKey{std::string(entity), predefined, size.dn}];
+    ofType.first = size;
+    ofType.second.push_back(product);
+
     std::vector<std::string> properties = {
         property("Confidence", "IFCREAL(" + stepReal(element.confidence) + ")"),
         property("ReviewStatus", "IFCLABEL(" + stepString(element.status) + ")"),
@@ -237,6 +252,30 @@ std::string ifcDocument(const std::vector<ExportElement>& elements, const Nomina
     rooted("IFCRELCONTAINEDINSPATIALSTRUCTURE", "contained " + network, {},
            "$,$," + referenceList(products) + "," + site);
   }
+  // Each type: its name says what and which size ('pipe 8" DN 200', 'elbow 8" DN 200'); a segment
+  // type carries its nominal and outside diameters in the standard Pset_PipeSegmentTypeCommon.
+  std::vector<std::string> types;
+  for (const auto& [key, sized] : productsOfType) {
+    const auto& [size, members] = sized;
+    const char* what = key.predefined == ".BEND." ? "elbow" : key.predefined == ".JUNCTION." ? "tee" : "pipe";
+    const std::string name = std::string(what) + " " + size.nps + "\" DN " + std::to_string(size.dn);
+    std::string propertySets = "$";
+    if (key.entity == "IFCPIPESEGMENT") {
+      propertySets = "(" +
+                     rooted("IFCPROPERTYSET", "type properties " + name + " " + network, {},
+                            "'Pset_PipeSegmentTypeCommon',$," +
+                                referenceList({property("NominalDiameter", "IFCPOSITIVELENGTHMEASURE(" +
+                                                                               stepReal(size.dn / 1000.0) + ")"),
+                                               property("OuterDiameter", "IFCPOSITIVELENGTHMEASURE(" +
+                                                                             stepReal(size.outsideDiameter) + ")")})) +
+                     ")";
+    }
+    const std::string type = rooted((key.entity + "TYPE").c_str(), "type " + name + " " + network, {},
+                                    stepString(name) + ",$,$," + propertySets + ",$,$,$," + key.predefined);
+    types.push_back(type);
+    rooted("IFCRELDEFINESBYTYPE", "typed " + name + " " + network, {}, "$,$," + referenceList(members) + "," + type);
+  }
+  if (!types.empty()) rooted("IFCRELDECLARES", "declares " + network, {}, "$,$," + project + "," + referenceList(types));
   for (const auto& [run, members] : productsOfRun) {
     const std::string name = "run " + std::to_string(run);
     const std::string key = name + " " + network;
