@@ -505,8 +505,8 @@ void printJointsSteps(const JointsResult::Diagnostics& d) {
   };
   if (d.completedPipes > 0) {
     std::vector<std::string> kinds;
-    add(kinds, d.legsBetweenEnds, "between", "between", "two ends");
-    add(kinds, d.carriedLegs, "carried", "carried", "on past the completion length");
+    if (d.legsBetweenEnds > 0) kinds.push_back(std::to_string(d.legsBetweenEnds) + " between two ends");
+    if (d.carriedLegs > 0) kinds.push_back(std::to_string(d.carriedLegs) + " carried on past the completion length");
     found.push_back(counted(d.completedPipes, "pipe", "pipes") + " completed beyond free ends" +
                     (kinds.empty() ? "" : " (" + joinNames(kinds) + ")"));
   }
@@ -624,14 +624,14 @@ int runReconstruct(const ReconstructOptions& options) {
     return static_cast<std::size_t>(
         std::count_if(network.joints.begin(), network.joints.end(), [&](const Joint& j) { return j.type == type; }));
   };
-  const auto accepted = std::count_if(network.joints.begin(), network.joints.end(),
-                                      [](const Joint& j) { return j.status == JointStatus::Accepted; });
+  const auto accepted = static_cast<std::size_t>(std::count_if(
+      network.joints.begin(), network.joints.end(), [](const Joint& j) { return j.status == JointStatus::Accepted; }));
   if (pipeline.isFresh(Stage::Joints)) {
     std::printf("joints: %s, %s, %s (%zu accepted, %zu proposed), %s  [%.2f s]\n",
                 counted(countJoints(JointType::Elbow), "elbow", "elbows").c_str(),
                 counted(countJoints(JointType::Tee), "tee", "tees").c_str(),
                 counted(countJoints(JointType::Boundary), "boundary joint", "boundary joints").c_str(),
-                static_cast<std::size_t>(accepted), network.joints.size() - static_cast<std::size_t>(accepted),
+                accepted, network.joints.size() - accepted,
                 counted(network.runs.size(), "run", "runs").c_str(), pipeline.stageSeconds(Stage::Joints));
     printJointsSteps(pipeline.jointsResult()->diagnostics);
   }

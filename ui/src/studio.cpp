@@ -65,7 +65,9 @@ std::string wrapLines(const std::string& text, std::size_t columns) {
     if (!wrapped.empty()) wrapped += '\n';
     while (line.size() > columns) {
       const std::size_t first = line.find_first_not_of(' ');
-      const auto within = [&](std::size_t cut) { return cut != std::string::npos && first != std::string::npos && cut > first; };
+      const auto within = [&](std::size_t cut) {
+        return cut != std::string::npos && first != std::string::npos && cut > first;
+      };
       std::size_t cut = line.rfind("  ", columns);
       if (!within(cut)) cut = line.rfind(' ', columns);
       if (!within(cut)) cut = line.find(' ', columns);

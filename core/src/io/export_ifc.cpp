@@ -1,8 +1,8 @@
 // IFC4 (ISO 16739-1), the open exchange format of building and plant models, as an ISO 10303-21
 // (STEP) text file that BIM tools read for coordination and clash detection. Each element is a
 // product contained in one IfcSite: a pipe (and a boundary joint, a pipe piece closing a gap) an
-// IfcPipeSegment, an elbow an IfcPipeFitting BEND and a tee an IfcPipeFitting JUNCTION (its branch
-// stub from the main's axis). Each is typed by its kind and nominal size (IfcPipeSegmentType with
+// IfcPipeSegment, an elbow an IfcPipeFitting BEND and a tee an IfcPipeFitting JUNCTION (the piece
+// of its branch from the main's axis). Each is typed by its kind and nominal size (IfcPipeSegmentType with
 // Pset_PipeSegmentTypeCommon's diameters, IfcPipeFittingType; the types declared in the project).
 // Its body is an IfcSweptDiskSolid: a disk of its radius swept along its centre line, an
 // IfcPolyline in metres. Each run is an IfcDistributionSystem grouping its elements, and each

@@ -67,8 +67,8 @@ int meshSegments(double radius, const ExportOptions& options);
 
 /// Writes `network` to `path` in `format`, atomically (a temporary file beside `path` is renamed
 /// over it). Throws OutputError when the file cannot be written, InputError when nominal sizes are
-/// needed (CSV, IFC, PCF's nominal bores) and their table is not found, and std::invalid_argument for options out of
-/// range (chordTolerance ≤ 0, minSegments < 3, maxSegments < minSegments).
+/// needed (CSV, IFC, PCF's nominal bores) and their table is not found, and std::invalid_argument
+/// for options out of range (chordTolerance ≤ 0, minSegments < 3, maxSegments < minSegments).
 void exportNetwork(const PipeNetwork& network, ExportFormat format, const std::filesystem::path& path,
                    const ExportOptions& options = {});
 
