@@ -1,3 +1,4 @@
+#include "piperun/pipe_measures.h"
 #include "piperun/stages/joints.h"
 #include "piperun/up_axis.h"
 
@@ -916,6 +917,65 @@ TEST(Joints, AShortDiagonalLegBetweenTwoHalfBendsStays) {
     EXPECT_EQ(joint.type, JointType::Elbow);
     EXPECT_NEAR(joint.bendRadius, R, 0.05 * R);
   }
+}
+
+/// A riser (along z) turning square into a horizontal pipe (along x) by a bend of R = 0.18 m, the
+/// tube 10 cm thick, as in the real pump room; the pipes listed are fitted as there: the riser
+/// `riserRadius` thick up to `riserEnd` (z), the horizontal pipe `pipeRadius` thick from 9.5 cm past
+/// the corner, its fit leaving out the points under it from 34 to 50 cm past the corner (there they
+/// vote for a bend of R 0.36–0.48 m). The pieces fitted across the bend are added by the tests.
+ConstructedScene riserBend(double riserEnd, double riserRadius, double pipeRadius) {
+  const double r = 0.1, R = 0.18;
+  ConstructedScene scene;
+  scene.addPipe({0, 0, -1.5}, {0, 0, -R}, r, false);
+  scene.addPipe({R, 0, 0}, {1.2, 0, 0}, r, false);
+  scene.addBend(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitX(), R, r);
+  scene.addFittedPipe({0, 0, -1.5}, {0, 0, riserEnd}, riserRadius, 0.04);
+  const auto pipe = static_cast<std::size_t>(scene.addFittedPipe({0.095, 0, 0}, {0.6, 0, 0}, pipeRadius, 0.04));
+  auto& inliers = scene.pipes()[pipe].inliers;
+  inliers.erase(std::remove_if(inliers.begin(), inliers.end(),
+                               [&](std::uint32_t i) {
+                                 const Eigen::Vector3f& p = scene.cloud().positions[i];
+                                 return p.z() < -0.03f && p.x() > 0.34f && p.x() < 0.5f;
+                               }),
+                inliers.end());
+  return scene;
+}
+
+TEST(Joints, OneBendFittedAsTwoElbowsAroundAPieceAcrossItIsOneElbow) {
+  // The real pump room's riser bend: a 98 mm cylinder fitted across the bend's middle, from the
+  // riser's outer wall to past the corner, between a riser fitted 87 mm thick and a pipe fitted
+  // 111 mm thick, took the bend's points; the elbow between riser and pipe, voted without them,
+  // came out wide (R 0.47 m) and weak, and the piece took an elbow with each, leaving 15 cm of it.
+  // Voted again with the piece's points, the elbow between the two pipes holds them all: the piece
+  // goes and that elbow takes both ends, at the bend's radius.
+  for (const double riserEnd : {-0.18, -0.284}) {
+    SCOPED_TRACE(riserEnd);
+    ConstructedScene scene = riserBend(riserEnd, 0.087, 0.111);
+    scene.addFittedPipe({-0.05, 0, -0.248}, {0.161, 0, 0.029}, 0.098, 0.04);
+    const JointsResult result = resolveOnly(scene);
+    EXPECT_EQ(result.diagnostics.mergedSplitBends, 1u);
+    ASSERT_NO_FATAL_FAILURE(expectOneElbowBetweenTwoPipes(result, 1));
+    EXPECT_EQ(result.joints[0].status, JointStatus::Accepted);
+    EXPECT_NEAR(result.joints[0].bendRadius, 0.18, 0.05 * 0.18);
+    const auto bend = bendOf(result.joints[0].axis);
+    ASSERT_TRUE(bend.has_value());
+    EXPECT_NEAR(bend->angleDegrees(), 90.0, 0.5);
+  }
+}
+
+TEST(Joints, AnElbowWhosePieceAcrossTheBendGoesIsVotedWithThePiecesPoints) {
+  // The pipes fitted at the tube's own radius, and a cylinder as thick fitted across the bend, which
+  // took the bend's points within 4 cm of its surface: it lies on the arc of the elbow between the
+  // pipes and goes, but the elbow, voted without its points, came out at R = 0.35 m. Voted again
+  // with them, it has the bend's radius.
+  ConstructedScene scene = riserBend(-0.18, 0.1, 0.1);
+  scene.addFittedPipe({-0.05, 0, -0.248}, {0.161, 0, 0.029}, 0.1, 0.04);
+  const JointsResult result = resolveOnly(scene);
+  EXPECT_EQ(result.diagnostics.revotedBends, 1u);
+  EXPECT_EQ(result.diagnostics.mergedSplitBends, 0u);
+  ASSERT_NO_FATAL_FAILURE(expectOneElbowBetweenTwoPipes(result, 1));
+  EXPECT_NEAR(result.joints[0].bendRadius, 0.18, 0.05 * 0.18);
 }
 
 TEST(Joints, TeeExtendsTheBranchToTheMainAxis) {

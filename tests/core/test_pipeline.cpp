@@ -2,6 +2,7 @@
 #include "piperun/eval/evaluation.h"
 #include "piperun/io/network_io.h"
 #include "piperun/io/point_reader.h"
+#include "piperun/pipe_measures.h"
 #include "piperun/pipeline.h"
 #include "piperun/synth/scene_generator.h"
 #include "test_scene.h"
@@ -10,6 +11,7 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <atomic>
 #include <thread>
 
@@ -356,8 +358,9 @@ const ExpectedPipe kPumpRoomPipes[] = {
 };
 
 /// Riser 1 rises into an elbow, a short horizontal piece and a second elbow into the ceiling pipe:
-/// one run, joined by accepted elbows of the ceiling pipe's size or the riser's. `shift` is where
-/// the scan was moved to (the expected pipes move with it).
+/// one run, joined by accepted elbows of the ceiling pipe's size or the riser's; the riser turns
+/// square into the horizontal piece by one elbow (not two around a cylinder fitted across its
+/// bend). `shift` is where the scan was moved to (the expected pipes move with it).
 void expectTheCeilingRunWithItsElbows(const PipeNetwork& network, const Eigen::Vector3d& shift) {
   const auto moved = [&](ExpectedPipe pipe) {
     pipe.pointOnAxis += shift;
@@ -383,6 +386,10 @@ void expectTheCeilingRunWithItsElbows(const PipeNetwork& network, const Eigen::V
     ++elbows;
     EXPECT_GT(joint->radius, 0.080);
     EXPECT_LT(joint->radius, 0.125);
+    if (std::find(joint->pipeIds.begin(), joint->pipeIds.end(), riser->id) == joint->pipeIds.end()) continue;
+    const auto bend = piperun::bendOf(joint->axis);
+    ASSERT_TRUE(bend.has_value());
+    EXPECT_NEAR(bend->angleDegrees(), 90.0, 5.0) << "the riser's elbow";
   }
   EXPECT_GE(elbows, 2);
 }

@@ -13,6 +13,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -30,6 +31,9 @@ constexpr double kMinChordOffLineDeg = 15.0;
 // An elbow bounded by the room an elbow chosen before it left (see resolveJoints) must hold at
 // least this share of the points its pipes' density gives its torus, or more than the wider bend.
 constexpr double kMinBoundedSupport = 0.5;
+// A piece between two chosen elbows that leave less than this many of its radii of it straight
+// may be one bend split in two (see mergeSplitBends).
+constexpr double kMaxSplitBendPieceRadii = 2.0;
 
 /// A spatial index over the pipes' axes: each pipe (by index) is filed in the cells its axis samples,
 /// half a cell apart, fall in.
@@ -45,6 +49,119 @@ HashGrid pipeAxisGrid(const std::vector<PipeSegment>& pipes, double cellSize) {
     }
   }
   return grid;
+}
+
+/// The chosen elbow that took end `key`, or nullptr.
+const Hypothesis* chosenElbowAt(const Resolution& resolution, int key) {
+  const int h = resolution.takenBy[static_cast<std::size_t>(key)];
+  if (h < 0) return nullptr;
+  const Hypothesis& joint = resolution.hypotheses[static_cast<std::size_t>(h)];
+  return joint.type == JointType::Elbow ? &joint : nullptr;
+}
+
+/// The end of `elbow` other than the one with key `key`.
+const PipeEnd& farEnd(const Hypothesis& elbow, int key) { return elbow.a.key() == key ? elbow.b : elbow.a; }
+
+/// Where `elbow` moves end `key` (its tangent point on that end's pipe).
+const Eigen::Vector3d& tangentAt(const Hypothesis& elbow, int key) {
+  return elbow.a.key() == key ? elbow.newA : elbow.newB;
+}
+
+/// Whether `elbow` leaves both its pipes a section long, up to their far ends as the chosen
+/// elbows moved them.
+bool leavesLength(const Resolution& resolution, const std::vector<PipeSegment>& pipes, const Hypothesis& elbow) {
+  const auto keeps = [&](const PipeEnd& end, const Eigen::Vector3d& moved) {
+    const int farKey = end.key() ^ 1;
+    const Hypothesis* farElbow = chosenElbowAt(resolution, farKey);
+    const PipeSegment& pipe = pipes[static_cast<std::size_t>(end.pipe)];
+    const Eigen::Vector3d farPoint =
+        farElbow != nullptr ? tangentAt(*farElbow, farKey) : (end.side == 0 ? pipe.end : pipe.start);
+    return (moved - farPoint).dot(end.outward) >= kSectionLength;
+  };
+  return keeps(elbow.a, elbow.newA) && keeps(elbow.b, elbow.newB);
+}
+
+/// Votes for the bend of elbows again with the points of cylinders fitted on their arcs, which the
+/// first vote left out as explained (see JointBuilder::reconstruct): such a piece holds the middle
+/// of the bend, and the points left vote for a wrong bend or none.
+class ArcPieceRevote {
+ public:
+  ArcPieceRevote(const JointsInput& input, const JointsParams& params, const std::vector<char>& explained)
+      : input_(input), params_(params), explained_(explained) {}
+
+  /// `elbow` reconstructed again over `nearby` with the inliers of `pieces` counted as its own;
+  /// nullopt when that makes it invalid or leaves a piece off its arc.
+  std::optional<Hypothesis> operator()(const Hypothesis& elbow, const std::vector<std::uint32_t>& nearby,
+                                       const std::vector<int>& pieces) {
+    if (withoutPieces_.empty()) withoutPieces_ = explained_;
+    for (int piece : pieces) {
+      for (std::uint32_t i : input_.pipes[static_cast<std::size_t>(piece)].inliers) withoutPieces_[i] = 0;
+    }
+    Hypothesis revoted = elbow;
+    revoted.valid = false;
+    revoted.supportPoints.clear();
+    revoted.axis.clear();
+    JointBuilder(input_, params_, withoutPieces_).reconstruct(revoted, nearby);
+    for (int piece : pieces) {
+      for (std::uint32_t i : input_.pipes[static_cast<std::size_t>(piece)].inliers) withoutPieces_[i] = explained_[i];
+    }
+    const bool onArc = std::all_of(pieces.begin(), pieces.end(), [&](int piece) {
+      return liesOnArc(input_.pipes[static_cast<std::size_t>(piece)], revoted);
+    });
+    if (!revoted.valid || !onArc) return std::nullopt;
+    return revoted;
+  }
+
+ private:
+  const JointsInput& input_;
+  const JointsParams& params_;
+  const std::vector<char>& explained_;
+  std::vector<char> withoutPieces_;  // `explained`, copied at the first vote
+};
+
+/// One bend fitted as two elbows around a cylinder fitted across its middle (a real pump room's
+/// riser: 38° and 53° around a piece left 4.5 cm long): where two chosen elbows leave a piece less
+/// than its radius straight, the elbow hypothesis between the piece's two neighbours is voted
+/// again with the piece's points. When it is then confident, at least as well supported as the
+/// weaker of the two, has the piece on its arc and leaves its pipes a section long, it takes the
+/// two ends and the piece goes as a piece of its arc.
+void mergeSplitBends(const std::vector<PipeSegment>& pipes, const JointsParams& params,
+                     const std::vector<std::vector<std::uint32_t>>& nearby, ArcPieceRevote& revote,
+                     Resolution& resolution) {
+  auto& hypotheses = resolution.hypotheses;
+  for (int p = 0; p < static_cast<int>(pipes.size()); ++p) {
+    const Hypothesis* first = chosenElbowAt(resolution, 2 * p);
+    const Hypothesis* second = chosenElbowAt(resolution, 2 * p + 1);
+    if (first == nullptr || second == nullptr) continue;
+    const PipeSegment& piece = pipes[static_cast<std::size_t>(p)];
+    const double left = (tangentAt(*second, 2 * p + 1) - tangentAt(*first, 2 * p)).dot(unitAxis(piece));
+    if (left >= kMaxSplitBendPieceRadii * piece.radius) continue;
+    const int from = farEnd(*first, 2 * p).key();
+    const int to = farEnd(*second, 2 * p + 1).key();
+    const auto joinsBoth = [&](const Hypothesis& elbow) {
+      return elbow.valid && elbow.type == JointType::Elbow &&
+             std::minmax(elbow.a.key(), elbow.b.key()) == std::minmax(from, to);
+    };
+    std::size_t h = 0;
+    while (h < nearby.size() && !joinsBoth(hypotheses[h])) ++h;
+    if (h == nearby.size()) continue;
+    const auto merged = revote(hypotheses[h], nearby[h], {p});
+    if (!merged || merged->confidence < params.acceptConfidence ||
+        merged->support < std::min(first->support, second->support) || !leavesLength(resolution, pipes, *merged)) {
+      continue;
+    }
+    auto& chosen = resolution.chosen;
+    auto& takenBy = resolution.takenBy;
+    const auto firstIndex = static_cast<std::size_t>(takenBy[static_cast<std::size_t>(2 * p)]);
+    const auto secondIndex = static_cast<std::size_t>(takenBy[static_cast<std::size_t>(2 * p + 1)]);
+    std::replace(chosen.begin(), chosen.end(), firstIndex, h);
+    chosen.erase(std::remove(chosen.begin(), chosen.end(), secondIndex), chosen.end());
+    takenBy[static_cast<std::size_t>(2 * p)] = takenBy[static_cast<std::size_t>(2 * p + 1)] = -1;
+    takenBy[static_cast<std::size_t>(from)] = takenBy[static_cast<std::size_t>(to)] = static_cast<int>(h);
+    resolution.arcPieces[static_cast<std::size_t>(p)] = 1;
+    hypotheses[h] = *merged;
+    ++resolution.diagnostics.mergedSplitBends;
+  }
 }
 
 }  // namespace
@@ -230,17 +347,30 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
 
   resolution.arcPieces.assign(static_cast<std::size_t>(pipeCount), 0);
   auto& chosen = resolution.chosen;
+  ArcPieceRevote revote(input, params, explained);
+  mergeSplitBends(pipes, params, nearby, revote, resolution);
   // The pieces on the arc of an elbow chosen between two other pipes go, and their own joints
-  // with them.
+  // with them. The elbow, voted without their points, is voted again with them, and takes that
+  // bend when its torus holds at least as many of the points.
+  std::vector<int> pieces;
   for (std::size_t h : chosen) {
     const Hypothesis& elbow = hypotheses[h];
     if (elbow.type != JointType::Elbow || onArc(elbow.a.pipe) || onArc(elbow.b.pipe)) continue;
+    pieces.clear();
     pipeGrid.forEachInCube(elbow.center, elbow.reach, [&](std::uint32_t p) {
       if (onArc(static_cast<int>(p)) && static_cast<int>(p) != elbow.a.pipe && static_cast<int>(p) != elbow.b.pipe &&
-          liesOnArc(pipes[p], elbow)) {
+          liesOnArc(pipes[p], elbow) && !resolution.arcPieces[p]) {
         resolution.arcPieces[p] = 1;
+        pieces.push_back(static_cast<int>(p));
       }
     });
+    if (pieces.empty() || h >= nearby.size()) continue;
+    std::sort(pieces.begin(), pieces.end());
+    const auto revoted = revote(elbow, nearby[h], pieces);
+    if (revoted && revoted->support >= elbow.support && leavesLength(resolution, pipes, *revoted)) {
+      hypotheses[h] = *revoted;
+      ++resolution.diagnostics.revotedBends;
+    }
   }
   const auto onPiece = [&](std::size_t h) {
     return resolution.arcPieces[static_cast<std::size_t>(hypotheses[h].a.pipe)] ||
