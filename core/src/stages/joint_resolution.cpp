@@ -121,8 +121,8 @@ class ArcPieceRevote {
 
 /// One bend fitted as two elbows around a cylinder fitted across its middle (a real pump room's
 /// riser: 38° and 53° around a piece left 4.5 cm long): where two chosen elbows leave a piece less
-/// than its radius straight, the elbow hypothesis between the piece's two neighbours is voted
-/// again with the piece's points. When it is then confident, at least as well supported as the
+/// than kMaxSplitBendPieceRadii of its radii straight, the elbow hypothesis between the piece's two
+/// neighbours is voted again with the piece's points. When it is then confident, at least as well supported as the
 /// weaker of the two, has the piece on its arc and leaves its pipes a section long, it takes the
 /// two ends and the piece goes as a piece of its arc.
 void mergeSplitBends(const std::vector<PipeSegment>& pipes, const JointsParams& params,
