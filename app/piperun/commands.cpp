@@ -522,8 +522,8 @@ void printJointsSteps(const JointsResult::Diagnostics& d) {
   add(merged, d.piecesAtEnds, "piece", "pieces",
       d.piecesAtEnds == 1 ? "into the pipe on whose line it lay" : "into the pipes on whose lines they lay");
   add(merged, d.mergedSplitBends, "piece", "pieces",
-      d.mergedSplitBends == 1 ? "fitted across a bend, with its two elbows, into one elbow"
-                              : "fitted across bends, with their two elbows, into one elbow each");
+      d.mergedSplitBends == 1 ? "fitted across a bend, with its elbows, into one elbow"
+                              : "fitted across bends, with their elbows, into one elbow each");
   add(leftOut, d.unjoinedPipes, "weakly supported pipe", "weakly supported pipes", "that took no joint");
   add(leftOut, d.underGround, "pipe or leg", "pipes or legs", "reaching below the ground");
   add(leftOut, d.planeResidue, "pipe", "pipes", "over a removed plane's edge");

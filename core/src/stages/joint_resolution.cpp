@@ -119,48 +119,67 @@ class ArcPieceRevote {
   std::vector<char> withoutPieces_;  // `explained`, copied at the first vote
 };
 
-/// One bend fitted as two elbows around a cylinder fitted across its middle (a real pump room's
-/// riser: 38° and 53° around a piece left 4.5 cm long): where two chosen elbows leave a piece less
-/// than kMaxSplitBendPieceRadii of its radii straight, the elbow hypothesis between the piece's two
-/// neighbours is voted again with the piece's points. When it is then confident, at least as well supported as the
-/// weaker of the two, has the piece on its arc and leaves its pipes a section long, it takes the
-/// two ends and the piece goes as a piece of its arc.
+/// One bend fitted as an elbow or two onto a cylinder fitted across its middle (a real pump room's
+/// riser: 38° and 53° around a piece left 4.5 cm long; moved 2 mm, one elbow onto a piece whose
+/// other end lies in the riser's tube): where the chosen elbows at a piece's ends leave it less than
+/// kMaxSplitBendPieceRadii of its radii straight, or one elbow takes an end and the other is free,
+/// the elbow hypotheses between the elbows' far ends (between the one elbow's far end and a free end
+/// of another pipe) are voted again with the piece's points. The first that is then confident, at
+/// least as well supported as the weaker of the two elbows (holding half its points, for one), has
+/// the piece on its arc and leaves its pipes a section long takes those two ends, and the piece
+/// goes as a piece of its arc.
 void mergeSplitBends(const std::vector<PipeSegment>& pipes, const JointsParams& params,
                      const std::vector<std::vector<std::uint32_t>>& nearby, ArcPieceRevote& revote,
                      Resolution& resolution) {
   auto& hypotheses = resolution.hypotheses;
+  auto& takenBy = resolution.takenBy;
+  std::vector<std::vector<std::size_t>> elbowsAt(takenBy.size());  // By end key: the valid elbows there.
+  for (std::size_t h = 0; h < nearby.size(); ++h) {
+    if (!hypotheses[h].valid || hypotheses[h].type != JointType::Elbow) continue;
+    elbowsAt[static_cast<std::size_t>(hypotheses[h].a.key())].push_back(h);
+    elbowsAt[static_cast<std::size_t>(hypotheses[h].b.key())].push_back(h);
+  }
+  const auto partner = [](const Hypothesis& elbow, int key) { return elbow.a.key() == key ? elbow.b.key() : elbow.a.key(); };
   for (int p = 0; p < static_cast<int>(pipes.size()); ++p) {
     const Hypothesis* first = chosenElbowAt(resolution, 2 * p);
     const Hypothesis* second = chosenElbowAt(resolution, 2 * p + 1);
-    if (first == nullptr || second == nullptr) continue;
     const PipeSegment& piece = pipes[static_cast<std::size_t>(p)];
-    const double left = (tangentAt(*second, 2 * p + 1) - tangentAt(*first, 2 * p)).dot(unitAxis(piece));
-    if (left >= kMaxSplitBendPieceRadii * piece.radius) continue;
-    const int from = farEnd(*first, 2 * p).key();
-    const int to = farEnd(*second, 2 * p + 1).key();
-    const auto joinsBoth = [&](const Hypothesis& elbow) {
-      return elbow.valid && elbow.type == JointType::Elbow &&
-             std::minmax(elbow.a.key(), elbow.b.key()) == std::minmax(from, to);
-    };
-    std::size_t h = 0;
-    while (h < nearby.size() && !joinsBoth(hypotheses[h])) ++h;
-    if (h == nearby.size()) continue;
-    const auto merged = revote(hypotheses[h], nearby[h], {p});
-    if (!merged || merged->confidence < params.acceptConfidence ||
-        merged->support < std::min(first->support, second->support) || !leavesLength(resolution, pipes, *merged)) {
-      continue;
+    if (first != nullptr && second != nullptr) {
+      const double left = (tangentAt(*second, 2 * p + 1) - tangentAt(*first, 2 * p)).dot(unitAxis(piece));
+      if (left >= kMaxSplitBendPieceRadii * piece.radius) continue;
+    } else if ((first == nullptr) == (second == nullptr) ||
+               takenBy[static_cast<std::size_t>(first == nullptr ? 2 * p : 2 * p + 1)] >= 0) {
+      continue;  // No elbow, or the other end took another joint.
     }
-    auto& chosen = resolution.chosen;
-    auto& takenBy = resolution.takenBy;
-    const auto firstIndex = static_cast<std::size_t>(takenBy[static_cast<std::size_t>(2 * p)]);
-    const auto secondIndex = static_cast<std::size_t>(takenBy[static_cast<std::size_t>(2 * p + 1)]);
-    std::replace(chosen.begin(), chosen.end(), firstIndex, h);
-    chosen.erase(std::remove(chosen.begin(), chosen.end(), secondIndex), chosen.end());
-    takenBy[static_cast<std::size_t>(2 * p)] = takenBy[static_cast<std::size_t>(2 * p + 1)] = -1;
-    takenBy[static_cast<std::size_t>(from)] = takenBy[static_cast<std::size_t>(to)] = static_cast<int>(h);
-    resolution.arcPieces[static_cast<std::size_t>(p)] = 1;
-    hypotheses[h] = *merged;
-    ++resolution.diagnostics.mergedSplitBends;
+    const int elbowSide = first != nullptr ? 0 : 1;
+    const Hypothesis& elbow = first != nullptr ? *first : *second;
+    const int to = farEnd(elbow, 2 * p + elbowSide).key();
+    const int from = first != nullptr && second != nullptr ? farEnd(*second, 2 * p + 1).key() : -1;
+    // Two elbows: the one must hold its points as well as the weaker did. One: it joins an end no
+    // joint took, and must hold half its points, as an elbow bounded by the room left does.
+    const double minSupport =
+        from >= 0 ? std::min(first->support, second->support) : kMinBoundedSupport;
+    for (std::size_t h : elbowsAt[static_cast<std::size_t>(to)]) {
+      const int other = partner(hypotheses[h], to);
+      if (from >= 0 ? other != from : (other / 2 == p || takenBy[static_cast<std::size_t>(other)] >= 0)) continue;
+      const auto merged = revote(hypotheses[h], nearby[h], {p});
+      if (!merged || merged->confidence < params.acceptConfidence || merged->support < minSupport ||
+          !leavesLength(resolution, pipes, *merged)) {
+        continue;
+      }
+      auto& chosen = resolution.chosen;
+      for (int side = 0; side < 2; ++side) {
+        const int taking = takenBy[static_cast<std::size_t>(2 * p + side)];
+        if (taking >= 0) chosen.erase(std::remove(chosen.begin(), chosen.end(), static_cast<std::size_t>(taking)), chosen.end());
+        takenBy[static_cast<std::size_t>(2 * p + side)] = -1;
+      }
+      chosen.push_back(h);
+      takenBy[static_cast<std::size_t>(other)] = takenBy[static_cast<std::size_t>(to)] = static_cast<int>(h);
+      resolution.arcPieces[static_cast<std::size_t>(p)] = 1;
+      hypotheses[h] = *merged;
+      ++resolution.diagnostics.mergedSplitBends;
+      break;
+    }
   }
 }
 
