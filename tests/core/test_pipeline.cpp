@@ -414,15 +414,15 @@ TEST(PipelineRealScan, PumpRoomCeilingRunHoldsWhereverTheScanLies) {
   // and took so much of the short horizontal piece that the riser's elbow, chosen after it, had no
   // room: the run broke in two. That elbow is now voted again within the room left. On others the
   // riser's bend was fitted as a cylinder that took an elbow with the horizontal piece and one with
-  // the riser (moved 5, −23 and 17 mm), or only the first, its other end in the riser's tube (moved
-  // −1 mm: the run broke in two); the elbow between riser and piece, voted with its points, now
-  // takes their place.
+  // the riser (moved 5, −23, 17 and 23 mm), or only the first, its other end in the riser's tube
+  // (moved −1 mm: the run broke in two); the elbow between riser and horizontal piece, voted by the
+  // cylinder's points, now takes their place.
   const PointCloud scan = readPointCloud(test::realDataDir() / "pumpA_pump_station.pcd");
   for (const Eigen::Vector3d& shift :
        {Eigen::Vector3d(0.002, 0.0014, 0.0), Eigen::Vector3d(0.005, 0.0035, 0.0), Eigen::Vector3d(0.009, 0.0063, 0.0),
         Eigen::Vector3d(-0.001, -0.0007, 0.0), Eigen::Vector3d(-0.002, -0.0014, 0.0), Eigen::Vector3d(-0.005, -0.0035, 0.0),
         Eigen::Vector3d(-0.011, -0.0077, 0.0), Eigen::Vector3d(-0.017, -0.0119, 0.0), Eigen::Vector3d(-0.023, -0.0161, 0.0),
-        Eigen::Vector3d(0.003, 0.0021, 0.0), Eigen::Vector3d(0.017, 0.0119, 0.0),
+        Eigen::Vector3d(0.003, 0.0021, 0.0), Eigen::Vector3d(0.017, 0.0119, 0.0), Eigen::Vector3d(0.023, 0.0161, 0.0),
         Eigen::Vector3d(512345.0, 4012345.0, 120.0)}) {
     SCOPED_TRACE(testing::Message() << "shifted by " << shift.transpose());
     auto moved = std::make_shared<PointCloud>(scan.clone());

@@ -89,22 +89,27 @@ class ArcPieceRevote {
   ArcPieceRevote(const JointsInput& input, const JointsParams& params, const std::vector<char>& explained)
       : input_(input), params_(params), explained_(explained) {}
 
-  /// `elbow` reconstructed again over `nearby` with the inliers of `pieces` counted as its own;
-  /// nullopt when that makes it invalid or leaves a piece off its arc.
+  /// `elbow` reconstructed again over `nearby` with the inliers of `pieces` counted as its own (with
+  /// only those voting for its bend, when `piecesOnly`); nullopt when that makes it invalid or leaves
+  /// a piece off its arc.
   std::optional<Hypothesis> operator()(const Hypothesis& elbow, const std::vector<std::uint32_t>& nearby,
-                                       const std::vector<int>& pieces) {
-    if (withoutPieces_.empty()) withoutPieces_ = explained_;
-    for (int piece : pieces) {
-      for (std::uint32_t i : input_.pipes[static_cast<std::size_t>(piece)].inliers) withoutPieces_[i] = 0;
-    }
+                                       const std::vector<int>& pieces, bool piecesOnly = false) {
+    std::vector<char>& voters = piecesOnly ? onlyPieces_ : withoutPieces_;
+    if (voters.empty()) voters = piecesOnly ? std::vector<char>(explained_.size(), 1) : explained_;
+    const auto mark = [&](char value) {
+      for (int piece : pieces) {
+        for (std::uint32_t i : input_.pipes[static_cast<std::size_t>(piece)].inliers) {
+          voters[i] = value != 0 ? (piecesOnly ? char{1} : explained_[i]) : char{0};
+        }
+      }
+    };
+    mark(0);
     Hypothesis revoted = elbow;
     revoted.valid = false;
     revoted.supportPoints.clear();
     revoted.axis.clear();
-    JointBuilder(input_, params_, withoutPieces_).reconstruct(revoted, nearby);
-    for (int piece : pieces) {
-      for (std::uint32_t i : input_.pipes[static_cast<std::size_t>(piece)].inliers) withoutPieces_[i] = explained_[i];
-    }
+    JointBuilder(input_, params_, voters).reconstruct(revoted, nearby);
+    mark(1);
     const bool onArc = std::all_of(pieces.begin(), pieces.end(), [&](int piece) {
       return liesOnArc(input_.pipes[static_cast<std::size_t>(piece)], revoted);
     });
@@ -117,6 +122,7 @@ class ArcPieceRevote {
   const JointsParams& params_;
   const std::vector<char>& explained_;
   std::vector<char> withoutPieces_;  // `explained`, copied at the first vote
+  std::vector<char> onlyPieces_;     // all explained, made at the first vote of pieces only
 };
 
 /// One bend fitted as an elbow or two onto a cylinder fitted across its middle (a real pump room's
@@ -124,10 +130,11 @@ class ArcPieceRevote {
 /// other end lies in the riser's tube): where the chosen elbows at a piece's ends leave it less than
 /// kMaxSplitBendPieceRadii of its radii straight, or one elbow takes an end and the other is free,
 /// the elbow hypotheses between the elbows' far ends (between the one elbow's far end and a free end
-/// of another pipe) are voted again with the piece's points. The first that is then confident, at
-/// least as well supported as the weaker of the two elbows (holding half its points, for one), has
-/// the piece on its arc and leaves its pipes a section long takes those two ends, and the piece
-/// goes as a piece of its arc.
+/// of another pipe) are voted again by the piece's points alone (the bend's, which the first vote
+/// left out as explained; the points left around it had voted for a wrong bend, or none). The
+/// first that is then confident, at least as well supported as the weaker of the two elbows
+/// (holding half its points, for one), has the piece on its arc and leaves its pipes a section long
+/// takes those two ends, and the piece goes as a piece of its arc.
 void mergeSplitBends(const std::vector<PipeSegment>& pipes, const JointsParams& params,
                      const std::vector<std::vector<std::uint32_t>>& nearby, ArcPieceRevote& revote,
                      Resolution& resolution) {
@@ -162,7 +169,7 @@ void mergeSplitBends(const std::vector<PipeSegment>& pipes, const JointsParams& 
     for (std::size_t h : elbowsAt[static_cast<std::size_t>(to)]) {
       const int other = partner(hypotheses[h], to);
       if (from >= 0 ? other != from : (other / 2 == p || takenBy[static_cast<std::size_t>(other)] >= 0)) continue;
-      const auto merged = revote(hypotheses[h], nearby[h], {p});
+      const auto merged = revote(hypotheses[h], nearby[h], {p}, true);
       if (!merged || merged->confidence < params.acceptConfidence || merged->support < minSupport ||
           !leavesLength(resolution, pipes, *merged)) {
         continue;
@@ -370,7 +377,7 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
   mergeSplitBends(pipes, params, nearby, revote, resolution);
   // The pieces on the arc of an elbow chosen between two other pipes go, and their own joints
   // with them. The elbow, voted without their points, is voted again with them, and takes that
-  // bend when its torus holds at least as many of the points.
+  // bend when its torus holds more of the points it should (a torus holding all takes no other).
   std::vector<int> pieces;
   for (std::size_t h : chosen) {
     const Hypothesis& elbow = hypotheses[h];
@@ -386,7 +393,7 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
     if (pieces.empty() || h >= nearby.size()) continue;
     std::sort(pieces.begin(), pieces.end());
     const auto revoted = revote(elbow, nearby[h], pieces);
-    if (revoted && revoted->support >= elbow.support && leavesLength(resolution, pipes, *revoted)) {
+    if (revoted && revoted->support > elbow.support && leavesLength(resolution, pipes, *revoted)) {
       hypotheses[h] = *revoted;
       ++resolution.diagnostics.revotedBends;
     }
