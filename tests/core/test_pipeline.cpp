@@ -419,10 +419,12 @@ TEST(PipelineRealScan, PumpRoomCeilingRunHoldsWhereverTheScanLies) {
   // cylinder's points, now takes their place.
   const PointCloud scan = readPointCloud(test::realDataDir() / "pumpA_pump_station.pcd");
   for (const Eigen::Vector3d& shift :
-       {Eigen::Vector3d(0.002, 0.0014, 0.0), Eigen::Vector3d(0.005, 0.0035, 0.0), Eigen::Vector3d(0.009, 0.0063, 0.0),
+       {Eigen::Vector3d(0.002, 0.0014, 0.0), Eigen::Vector3d(0.003, 0.0021, 0.0), Eigen::Vector3d(0.005, 0.0035, 0.0),
+        Eigen::Vector3d(0.006, 0.0042, 0.0), Eigen::Vector3d(0.007, 0.0049, 0.0), Eigen::Vector3d(0.009, 0.0063, 0.0),
+        Eigen::Vector3d(0.011, 0.0077, 0.0), Eigen::Vector3d(0.017, 0.0119, 0.0), Eigen::Vector3d(0.023, 0.0161, 0.0),
         Eigen::Vector3d(-0.001, -0.0007, 0.0), Eigen::Vector3d(-0.002, -0.0014, 0.0), Eigen::Vector3d(-0.005, -0.0035, 0.0),
-        Eigen::Vector3d(-0.011, -0.0077, 0.0), Eigen::Vector3d(-0.017, -0.0119, 0.0), Eigen::Vector3d(-0.023, -0.0161, 0.0),
-        Eigen::Vector3d(0.003, 0.0021, 0.0), Eigen::Vector3d(0.017, 0.0119, 0.0), Eigen::Vector3d(0.023, 0.0161, 0.0),
+        Eigen::Vector3d(-0.006, -0.0042, 0.0), Eigen::Vector3d(-0.009, -0.0063, 0.0), Eigen::Vector3d(-0.011, -0.0077, 0.0),
+        Eigen::Vector3d(-0.017, -0.0119, 0.0), Eigen::Vector3d(-0.023, -0.0161, 0.0),
         Eigen::Vector3d(512345.0, 4012345.0, 120.0)}) {
     SCOPED_TRACE(testing::Message() << "shifted by " << shift.transpose());
     auto moved = std::make_shared<PointCloud>(scan.clone());

@@ -34,6 +34,9 @@ constexpr double kMinBoundedSupport = 0.5;
 // A piece between two chosen elbows that leave less than this many of its radii of it straight
 // may be one bend split in two (see mergeSplitBends).
 constexpr double kMaxSplitBendPieceRadii = 2.0;
+// ...and the elbow replacing two such must hold at least this share of its points, or as large a
+// share as the weaker of the two.
+constexpr double kMinMergedBendSupport = 0.8;
 
 /// A spatial index over the pipes' axes: each pipe (by index) is filed in the cells its axis samples,
 /// half a cell apart, fall in.
@@ -132,9 +135,9 @@ class ArcPieceRevote {
 /// the elbow hypotheses between the elbows' far ends (between the one elbow's far end and a free end
 /// of another pipe) are voted again by the piece's points alone (the bend's, which the first vote
 /// left out as explained; the points left around it had voted for a wrong bend, or none). The
-/// first that is then confident, at least as well supported as the weaker of the two elbows
-/// (holding half its points, for one), has the piece on its arc and leaves its pipes a section long
-/// takes those two ends, and the piece goes as a piece of its arc.
+/// first that is then confident, holding as large a share of its points as the weaker of the two
+/// elbows or most of them (half, for one), has the piece on its arc and leaves its pipes a section
+/// long takes those two ends, and the piece goes as a piece of its arc.
 void mergeSplitBends(const std::vector<PipeSegment>& pipes, const JointsParams& params,
                      const std::vector<std::vector<std::uint32_t>>& nearby, ArcPieceRevote& revote,
                      Resolution& resolution) {
@@ -146,7 +149,9 @@ void mergeSplitBends(const std::vector<PipeSegment>& pipes, const JointsParams& 
     elbowsAt[static_cast<std::size_t>(hypotheses[h].a.key())].push_back(h);
     elbowsAt[static_cast<std::size_t>(hypotheses[h].b.key())].push_back(h);
   }
-  const auto partner = [](const Hypothesis& elbow, int key) { return elbow.a.key() == key ? elbow.b.key() : elbow.a.key(); };
+  const auto partner = [](const Hypothesis& elbow, int key) {
+    return elbow.a.key() == key ? elbow.b.key() : elbow.a.key();
+  };
   for (int p = 0; p < static_cast<int>(pipes.size()); ++p) {
     const Hypothesis* first = chosenElbowAt(resolution, 2 * p);
     const Hypothesis* second = chosenElbowAt(resolution, 2 * p + 1);
@@ -162,10 +167,11 @@ void mergeSplitBends(const std::vector<PipeSegment>& pipes, const JointsParams& 
     const Hypothesis& elbow = first != nullptr ? *first : *second;
     const int to = farEnd(elbow, 2 * p + elbowSide).key();
     const int from = first != nullptr && second != nullptr ? farEnd(*second, 2 * p + 1).key() : -1;
-    // Two elbows: the one must hold its points as well as the weaker did. One: it joins an end no
-    // joint took, and must hold half its points, as an elbow bounded by the room left does.
-    const double minSupport =
-        from >= 0 ? std::min(first->support, second->support) : kMinBoundedSupport;
+    // Two elbows: the one must hold its points as well as the weaker did, or most of them (both
+    // small tori may hold all theirs). One: it joins an end no joint took, and must hold half its
+    // points, as an elbow bounded by the room left does.
+    const double minSupport = from >= 0 ? std::min({first->support, second->support, kMinMergedBendSupport})
+                                        : kMinBoundedSupport;
     for (std::size_t h : elbowsAt[static_cast<std::size_t>(to)]) {
       const int other = partner(hypotheses[h], to);
       if (from >= 0 ? other != from : (other / 2 == p || takenBy[static_cast<std::size_t>(other)] >= 0)) continue;
@@ -177,7 +183,9 @@ void mergeSplitBends(const std::vector<PipeSegment>& pipes, const JointsParams& 
       auto& chosen = resolution.chosen;
       for (int side = 0; side < 2; ++side) {
         const int taking = takenBy[static_cast<std::size_t>(2 * p + side)];
-        if (taking >= 0) chosen.erase(std::remove(chosen.begin(), chosen.end(), static_cast<std::size_t>(taking)), chosen.end());
+        if (taking >= 0) {
+          chosen.erase(std::remove(chosen.begin(), chosen.end(), static_cast<std::size_t>(taking)), chosen.end());
+        }
         takenBy[static_cast<std::size_t>(2 * p + side)] = -1;
       }
       chosen.push_back(h);
@@ -376,23 +384,36 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
   ArcPieceRevote revote(input, params, explained);
   mergeSplitBends(pipes, params, nearby, revote, resolution);
   // The pieces on the arc of an elbow chosen between two other pipes go, and their own joints
-  // with them. The elbow, voted without their points, is voted again with them, and takes that
-  // bend when its torus holds more of the points it should (a torus holding all takes no other).
-  std::vector<int> pieces;
+  // with them. The elbow, voted without their points, is voted again with them and with those of
+  // the fragments within its tangent length of the corner (bits of the bend too: the pump room
+  // moved 11 mm voted R 0.37 m without its bend's four fragments, 0.18 m with them), or without the
+  // fragments when one lies off the new arc; it takes that bend when its torus holds more of the
+  // points it should (a torus holding all takes no other).
+  std::vector<int> pieces, fragments;
   for (std::size_t h : chosen) {
     const Hypothesis& elbow = hypotheses[h];
     if (elbow.type != JointType::Elbow || onArc(elbow.a.pipe) || onArc(elbow.b.pipe)) continue;
     pieces.clear();
+    fragments.clear();
+    const double tangent = (elbow.newA - elbow.corner).norm();
     pipeGrid.forEachInCube(elbow.center, elbow.reach, [&](std::uint32_t p) {
-      if (onArc(static_cast<int>(p)) && static_cast<int>(p) != elbow.a.pipe && static_cast<int>(p) != elbow.b.pipe &&
-          liesOnArc(pipes[p], elbow) && !resolution.arcPieces[p]) {
+      const int pipe = static_cast<int>(p);
+      if (pipe == elbow.a.pipe || pipe == elbow.b.pipe) return;
+      if (onArc(pipe) && liesOnArc(pipes[p], elbow) && !resolution.arcPieces[p]) {
         resolution.arcPieces[p] = 1;
-        pieces.push_back(static_cast<int>(p));
+        pieces.push_back(pipe);
+      } else if (fragment(pipe) && (pipes[p].start - elbow.corner).norm() <= tangent + pipes[p].radius &&
+                 (pipes[p].end - elbow.corner).norm() <= tangent + pipes[p].radius) {
+        fragments.push_back(pipe);
       }
     });
-    if (pieces.empty() || h >= nearby.size()) continue;
+    if ((pieces.empty() && fragments.empty()) || h >= nearby.size()) continue;
     std::sort(pieces.begin(), pieces.end());
-    const auto revoted = revote(elbow, nearby[h], pieces);
+    std::sort(fragments.begin(), fragments.end());
+    std::vector<int> bendPieces = pieces;
+    bendPieces.insert(bendPieces.end(), fragments.begin(), fragments.end());
+    auto revoted = revote(elbow, nearby[h], bendPieces);
+    if (!revoted && !fragments.empty() && !pieces.empty()) revoted = revote(elbow, nearby[h], pieces);
     if (revoted && revoted->support > elbow.support && leavesLength(resolution, pipes, *revoted)) {
       hypotheses[h] = *revoted;
       ++resolution.diagnostics.revotedBends;

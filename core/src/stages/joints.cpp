@@ -24,10 +24,11 @@
 //    wider bend did (a short pipe between two bends).
 //    A piece of an elbow's arc fitted as a cylinder makes two elbows of one: a pipe lying on the
 //    arc of a confident elbow between two other pipes waits for that elbow, and goes when it is
-//    chosen; the elbow, voted without the piece's points, is voted again with them. Where the piece
-//    took an elbow at each end all the same, leaving little of it straight (or one, the other end
-//    free), the elbow between its two neighbours (between that elbow's far end and a free end) is
-//    voted again with its points and replaces them when it holds them.
+//    chosen; the elbow, voted without the piece's points (and the fragments' in its bend), is voted
+//    again with them. Where the piece took an elbow at each end all the same, leaving little of it
+//    straight (or one, the other end free), the elbow between its two neighbours (between that
+//    elbow's far end and a free end) is voted again by its points and replaces them when it holds
+//    its own.
 // 4. Completion: an end no joint took looks beyond an elbow, along each of the network's
 //    directions and along the direction its nearby points vote for (a sloped leg), for a pipe the
 //    earlier stages missed (short legs between elbows, tails into equipment: too few points to
