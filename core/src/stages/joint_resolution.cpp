@@ -70,20 +70,6 @@ const Eigen::Vector3d& tangentAt(const Hypothesis& elbow, int key) {
   return elbow.a.key() == key ? elbow.newA : elbow.newB;
 }
 
-/// Whether `elbow` leaves both its pipes a section long, up to their far ends as the chosen
-/// elbows moved them.
-bool leavesLength(const Resolution& resolution, const std::vector<PipeSegment>& pipes, const Hypothesis& elbow) {
-  const auto keeps = [&](const PipeEnd& end, const Eigen::Vector3d& moved) {
-    const int farKey = end.key() ^ 1;
-    const Hypothesis* farElbow = chosenElbowAt(resolution, farKey);
-    const PipeSegment& pipe = pipes[static_cast<std::size_t>(end.pipe)];
-    const Eigen::Vector3d farPoint =
-        farElbow != nullptr ? tangentAt(*farElbow, farKey) : (end.side == 0 ? pipe.end : pipe.start);
-    return (moved - farPoint).dot(end.outward) >= kSectionLength;
-  };
-  return keeps(elbow.a, elbow.newA) && keeps(elbow.b, elbow.newB);
-}
-
 /// Votes for the bend of elbows again with the points of cylinders fitted on their arcs, which the
 /// first vote left out as explained (see JointBuilder::reconstruct): such a piece holds the middle
 /// of the bend, and the points left vote for a wrong bend or none.
@@ -99,20 +85,18 @@ class ArcPieceRevote {
                                        const std::vector<int>& pieces, bool piecesOnly = false) {
     std::vector<char>& voters = piecesOnly ? onlyPieces_ : withoutPieces_;
     if (voters.empty()) voters = piecesOnly ? std::vector<char>(explained_.size(), 1) : explained_;
-    const auto mark = [&](char value) {
+    const auto setPieces = [&](auto valueOf) {
       for (int piece : pieces) {
-        for (std::uint32_t i : input_.pipes[static_cast<std::size_t>(piece)].inliers) {
-          voters[i] = value != 0 ? (piecesOnly ? char{1} : explained_[i]) : char{0};
-        }
+        for (std::uint32_t i : input_.pipes[static_cast<std::size_t>(piece)].inliers) voters[i] = valueOf(i);
       }
     };
-    mark(0);
+    setPieces([](std::uint32_t) { return char{0}; });  // the pieces' points vote...
     Hypothesis revoted = elbow;
     revoted.valid = false;
     revoted.supportPoints.clear();
     revoted.axis.clear();
     JointBuilder(input_, params_, voters).reconstruct(revoted, nearby);
-    mark(1);
+    setPieces([&](std::uint32_t i) { return piecesOnly ? char{1} : explained_[i]; });  // ...this time only
     const bool onArc = std::all_of(pieces.begin(), pieces.end(), [&](int piece) {
       return liesOnArc(input_.pipes[static_cast<std::size_t>(piece)], revoted);
     });
@@ -137,10 +121,11 @@ class ArcPieceRevote {
 /// left out as explained; the points left around it had voted for a wrong bend, or none). The
 /// first that is then confident, holding as large a share of its points as the weaker of the two
 /// elbows or most of them (half, for one), has the piece on its arc and leaves its pipes a section
-/// long takes those two ends, and the piece goes as a piece of its arc.
+/// long (`movedEnds`: their far ends where the chosen elbows moved them) takes those two ends, and
+/// the piece goes as a piece of its arc.
 void mergeSplitBends(const std::vector<PipeSegment>& pipes, const JointsParams& params,
                      const std::vector<std::vector<std::uint32_t>>& nearby, ArcPieceRevote& revote,
-                     Resolution& resolution) {
+                     MovedEnds& movedEnds, Resolution& resolution) {
   auto& hypotheses = resolution.hypotheses;
   auto& takenBy = resolution.takenBy;
   std::vector<std::vector<std::size_t>> elbowsAt(takenBy.size());  // By end key: the valid elbows there.
@@ -149,9 +134,6 @@ void mergeSplitBends(const std::vector<PipeSegment>& pipes, const JointsParams& 
     elbowsAt[static_cast<std::size_t>(hypotheses[h].a.key())].push_back(h);
     elbowsAt[static_cast<std::size_t>(hypotheses[h].b.key())].push_back(h);
   }
-  const auto partner = [](const Hypothesis& elbow, int key) {
-    return elbow.a.key() == key ? elbow.b.key() : elbow.a.key();
-  };
   for (int p = 0; p < static_cast<int>(pipes.size()); ++p) {
     const Hypothesis* first = chosenElbowAt(resolution, 2 * p);
     const Hypothesis* second = chosenElbowAt(resolution, 2 * p + 1);
@@ -173,11 +155,11 @@ void mergeSplitBends(const std::vector<PipeSegment>& pipes, const JointsParams& 
     const double minSupport = from >= 0 ? std::min({first->support, second->support, kMinMergedBendSupport})
                                         : kMinBoundedSupport;
     for (std::size_t h : elbowsAt[static_cast<std::size_t>(to)]) {
-      const int other = partner(hypotheses[h], to);
+      const int other = farEnd(hypotheses[h], to).key();
       if (from >= 0 ? other != from : (other / 2 == p || takenBy[static_cast<std::size_t>(other)] >= 0)) continue;
       const auto merged = revote(hypotheses[h], nearby[h], {p}, true);
       if (!merged || merged->confidence < params.acceptConfidence || merged->support < minSupport ||
-          !leavesLength(resolution, pipes, *merged)) {
+          !movedEnds.leaveLength(*merged)) {
         continue;
       }
       auto& chosen = resolution.chosen;
@@ -192,6 +174,7 @@ void mergeSplitBends(const std::vector<PipeSegment>& pipes, const JointsParams& 
       takenBy[static_cast<std::size_t>(other)] = takenBy[static_cast<std::size_t>(to)] = static_cast<int>(h);
       resolution.arcPieces[static_cast<std::size_t>(p)] = 1;
       hypotheses[h] = *merged;
+      movedEnds.move(hypotheses[h]);
       ++resolution.diagnostics.mergedSplitBends;
       break;
     }
@@ -382,7 +365,7 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
   resolution.arcPieces.assign(static_cast<std::size_t>(pipeCount), 0);
   auto& chosen = resolution.chosen;
   ArcPieceRevote revote(input, params, explained);
-  mergeSplitBends(pipes, params, nearby, revote, resolution);
+  mergeSplitBends(pipes, params, nearby, revote, movedEnds, resolution);
   // The pieces on the arc of an elbow chosen between two other pipes go, and their own joints
   // with them. The elbow, voted without their points, is voted again with them and with those of
   // the fragments within its tangent length of the corner (bits of the bend too: the pump room
@@ -414,8 +397,9 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
     bendPieces.insert(bendPieces.end(), fragments.begin(), fragments.end());
     auto revoted = revote(elbow, nearby[h], bendPieces);
     if (!revoted && !fragments.empty() && !pieces.empty()) revoted = revote(elbow, nearby[h], pieces);
-    if (revoted && revoted->support > elbow.support && leavesLength(resolution, pipes, *revoted)) {
+    if (revoted && revoted->support > elbow.support && movedEnds.leaveLength(*revoted)) {
       hypotheses[h] = *revoted;
+      movedEnds.move(hypotheses[h]);
       ++resolution.diagnostics.revotedBends;
     }
   }
