@@ -924,14 +924,14 @@ TEST(Joints, AShortDiagonalLegBetweenTwoHalfBendsStays) {
 /// `riserRadius` thick up to `riserEnd` (z), the horizontal pipe `pipeRadius` thick from 9.5 cm past
 /// the corner, its fit leaving out the points under it from 34 to 50 cm past the corner (there they
 /// vote for a bend of R 0.36–0.48 m). The pieces fitted across the bend are added by the tests.
-ConstructedScene riserBend(double riserEnd, double riserRadius, double pipeRadius, double pipeStart = 0.095) {
+ConstructedScene riserBend(double riserEnd, double riserRadius, double pipeRadius) {
   const double r = 0.1, R = 0.18;
   ConstructedScene scene;
   scene.addPipe({0, 0, -1.5}, {0, 0, -R}, r, false);
   scene.addPipe({R, 0, 0}, {1.2, 0, 0}, r, false);
   scene.addBend(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitX(), R, r);
   scene.addFittedPipe({0, 0, -1.5}, {0, 0, riserEnd}, riserRadius, 0.04);
-  const auto pipe = static_cast<std::size_t>(scene.addFittedPipe({pipeStart, 0, 0}, {0.6, 0, 0}, pipeRadius, 0.04));
+  const auto pipe = static_cast<std::size_t>(scene.addFittedPipe({0.095, 0, 0}, {0.6, 0, 0}, pipeRadius, 0.04));
   auto& inliers = scene.pipes()[pipe].inliers;
   inliers.erase(std::remove_if(inliers.begin(), inliers.end(),
                                [&](std::uint32_t i) {
@@ -947,7 +947,7 @@ TEST(Joints, OneBendFittedAsTwoElbowsAroundAPieceAcrossItIsOneElbow) {
   // riser's outer wall to past the corner, between a riser fitted 87 mm thick and a pipe fitted
   // 111 mm thick, took the bend's points; the elbow between riser and pipe, voted without them,
   // came out wide (R 0.47 m) and weak, and the piece took an elbow with each, leaving 15 cm of it.
-  // Voted again with the piece's points, the elbow between the two pipes holds them all: the piece
+  // Voted again by the piece's points, the elbow between the two pipes holds them all: the piece
   // goes and that elbow takes both ends, at the bend's radius.
   for (const double riserEnd : {-0.18, -0.284}) {
     SCOPED_TRACE(riserEnd);
