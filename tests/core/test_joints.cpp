@@ -544,6 +544,27 @@ TEST(Joints, AnElbowIsProposedAcrossACornerHiddenFartherThanTheSearchDistance) {
   EXPECT_TRUE(cornerHiddenBehindSomething(1.5).connect().joints.empty());
 }
 
+TEST(Joints, AFragmentOnTheStretchAnElbowExtendsItsPipeOverGoesWithIt) {
+  // The ends stop 3.5 diameters short of the corner, within the ordinary search's 4; a piece of the
+  // first pipe, too short to take a joint, was seen 10 cm before its tangent point. The elbow
+  // extends the pipe over it: it is a bit of that pipe (left, it would lie inside it for review).
+  auto scene = cornerHiddenBehindSomething(0.35);
+  scene.addPipe({-0.3, 0, 0}, {-0.24, 0, 0}, 0.05);
+  const JointsResult result = scene.connect();
+  ASSERT_NO_FATAL_FAILURE(expectOnlyAnElbowOfBendRadius(result, 0.15, 1e-6));
+  EXPECT_EQ(result.diagnostics.occludedElbows, 0u);
+  EXPECT_NEAR(result.pipes[0].end.x(), -0.15, 1e-6);
+  EXPECT_EQ(result.pipes.size(), 2u);
+  EXPECT_EQ(result.diagnostics.absorbedFragments, 1u);
+
+  // Beside the stretch (10 cm off its line, outside its tube) the piece is something else: it stays.
+  auto beside = cornerHiddenBehindSomething(0.35);
+  beside.addPipe({-0.3, 0, 0.1}, {-0.24, 0, 0.1}, 0.05);
+  const JointsResult besideResult = beside.connect();
+  EXPECT_EQ(besideResult.pipes.size(), 3u);
+  EXPECT_EQ(besideResult.diagnostics.absorbedFragments, 0u);
+}
+
 TEST(Joints, NoElbowIsProposedAcrossAHiddenCornerWhereSomethingWasSeenInThePipesWay) {
   // A post stands on the first pipe's line, 50 cm before the corner: the pipe does not run there.
   auto post = cornerHiddenBehindSomething(1.0);
