@@ -525,6 +525,8 @@ void printJointsSteps(const JointsResult::Diagnostics& d) {
       d.mergedSplitBends == 1 ? "fitted across a bend, with its elbows, into one elbow"
                               : "fitted across bends, with their elbows, into one elbow each");
   add(leftOut, d.unjoinedPipes, "weakly supported pipe", "weakly supported pipes", "that took no joint");
+  add(leftOut, d.piecesInsidePipes, "pipe", "pipes",
+      d.piecesInsidePipes == 1 ? "lying inside another pipe" : "lying inside other pipes");
   add(leftOut, d.underGround, "pipe or leg", "pipes or legs", "reaching below the ground");
   add(leftOut, d.planeResidue, "pipe", "pipes", "over a removed plane's edge");
   for (const auto& [name, list] :

@@ -565,6 +565,34 @@ TEST(Joints, AFragmentOnTheStretchAnElbowExtendsItsPipeOverGoesWithIt) {
   EXPECT_EQ(besideResult.diagnostics.absorbedFragments, 0u);
 }
 
+TEST(Joints, APipeLyingInAnotherPipesTubeIsNoPipeOfItsOwn) {
+  // A 162 mm pipe 2 m long; in its tube lie a 0.59 m cylinder of radius 110 mm, 5 and 3 cm off its
+  // axis and running on 9 cm past its end (small seed 2: fitted to part of its points and its
+  // elbow's with the wrong radius), and a 16 cm one of radius 250 mm, 11-12 cm off and 7° askew
+  // (medium seed 5: a few of its points and something beside). Neither takes a joint: two pipes
+  // cannot lie in each other, and both go.
+  ConstructedScene scene;
+  scene.addPipe({0, 0, 0}, {2, 0, 0}, 0.162);
+  scene.addPipe({1.5, 0.05, 0}, {2.09, 0.03, 0.02}, 0.11);
+  scene.addPipe({1.0, 0.11, 0}, {1.16, 0.12, 0.02}, 0.25);
+  const JointsResult result = scene.connect();
+  ASSERT_EQ(result.pipes.size(), 1u);
+  EXPECT_NEAR(result.pipes[0].radius, 0.162, 1e-9);
+  EXPECT_EQ(result.diagnostics.piecesInsidePipes, 2u);
+  EXPECT_EQ(result.diagnostics.absorbedFragments, 0u);
+
+  // A pipe passing the tube 1.2 radii off its axis, one crossing it, and a thinner one carrying on
+  // from inside its end (its middle past it) are pipes of their own.
+  ConstructedScene past;
+  past.addPipe({0, 0, 0}, {2, 0, 0}, 0.162);
+  past.addPipe({0.6, 0.2, 0}, {1.2, 0.2, 0}, 0.05);
+  past.addPipe({1.5, -0.5, 0}, {1.5, 0.5, 0}, 0.05);
+  past.addPipe({1.9, 0, 0}, {3.0, 0, 0}, 0.11);
+  const JointsResult pastResult = past.connect();
+  EXPECT_EQ(pastResult.pipes.size(), 4u);
+  EXPECT_EQ(pastResult.diagnostics.piecesInsidePipes, 0u);
+}
+
 TEST(Joints, NoElbowIsProposedAcrossAHiddenCornerWhereSomethingWasSeenInThePipesWay) {
   // A post stands on the first pipe's line, 50 cm before the corner: the pipe does not run there.
   auto post = cornerHiddenBehindSomething(1.0);

@@ -49,7 +49,10 @@
 //    away (reachThinRuns), and two whose bends were seen turning square towards each other's line
 //    are joined by the leg between the bends, little of which was seen (joinSeenBends); so are
 //    two pipes alike whose lines pass square, though neither bend was seen.
-// 6. Runs: connected components of the pipes over accepted joints.
+// 6. Pieces: fragments on a chosen elbow's arc or on the stretch it extends a pipe over go; a
+//    shorter pipe on a pipe's line in its tube goes into it, and one taking no joint that lies in
+//    its tube with another radius or off its line goes.
+// 7. Runs: connected components of the pipes over accepted joints.
 //
 // Steps 1–3 live in joint_builder.h and joint_resolution.h, step 4 in joint_completion.h, step 5 in
 // joint_hidden_legs.h (docs/ARCHITECTURE.md lists them); this file runs them in rounds (joinOnce).
@@ -137,6 +140,17 @@ std::optional<PieceOnLine> pieceOnLine(const PipeSegment& piece, const PipeSegme
   const int pipeSide = toStart <= toEnd ? 0 : 1;
   const int outer = (along[0] <= along[1]) == (pipeSide == 0) ? 0 : 1;
   return PieceOnLine{outer, pipeSide, true, std::min(toStart, toEnd), overlap};
+}
+
+/// Whether `piece` lies in `pipe`'s tube: its middle within the pipe's span, both its ends within
+/// the pipe's radius of its line (one may run on past the pipe's end, into its elbow).
+bool liesInTube(const PipeSegment& piece, const PipeSegment& pipe) {
+  const Eigen::Vector3d axis = unitAxis(pipe);
+  const auto offLine = [&](const Eigen::Vector3d& point) {
+    const Eigen::Vector3d w = point - pipe.start;
+    return (w - w.dot(axis) * axis).norm();
+  };
+  return middleInsideTube(piece, pipe) && offLine(piece.start) < pipe.radius && offLine(piece.end) < pipe.radius;
 }
 
 /// The ground: the lowest level of the removed planes that face up (floors), when no more than a
@@ -490,6 +504,22 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Gr
       break;
     }
   }
+  // A pipe taking no joint that lies in a longer pipe's tube, thicker or thinner than it or off its
+  // line, is no pipe of its own (two pipes cannot lie in each other): a cylinder fitted to part of
+  // that pipe's points with the wrong radius, or to a few of them and something beside (small
+  // seed 2: a 0.59 m cylinder of radius 110 mm in a 162 mm pipe, 8 mm RMS off its points).
+  for (std::size_t c = 0; c < pipes.size(); ++c) {
+    // (One that had to take a joint goes anyway, and the network is joined again without it.)
+    if (absorbed[c] || carries[c] || carriedBy[c] >= 0 || takesChosenJoint[c] || pipes[c].mustJoin) continue;
+    for (std::size_t p = 0; p < pipes.size(); ++p) {
+      if (p == c || absorbed[p] || carriedBy[p] >= 0 || isFragment(pipes[p], params)) continue;
+      if (lengthOf(c) < lengthOf(p) && liesInTube(pipes[c], pipes[p])) {
+        absorbed[c] = 1;
+        ++result.diagnostics.piecesInsidePipes;
+        break;
+      }
+    }
+  }
   const auto holder = [&](int pipe) {
     return carriedBy[static_cast<std::size_t>(pipe)] >= 0 ? carriedBy[static_cast<std::size_t>(pipe)] : pipe;
   };
@@ -520,7 +550,7 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Gr
     if (carriedBy[static_cast<std::size_t>(p)] >= 0) idOf[static_cast<std::size_t>(p)] = idOf[static_cast<std::size_t>(holder(p))];
   }
   result.diagnostics.absorbedFragments =
-      static_cast<std::size_t>(std::count(absorbed.begin(), absorbed.end(), 1));
+      static_cast<std::size_t>(std::count(absorbed.begin(), absorbed.end(), 1)) - result.diagnostics.piecesInsidePipes;
   result.diagnostics.piecesAtEnds =
       static_cast<std::size_t>(std::count_if(carriedBy.begin(), carriedBy.end(), [](int p) { return p >= 0; }));
 

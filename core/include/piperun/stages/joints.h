@@ -122,6 +122,8 @@ struct JointsResult {
     std::size_t hiddenBranches = 0;        ///< Legs hidden with their elbow and tee, from an end to a main's body.
     std::size_t piecesAtEnds = 0;          ///< Shorter pipes on a pipe's line at its end (completions running on
                                            ///< into it, pieces fitted again) merged into it, their joints its.
+    std::size_t piecesInsidePipes = 0;     ///< Pipes taking no joint that lie in a longer pipe's tube (another
+                                           ///< radius, or off its line), left out.
     std::size_t mergedSplitBends = 0;      ///< Pieces fitted across a bend, made one elbow with the elbows they took.
     std::size_t revotedBends = 0;          ///< Elbows whose bend was voted again with their arc pieces' points.
     std::size_t underGround = 0;           ///< Input pipes and completed legs whose tube reached below the ground (the
