@@ -142,15 +142,18 @@ std::optional<PieceOnLine> pieceOnLine(const PipeSegment& piece, const PipeSegme
   return PieceOnLine{outer, pipeSide, true, std::min(toStart, toEnd), overlap};
 }
 
-/// Whether `piece` lies in `pipe`'s tube: its middle within the pipe's span, both its ends within
-/// the pipe's radius of its line (one may run on past the pipe's end, into its elbow).
+/// Whether `piece` lies in `pipe`'s tube: both its ends within the pipe's radius of its line and
+/// within its span, or up to a radius past an end (into its elbow). (A piece running on farther
+/// carries the pipe on: a piece of it with another radius, not one inside it.)
 bool liesInTube(const PipeSegment& piece, const PipeSegment& pipe) {
   const Eigen::Vector3d axis = unitAxis(pipe);
-  const auto offLine = [&](const Eigen::Vector3d& point) {
+  const double length = (pipe.end - pipe.start).norm();
+  for (const Eigen::Vector3d& point : {piece.start, piece.end}) {
     const Eigen::Vector3d w = point - pipe.start;
-    return (w - w.dot(axis) * axis).norm();
-  };
-  return middleInsideTube(piece, pipe) && offLine(piece.start) < pipe.radius && offLine(piece.end) < pipe.radius;
+    const double along = w.dot(axis);
+    if (along < -pipe.radius || along > length + pipe.radius || (w - along * axis).norm() >= pipe.radius) return false;
+  }
+  return true;
 }
 
 /// The ground: the lowest level of the removed planes that face up (floors), when no more than a
@@ -348,8 +351,10 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Gr
   const auto& chosen = resolution.chosen;
   const int pipeCount = static_cast<int>(pipes.size());
 
-  // The stretches chosen elbows extend their pipes over, from an end to the elbow's tangent point
-  // past it (across a corner the scan hid).
+  // The pipes as the chosen elbows leave them, trimmed or extended to their tangent points, and the
+  // stretches the elbows extend them over, from an end to the tangent point past it (across a
+  // corner the scan hid).
+  std::vector<PipeSegment> asJoined = pipes;
   std::vector<PipeSegment> extensions;
   std::vector<char> takesChosenJoint(pipes.size(), 0);
   for (std::size_t h : chosen) {
@@ -359,6 +364,8 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Gr
     if (joint.type != JointType::Elbow) continue;
     for (const auto& [end, tangentPoint] : {std::pair{joint.a, joint.newA}, std::pair{joint.b, joint.newB}}) {
       const PipeSegment& pipe = pipes[static_cast<std::size_t>(end.pipe)];
+      PipeSegment& joinedPipe = asJoined[static_cast<std::size_t>(end.pipe)];
+      (end.side == 0 ? joinedPipe.start : joinedPipe.end) = tangentPoint;
       const Eigen::Vector3d& endPoint = end.side == 0 ? pipe.start : pipe.end;
       const Eigen::Vector3d outward = end.side == 0 ? Eigen::Vector3d(-unitAxis(pipe)) : unitAxis(pipe);
       if ((tangentPoint - endPoint).dot(outward) <= 0.0) continue;
@@ -504,16 +511,17 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Gr
       break;
     }
   }
-  // A pipe taking no joint that lies in a longer pipe's tube, thicker or thinner than it or off its
-  // line, is no pipe of its own (two pipes cannot lie in each other): a cylinder fitted to part of
-  // that pipe's points with the wrong radius, or to a few of them and something beside (small
-  // seed 2: a 0.59 m cylinder of radius 110 mm in a 162 mm pipe, 8 mm RMS off its points).
+  // A pipe taking no joint that lies in a longer pipe's tube (as its elbows leave it), thicker or
+  // thinner than it or off its line, is no pipe of its own (two pipes cannot lie in each other): a
+  // cylinder fitted to part of that pipe's points with the wrong radius, or to a few of them and
+  // something beside (small seed 2: a 0.59 m cylinder of radius 110 mm in a 162 mm pipe, 8 mm RMS
+  // off its points).
   for (std::size_t c = 0; c < pipes.size(); ++c) {
     // (One that had to take a joint goes anyway, and the network is joined again without it.)
     if (absorbed[c] || carries[c] || carriedBy[c] >= 0 || takesChosenJoint[c] || pipes[c].mustJoin) continue;
     for (std::size_t p = 0; p < pipes.size(); ++p) {
       if (p == c || absorbed[p] || carriedBy[p] >= 0 || isFragment(pipes[p], params)) continue;
-      if (lengthOf(c) < lengthOf(p) && liesInTube(pipes[c], pipes[p])) {
+      if (lengthOf(c) < lengthOf(p) && liesInTube(pipes[c], asJoined[p])) {
         absorbed[c] = 1;
         ++result.diagnostics.piecesInsidePipes;
         break;
