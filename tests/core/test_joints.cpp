@@ -581,6 +581,16 @@ TEST(Joints, APipeLyingInAnotherPipesTubeIsNoPipeOfItsOwn) {
   EXPECT_EQ(result.diagnostics.piecesInsidePipes, 2u);
   EXPECT_EQ(result.diagnostics.absorbedFragments, 0u);
 
+  // A thicker piece around a thinner pipe's axis (held-out medium seed 12: a 4.4 m cylinder of
+  // 48 mm with 121 points, its ends 2.6 and 3.2 cm off a 30 mm pipe's axis) has the pipe in it.
+  ConstructedScene around;
+  around.addPipe({0, 0, 0}, {6, 0, 0}, 0.030);
+  around.addPipe({1.0, 0.014, 0.022}, {5.4, 0.018, 0.027}, 0.048);
+  const JointsResult aroundResult = around.connect();
+  ASSERT_EQ(aroundResult.pipes.size(), 1u);
+  EXPECT_NEAR(aroundResult.pipes[0].radius, 0.030, 1e-9);
+  EXPECT_EQ(aroundResult.diagnostics.piecesInsidePipes, 1u);
+
   // The tube as the pipe's elbow leaves it: the pipe stops 35 cm short of a hidden corner, and a
   // 35 mm cylinder in it runs on 22 cm past its end, to 3 cm short of the elbow's tangent point.
   auto hidden = cornerHiddenBehindSomething(0.35);

@@ -142,16 +142,18 @@ std::optional<PieceOnLine> pieceOnLine(const PipeSegment& piece, const PipeSegme
   return PieceOnLine{outer, pipeSide, true, std::min(toStart, toEnd), overlap};
 }
 
-/// Whether `piece` lies in `pipe`'s tube: both its ends within the pipe's radius of its line and
-/// within its span, or up to a radius past an end (into its elbow). (A piece running on farther
-/// carries the pipe on: a piece of it with another radius, not one inside it.)
+/// Whether `piece` and `pipe` lie in each other along the piece: both its ends within the larger
+/// radius of the pipe's line (its axis in the pipe's tube, or the pipe's in its own), and within the
+/// pipe's span or up to a radius past an end (into its elbow). (A piece running on farther carries
+/// the pipe on: a piece of it with another radius, not one inside it.)
 bool liesInTube(const PipeSegment& piece, const PipeSegment& pipe) {
   const Eigen::Vector3d axis = unitAxis(pipe);
   const double length = (pipe.end - pipe.start).norm();
+  const double reach = std::max(piece.radius, pipe.radius);
   for (const Eigen::Vector3d& point : {piece.start, piece.end}) {
     const Eigen::Vector3d w = point - pipe.start;
     const double along = w.dot(axis);
-    if (along < -pipe.radius || along > length + pipe.radius || (w - along * axis).norm() >= pipe.radius) return false;
+    if (along < -pipe.radius || along > length + pipe.radius || (w - along * axis).norm() >= reach) return false;
   }
   return true;
 }
