@@ -201,6 +201,8 @@ class MovedEnds {
     };
     return std::min(room(elbow.a), room(elbow.b));
   }
+  /// Where the end `key` (2 × pipe + side) lies.
+  const Eigen::Vector3d& at(int key) const { return points_[static_cast<std::size_t>(key)]; }
   void move(const Hypothesis& elbow) {
     points_[static_cast<std::size_t>(elbow.a.key())] = elbow.newA;
     points_[static_cast<std::size_t>(elbow.b.key())] = elbow.newB;

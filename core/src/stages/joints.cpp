@@ -353,10 +353,10 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Gr
   const auto& chosen = resolution.chosen;
   const int pipeCount = static_cast<int>(pipes.size());
 
-  // The pipes as the chosen elbows leave them, trimmed or extended to their tangent points, and the
-  // stretches the elbows extend them over, from an end to the tangent point past it (across a
+  // Where the chosen elbows leave the pipes' ends (trimmed or extended to their tangent points),
+  // and the stretches they extend pipes over, from an end to the tangent point past it (across a
   // corner the scan hid).
-  std::vector<PipeSegment> asJoined = pipes;
+  MovedEnds movedEnds(pipes);
   std::vector<PipeSegment> extensions;
   std::vector<char> takesChosenJoint(pipes.size(), 0);
   for (std::size_t h : chosen) {
@@ -364,13 +364,11 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Gr
     const auto [first, second] = joint.joinedPipes();
     takesChosenJoint[static_cast<std::size_t>(first)] = takesChosenJoint[static_cast<std::size_t>(second)] = 1;
     if (joint.type != JointType::Elbow) continue;
+    movedEnds.move(joint);
     for (const auto& [end, tangentPoint] : {std::pair{joint.a, joint.newA}, std::pair{joint.b, joint.newB}}) {
       const PipeSegment& pipe = pipes[static_cast<std::size_t>(end.pipe)];
-      PipeSegment& joinedPipe = asJoined[static_cast<std::size_t>(end.pipe)];
-      (end.side == 0 ? joinedPipe.start : joinedPipe.end) = tangentPoint;
       const Eigen::Vector3d& endPoint = end.side == 0 ? pipe.start : pipe.end;
-      const Eigen::Vector3d outward = end.side == 0 ? Eigen::Vector3d(-unitAxis(pipe)) : unitAxis(pipe);
-      if ((tangentPoint - endPoint).dot(outward) <= 0.0) continue;
+      if ((tangentPoint - endPoint).dot(end.outward) <= 0.0) continue;
       PipeSegment stretch;
       stretch.start = endPoint;
       stretch.end = tangentPoint;
@@ -378,6 +376,13 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Gr
       extensions.push_back(stretch);
     }
   }
+  const auto asJoined = [&](std::size_t p) {
+    PipeSegment joined;
+    joined.start = movedEnds.at(static_cast<int>(2 * p));
+    joined.end = movedEnds.at(static_cast<int>(2 * p + 1));
+    joined.radius = pipes[p].radius;
+    return joined;
+  };
 
   // Fragments lying on a chosen elbow's arc are bits of the elbow fitted as cylinders: they go,
   // and so do the arc pieces the resolution found.
@@ -523,7 +528,7 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Gr
     if (absorbed[c] || carries[c] || carriedBy[c] >= 0 || takesChosenJoint[c] || pipes[c].mustJoin) continue;
     for (std::size_t p = 0; p < pipes.size(); ++p) {
       if (p == c || absorbed[p] || carriedBy[p] >= 0 || isFragment(pipes[p], params)) continue;
-      if (lengthOf(c) < lengthOf(p) && liesInTube(pipes[c], asJoined[p])) {
+      if (lengthOf(c) < lengthOf(p) && liesInTube(pipes[c], asJoined(p))) {
         absorbed[c] = 1;
         ++result.diagnostics.piecesInsidePipes;
         break;
