@@ -145,7 +145,7 @@ const std::vector<Field>& fields() {
       PIPERUN_FIELD("merge", "max_axis_distance", "", Stage::Merge, merge.maxAxisDistance, atLeast(0), "...the shorter piece's ends at most this x the smaller radius off the longer one's axis (min 1 cm)"),
       PIPERUN_FIELD("merge", "max_radius_difference", "", Stage::Merge, merge.maxRadiusDifference, closed(0, 1), "...their radii within this share of the larger (min 3 mm)"),
       PIPERUN_FIELD("merge", "max_gap", "m", Stage::Merge, merge.maxGap, atLeast(0), "...and they overlap or leave at most this gap"),
-      PIPERUN_FIELD("merge", "max_extension", "m", Stage::Merge, merge.maxExtension, atLeast(0), "Merged pipes' ends carry on over surface points up to this far (0: off)"),
+      PIPERUN_FIELD("merge", "max_extension", "m", Stage::Merge, merge.maxExtension, atLeast(0), "Merged pipes' ends carry on over surface points this far at a time, again while they carry the whole way (0: off)"),
       PIPERUN_FIELD("merge", "extension_normal_angle_deg", "deg", Stage::Merge, merge.extensionNormalAngleDeg, closed(0, 90), "...points whose normals are this close to radial"),
       PIPERUN_FIELD("merge", "extension_bridge_sections", "", Stage::Merge, merge.extensionBridgeSections, atLeast(0), "...across gaps up to this many 4 cm sections when the run beyond is at least as long"),
 

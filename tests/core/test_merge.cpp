@@ -171,6 +171,28 @@ TEST(Merge, AnEndCarriesOnAcrossAnOcclusionToALongerRunBeyond) {
   EXPECT_NEAR(tailEnd(2.8), 2.2, 1e-6);
 }
 
+TEST(Merge, AnEndCarriedTheWholeReachCarriesOnWhileTheSurfaceDoes) {
+  // Medium seed 11: a pipe seen from below only over its last 2.5 m, which no placement found; one
+  // reach of 2 m left the rest to a fit of another radius. Here the sparse tail runs from the found
+  // end at x = 2 to 6.5, more than twice the reach: the end carries on to 6.5, and to a tail's end
+  // within the second reach as well.
+  const double r = 0.05;
+  const auto tailEnd = [&](double tailTo, double reach) {
+    PointCloud cloud;
+    const PipeSegment found = foundWithTail(cloud, r, tailTo);
+    MergeParams params;
+    params.maxExtension = reach;
+    const auto result = mergeAndExtend(cloud, {found}, params);
+    EXPECT_EQ(result.diagnostics.extendedEnds, 1u);  // an end carried on in several reaches counts once
+    return farEnd(result.segments.at(0));
+  };
+  EXPECT_NEAR(tailEnd(6.5, 2.0), 6.48, 1e-6);  // the tail's last ring, 4 cm apart from 2.04
+  EXPECT_NEAR(tailEnd(5.0, 2.0), 5.0, 1e-6);
+  // Over nine reaches of 0.5 m, to within a section of the tail's end (a reach must cover two
+  // sections holding points, and the last may hold a single ring).
+  EXPECT_NEAR(tailEnd(6.5, 0.5), 6.48, 0.04 + 1e-6);
+}
+
 TEST(Merge, AnEndStopsAtTheCapOfAPipeOnItsLineAndTheyBecomeOnePipe) {
   // A pipe found up to x = 2, its sparse tail carrying on to 2.9; a second piece of the same pipe
   // found from 2.5 to 3.5 (its inliers from 2.9 on: the extents took the stretch before from

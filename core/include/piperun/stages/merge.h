@@ -17,7 +17,8 @@ struct MergeParams {
   double maxRadiusDifference = 0.15; ///< ...radii within this share of the larger one (min 3 mm)...
   double maxGap = 0.05;              ///< ...and overlapping or separated by at most this (m) are merged.
   double maxExtension = 2.0;         ///< Merged pipes' ends carry on along the axis over points of the surface
-                                     ///< up to this far (m; 0: off): a pipe's far, sparse end whose normals
+                                     ///< this far at a time (m; 0: off), again from where they stopped while
+                                     ///< they carry the whole way: a pipe's far, sparse end whose normals
                                      ///< stray too far from radial for placement's inliers...
   double extensionNormalAngleDeg = 45.0;  ///< ...over points whose normals are this close to radial (deg).
   int extensionBridgeSections = 20;  ///< ...across gaps up to this many 4 cm sections when the run beyond is as long.
@@ -43,7 +44,8 @@ MergeResult mergeSegments(const std::vector<PipeSegment>& segments, const MergeP
 /// index): 4 cm sections along the axis past the end that hold a point of the surface not
 /// explained by any pipe (within the band of its noise, normal near radial), with gaps of at most
 /// three sections (up to extensionBridgeSections when the run beyond is as long), and no more
-/// points inside the tube or in a shell around it than on its surface.
+/// points inside the tube or in a shell around it than on its surface; maxExtension at a time, an
+/// end whose surface points run on to within three sections of that reach carried on again.
 /// An end stops where its axis enters another pipe's tube (a main's wall, or the cap of a pipe on
 /// its line); the extended pipes are merged again, a section's gap allowed (an end that stopped at
 /// a cap meets that pipe).
