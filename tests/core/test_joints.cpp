@@ -963,6 +963,34 @@ TEST(Joints, ACylinderFittedAcrossAnElbowsBendGoesAndOneElbowJoinsThePipes) {
   EXPECT_NEAR(result.joints[0].bendRadius, R, 0.05 * R);
 }
 
+TEST(Joints, AThinlySeenBendWhoseMiddleWasFittedAsACylinderIsOneElbow) {
+  // Small seed 38: a 90° bend of R = 3r, seen over its outer side only in scan lines 2 cm apart,
+  // its middle fitted as a cylinder along the chord between the arc's points at 18° and 58°. The
+  // elbow between the pipes, voted without the piece's points, falls short of acceptance; the
+  // piece took an elbow with each pipe (R 0.16–0.35 m). Held back by the elbow whose arc it lies
+  // on, it goes as a piece of that arc: one elbow, at the bend's radius, proposed for review.
+  const double r = 0.1365, R = 3.0 * r;
+  for (const double seenDegrees : {40.0, 90.0}) {
+    SCOPED_TRACE(seenDegrees);
+    ConstructedScene scene;
+    scene.addPipe({-2.5, 0.0, 0.0}, {-R - 0.06, 0.0, 0.0}, r);
+    scene.addPipe({0.0, R, 0.0}, {0.0, 2.5, 0.0}, r);
+    std::vector<double> around;
+    for (double degrees = -seenDegrees; degrees <= seenDegrees + 1e-9; degrees += 10.0) around.push_back(degrees);
+    const Eigen::Vector3d center(-R, R, 0.0);
+    scene.addElbow(center, {-R, 0.0, 0.0}, Eigen::Vector3d::UnitZ(), 0.5 * kPi, r, around, 0.02);
+    const auto onArc = [&](double degrees) {
+      const double t = degrees * kPi / 180.0;
+      return Eigen::Vector3d(center + R * Eigen::Vector3d(std::sin(t), -std::cos(t), 0.0));
+    };
+    scene.addFittedPipe(onArc(18.0), onArc(58.5), r, 0.02);
+    const JointsResult result = resolveOnly(scene);
+    ASSERT_NO_FATAL_FAILURE(expectOneElbowBetweenTwoPipes(result, 1));
+    EXPECT_EQ(result.joints[0].status, JointStatus::Proposed);
+    EXPECT_NEAR(result.joints[0].bendRadius, R, 0.05 * R);
+  }
+}
+
 TEST(Joints, AShortDiagonalLegBetweenTwoHalfBendsStays) {
   // Two 45° elbows (R = 2r) around a diagonal leg six radii long: the pipes beyond turn square
   // across it, but the leg is no piece of a bend between them. Three pipes, two elbows. (A leg of

@@ -31,6 +31,12 @@ constexpr double kMinChordOffLineDeg = 15.0;
 // An elbow bounded by the room an elbow chosen before it left (see resolveJoints) must hold at
 // least this share of the points its pipes' density gives its torus, or more than the wider bend.
 constexpr double kMinBoundedSupport = 0.5;
+// An elbow hypothesis with a piece of its arc fitted as a cylinder (see resolveJoints) holds that
+// piece's joints back from this share of the confidence that accepts a joint: voted without the
+// piece's points, which the piece explains, a thinly seen bend falls short of acceptance (small
+// seed 38: 0.49, a 90° bend of 273 mm pipe seen over 23 % of its torus), and the piece would
+// take an elbow of 28° with one pipe, the bend's other 62° left to no joint.
+constexpr double kMinArcElbowAcceptShare = 0.8;
 // A piece between two chosen elbows that leave less than this many of its radii of it straight
 // may be one bend split in two (see mergeSplitBends).
 constexpr double kMaxSplitBendPieceRadii = 2.0;
@@ -263,12 +269,13 @@ Resolution resolveJoints(const JointsInput& input, const JointsParams& params, c
   }
 
   // A pipe of an elbow's radius lying on the arc of an elbow hypothesis between two other pipes,
-  // one confident enough to be accepted, may be a piece of that elbow's arc fitted as a cylinder.
-  // Its joints wait for that elbow: they take their ends no earlier than it would.
+  // one nearly confident enough to be accepted, may be a piece of that elbow's arc fitted as a
+  // cylinder. Its joints wait for that elbow: they take their ends no earlier than it would.
   constexpr double kNoArc = 2.0;  // Above every confidence.
   std::vector<double> arcConfidence(static_cast<std::size_t>(pipeCount), kNoArc);
+  const double holdsBackFrom = kMinArcElbowAcceptShare * params.acceptConfidence;
   for (const Hypothesis& elbow : hypotheses) {
-    if (!elbow.valid || elbow.type != JointType::Elbow || elbow.confidence < params.acceptConfidence) continue;
+    if (!elbow.valid || elbow.type != JointType::Elbow || elbow.confidence < holdsBackFrom) continue;
     pipeGrid.forEachInCube(elbow.center, elbow.reach, [&](std::uint32_t p) {
       const PipeSegment& pipe = pipes[p];
       const double radiusRatio = std::min(pipe.radius, elbow.a.radius) / std::max(pipe.radius, elbow.a.radius);
