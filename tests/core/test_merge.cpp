@@ -188,7 +188,7 @@ TEST(Merge, AnEndCarriedTheWholeReachCarriesOnWhileTheSurfaceDoes) {
   };
   EXPECT_NEAR(tailEnd(6.5, 2.0), 6.48, 1e-6);  // the tail's last ring, 4 cm apart from 2.04
   EXPECT_NEAR(tailEnd(5.0, 2.0), 5.0, 1e-6);
-  // Over nine reaches of 0.5 m, to within a section of the tail's end (a reach must cover two
+  // Over ten reaches of 0.5 m, to within a section of the tail's end (a reach must cover two
   // sections holding points, and the last may hold a single ring).
   EXPECT_NEAR(tailEnd(6.5, 0.5), 6.48, 0.04 + 1e-6);
 }

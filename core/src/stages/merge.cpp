@@ -349,6 +349,7 @@ std::size_t extendEnds(const PointCloud& cloud, std::vector<PipeSegment>& pipes,
     if (pipes[e / 2].confidence >= kMinExtendedConfidence) ends.push_back(e);
   }
   std::vector<char> moved(endCount, 0);
+  const double halfLength = 0.5 * params.maxExtension;
   // Each round claims the points it carries ends over, a full reach's worth for every end that goes
   // on, so the rounds end.
   while (!ends.empty()) {
@@ -356,7 +357,6 @@ std::size_t extendEnds(const PointCloud& cloud, std::vector<PipeSegment>& pipes,
     // cover, out to the shell where extension() counts clutter.
     std::vector<std::pair<Eigen::Vector3d, double>> spheres;
     for (std::size_t e : ends) {
-      const double halfLength = 0.5 * params.maxExtension;
       const PipeSegment& pipe = pipes[e / 2];
       spheres.emplace_back(endOf(e) + halfLength * outwardOf(e),
                            std::hypot(halfLength, 2.0 * (pipe.radius + surfaceBand(pipe))));
