@@ -376,13 +376,13 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Gr
       extensions.push_back(stretch);
     }
   }
-  const auto asJoined = [&](std::size_t p) {
-    PipeSegment joined;
-    joined.start = movedEnds.at(static_cast<int>(2 * p));
-    joined.end = movedEnds.at(static_cast<int>(2 * p + 1));
-    joined.radius = pipes[p].radius;
-    return joined;
-  };
+  // Each pipe's axis and radius as the chosen elbows leave it (no inliers: only its tube is asked).
+  std::vector<PipeSegment> asJoined(pipes.size());
+  for (std::size_t p = 0; p < pipes.size(); ++p) {
+    asJoined[p].start = movedEnds.at(static_cast<int>(2 * p));
+    asJoined[p].end = movedEnds.at(static_cast<int>(2 * p + 1));
+    asJoined[p].radius = pipes[p].radius;
+  }
 
   // Fragments lying on a chosen elbow's arc are bits of the elbow fitted as cylinders: they go,
   // and so do the arc pieces the resolution found.
@@ -528,7 +528,7 @@ JoinedOnce joinOnce(const JointsInput& input, const PlaneCells& planes, const Gr
     if (absorbed[c] || carries[c] || carriedBy[c] >= 0 || takesChosenJoint[c] || pipes[c].mustJoin) continue;
     for (std::size_t p = 0; p < pipes.size(); ++p) {
       if (p == c || absorbed[p] || carriedBy[p] >= 0 || isFragment(pipes[p], params)) continue;
-      if (lengthOf(c) < lengthOf(p) && liesInTube(pipes[c], asJoined(p))) {
+      if (lengthOf(c) < lengthOf(p) && liesInTube(pipes[c], asJoined[p])) {
         absorbed[c] = 1;
         ++result.diagnostics.piecesInsidePipes;
         break;
