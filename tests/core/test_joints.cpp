@@ -646,6 +646,28 @@ TEST(Joints, ACompletedLegEndsAtItsLastPoint) {
   EXPECT_NEAR(std::max(tail.start.y(), tail.end.y()), tailEnd, 0.003);
 }
 
+TEST(Joints, ABendsPointsAlongTheDiagonalOfItsTurnAreNoLeg) {
+  // Large seed 1: a 5.7 cm riser turns level at a bend (R = 3r) whose level leg shows a few scan
+  // columns only. Pipes elsewhere run at 45°, halfway round the turn: along that direction the
+  // bend's many points fit a straight leg better supported than the level one. All of them lie
+  // where the bend towards the level leg runs: that leg is the completion, not the chord.
+  const double r = 0.057, R = 3.0 * r;
+  const Eigen::Vector3d x = Eigen::Vector3d::UnitX(), up = Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d diagonal = (x + up).normalized();
+  ConstructedScene scene;
+  scene.addPipe({0, 0, -1.5}, -R * up, r);
+  scene.addBend(Eigen::Vector3d::Zero(), up, x, R, r);
+  scene.addScanColumns(R * x, 0.8 * x, r, -Eigen::Vector3d::UnitY(), {-20.0, 20.0}, 0.0, 0.02);
+  scene.addPipe({3, 1, -1}, Eigen::Vector3d(3, 1, -1) + 1.5 * diagonal, r);
+  scene.addPipe({-3, 2, 0}, {-1.5, 2, 0}, r);
+  const JointsResult result = scene.connect();
+  ASSERT_EQ(result.pipes.size(), 4u);
+  EXPECT_GT(std::fabs(unitAxis(result.pipes[3]).dot(x)), std::cos(2.0 * kPi / 180.0));
+  ASSERT_EQ(result.joints.size(), 1u);
+  EXPECT_EQ(result.joints[0].type, JointType::Elbow);
+  EXPECT_NEAR(result.joints[0].bendRadius, R, 0.15 * R);
+}
+
 TEST(Joints, AGentleBendBetweenALevelAndASlopedPipeIsAnElbow) {
   // A pipe sloping off a level one by 6.5°: the elbow's surface stays within each cylinder's band
   // well past the corner, so both fitted pipes overshoot it, and their ends overlap.

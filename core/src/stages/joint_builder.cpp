@@ -84,9 +84,6 @@ constexpr double kMinFittingBendRadii = 1.5;
 // far past, where its pipe holds at most this share of its linear density.
 constexpr double kEndOvershootRadii = 1.25;
 constexpr double kMaxPastCornerDensity = 0.2;
-// An elbow with no points to vote for its bend is taken for the commonest fitting, a long-radius
-// elbow (1.5 diameters), unless its pipes' ends, seen straight up to where they stop, say tighter.
-constexpr double kLongElbowRadii = 3.0;
 // How much nearer its corner than the inliers of such an elbow's pipe would stop an end may lie
 // (m): the extents place ends to a 4 cm section.
 constexpr double kUnvotedEndSlack = 0.04;
@@ -448,6 +445,8 @@ void JointBuilder::reconstructElbow(Hypothesis& h, const std::vector<std::uint32
   double bendRadius = 0.0;
   double tightest = 0.0;
   if (votes.empty()) {
+    // No points to vote for the bend: the commonest fitting, a long-radius elbow, unless the pipes'
+    // ends, seen straight up to where they stop, say tighter.
     const double nearestSeenEnd = std::min(seenTo(h.a, toEndA), seenTo(h.b, toEndB));
     bendRadius = unvotedBendRadius(h.bendAngle, nearestSeenEnd, params_.supportDistance,
                                    radians(kSupportNormalAngleDeg), kUnvotedEndSlack, minBend,

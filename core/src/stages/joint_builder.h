@@ -30,7 +30,8 @@ constexpr double kMaxBendlessSupport = 0.2;
 // Missing points say the torus is not there only where it would hold this many: a thin pipe seen
 // from afar leaves a few on an elbow, which the overshooting pipes take as their inliers.
 constexpr double kMinBendlessEvidence = 10.0;
-constexpr double kShortElbowRadii = 2.0;  // A short-radius elbow's bend radius, in pipe radii.
+constexpr double kShortElbowRadii = 2.0;  // A short-radius elbow's bend radius, in pipe radii...
+constexpr double kLongElbowRadii = 3.0;   // ...and a long-radius elbow's (1.5 diameters), the commonest fitting.
 
 /// Whether point i's normal is within the support angle of the unit `radial` (normals are unoriented).
 bool normalAgrees(const PointCloud& cloud, std::uint32_t i, const Eigen::Vector3d& radial,

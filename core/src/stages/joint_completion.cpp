@@ -150,7 +150,7 @@ class Completer {
   }
 
   /// The best-supported completion of `end` along one of `directions` (either way), from the
-  /// points `nearby` (not explained by any pipe).
+  /// points `nearby` (not explained by any pipe), unless it is a bend's chord (see legBeyondChord).
   std::optional<Completion> complete(const PipeEnd& end, const std::vector<Eigen::Vector3d>& networkDirections,
                                      const std::vector<std::uint32_t>& nearby) const {
     std::vector<Eigen::Vector3d> directions = networkDirections;
@@ -161,17 +161,69 @@ class Completer {
         })) {
       directions.push_back(*local);
     }
-    std::optional<Completion> best;
+    std::vector<Completion> candidates;
+    std::vector<char> alongNetwork;
+    std::size_t best = 0;
     for (std::size_t d = 0; d < directions.size(); ++d) {
       const bool networks = d < networkDirections.size();
       for (const double sign : {1.0, -1.0}) {
         auto candidate = completeAlong(end, sign * directions[d], networks, nearby);
-        if (candidate && (!best || candidate->support() > best->support())) {
-          best = std::move(candidate);
-        }
+        if (!candidate) continue;
+        if (candidates.empty() || candidate->support() > candidates[best].support()) best = candidates.size();
+        candidates.push_back(std::move(*candidate));
+        alongNetwork.push_back(networks ? 1 : 0);
       }
     }
-    return best;
+    if (candidates.empty()) return std::nullopt;
+    if (!fromBends_) {
+      if (const auto beyond = legBeyondChord(end, candidates[best], candidates, alongNetwork)) best = *beyond;
+    }
+    return std::move(candidates[best]);
+  }
+
+  /// Of the straight `legs` from `end` (those along a network direction, `alongNetwork`), the one a
+  /// bend of `end`'s pipe turns into whose points `chord` took: where a leg is hardly seen past its
+  /// bend, the bend's points fit a straight halfway round the turn (a network direction when pipes
+  /// elsewhere run at 45°), better supported than the leg itself (large seed 1). Such a leg turns
+  /// farther than `chord`, in its plane; nearly all `chord`'s points lie within the reach of a
+  /// long-radius elbow onto it, and the leg is seen past that elbow's tangent point, by as many
+  /// points as a completion needs. Of several, the one seen farthest beyond.
+  std::optional<std::size_t> legBeyondChord(const PipeEnd& end, const Completion& chord,
+                                            const std::vector<Completion>& legs,
+                                            const std::vector<char>& alongNetwork) const {
+    const auto bendOf = [&](const Eigen::Vector3d& along) {
+      return std::acos(std::clamp(along.dot(end.outward), -1.0, 1.0));
+    };
+    const Eigen::Vector3d chordAlong = unitAxis(chord.pipe);
+    const double chordBend = bendOf(chordAlong);
+    const Eigen::Vector3d planeNormal = chordAlong.cross(end.outward).normalized();
+    std::optional<std::size_t> found;
+    std::size_t mostBeyond = 0;
+    for (std::size_t l = 0; l < legs.size(); ++l) {
+      const Eigen::Vector3d along = unitAxis(legs[l].pipe);
+      const double bend = bendOf(along);
+      if (!alongNetwork[l] || bend < chordBend + radians(kMinFurtherTurnDeg) ||
+          std::fabs(along.dot(planeNormal)) > std::sin(radians(kMaxChordPlaneDeg))) {
+        continue;
+      }
+      const Eigen::Vector3d& corner = legs[l].pipe.start;
+      const double tangent = kLongElbowRadii * end.radius * std::tan(0.5 * bend);
+      const double reach = tangent + end.radius + params_.supportDistance;
+      const auto& chordPoints = chord.pipe.inliers;
+      const auto inBend = std::count_if(chordPoints.begin(), chordPoints.end(), [&](std::uint32_t i) {
+        return (input_.cloud.positions[i].cast<double>() - corner).norm() <= reach;
+      });
+      const auto& legPoints = legs[l].pipe.inliers;
+      const auto beyond = static_cast<std::size_t>(std::count_if(legPoints.begin(), legPoints.end(), [&](std::uint32_t i) {
+        return (input_.cloud.positions[i].cast<double>() - corner).dot(along) > tangent;
+      }));
+      if (static_cast<double>(inBend) >= kMinChordShareInBend * static_cast<double>(chordPoints.size()) &&
+          beyond >= params_.minCompletionPoints && beyond > mostBeyond) {
+        found = l;
+        mostBeyond = beyond;
+      }
+    }
+    return found;
   }
 
   /// The leg square to the parallel pipes of ends `a` and `b` that joins their extensions, an elbow
@@ -380,6 +432,9 @@ class Completer {
 
  private:
   static constexpr double kLocalDirectionSnapDeg = 5.0;  // See complete().
+  static constexpr double kMinFurtherTurnDeg = 15.0;      // A leg beyond a chord turns this much farther,
+  static constexpr double kMaxChordPlaneDeg = 10.0;       // this close to the chord's plane, and the chord
+  static constexpr double kMinChordShareInBend = 0.9;     // has this share of its points in the bend onto it.
   static constexpr std::size_t kCornerPeaks = 3;  // Corners tried per direction (see completeAlong).
   static constexpr double kMaxLegTiltDeg = 3.0;    // Pipes this close to parallel may hold a leg between
   static constexpr double kLegSupportShare = 0.5;  // them (see legBetween), with this share of a completion's
