@@ -184,10 +184,11 @@ class Completer {
   /// Of the straight `legs` from `end` (those along a network direction, `alongNetwork`), the one a
   /// bend of `end`'s pipe turns into whose points `chord` took: where a leg is hardly seen past its
   /// bend, the bend's points fit a straight halfway round the turn (a network direction when pipes
-  /// elsewhere run at 45°), better supported than the leg itself (large seed 1). Such a leg turns
+  /// elsewhere run at 45°), better supported than the leg itself (large seed 2). Such a leg turns
   /// farther than `chord`, in its plane; nearly all `chord`'s points lie within the reach of a
-  /// long-radius elbow onto it, and the leg is seen past that elbow's tangent point, by as many
-  /// points as a completion needs. Of several, the one seen farthest beyond.
+  /// long-radius elbow onto it, and the leg runs on past that elbow's tangent point by a diameter
+  /// at least, seen there by as many points as a completion needs. Of several, the one seen
+  /// farthest beyond.
   std::optional<std::size_t> legBeyondChord(const PipeEnd& end, const Completion& chord,
                                             const std::vector<Completion>& legs,
                                             const std::vector<char>& alongNetwork) const {
@@ -208,6 +209,8 @@ class Completer {
       }
       const Eigen::Vector3d& corner = legs[l].pipe.start;
       const double tangent = kLongElbowRadii * end.radius * std::tan(0.5 * bend);
+      // The elbow onto the leg leaves it a pipe, not a fragment.
+      if ((legs[l].pipe.end - corner).dot(along) < tangent + params_.minPipeDiameters * 2.0 * end.radius) continue;
       const double reach = tangent + end.radius + params_.supportDistance;
       const auto& chordPoints = chord.pipe.inliers;
       const auto inBend = std::count_if(chordPoints.begin(), chordPoints.end(), [&](std::uint32_t i) {
