@@ -648,9 +648,10 @@ TEST(Joints, ACompletedLegEndsAtItsLastPoint) {
 
 TEST(Joints, ABendsPointsAlongTheDiagonalOfItsTurnAreNoLeg) {
   // A 5.7 cm riser turns level at a bend (R = 3r) whose level leg shows a few scan columns only
-  // (as large seed 2's 18" pipe turns into a leg of 10 points). Pipes elsewhere run at 45°, halfway round the turn: along that direction the
-  // bend's many points fit a straight leg better supported than the level one. All of them lie
-  // where the bend towards the level leg runs: that leg is the completion, not the chord.
+  // (as large seed 2's 18" pipe turns into a leg of 10 points). Pipes elsewhere run at 45°, halfway
+  // round the turn: along that direction the bend's many points fit a straight leg better
+  // supported than the level one. All of them lie where the bend towards the level leg runs: that
+  // leg is the completion, not the chord.
   const double r = 0.057, R = 3.0 * r;
   const Eigen::Vector3d x = Eigen::Vector3d::UnitX(), up = Eigen::Vector3d::UnitZ();
   const Eigen::Vector3d diagonal = (x + up).normalized();

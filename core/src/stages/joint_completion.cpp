@@ -181,14 +181,14 @@ class Completer {
     return std::move(candidates[best]);
   }
 
-  /// Of the straight `legs` from `end` (those along a network direction, `alongNetwork`), the one a
-  /// bend of `end`'s pipe turns into whose points `chord` took: where a leg is hardly seen past its
-  /// bend, the bend's points fit a straight halfway round the turn (a network direction when pipes
-  /// elsewhere run at 45°), better supported than the leg itself (large seed 2). Such a leg turns
-  /// farther than `chord`, in its plane; nearly all `chord`'s points lie within the reach of a
-  /// long-radius elbow onto it, and the leg runs on past that elbow's tangent point by a diameter
-  /// at least, seen there by as many points as a completion needs. Of several, the one seen
-  /// farthest beyond.
+  /// Of the straight `legs` from `end` (those along a network direction, `alongNetwork`), the one
+  /// that a bend of `end`'s pipe turns into, when `chord` took that bend's points: where a leg is
+  /// hardly seen past its bend, the bend's points fit a straight halfway round the turn (a network
+  /// direction when pipes elsewhere run at 45°), better supported than the leg itself (large seed
+  /// 2). Such a leg turns farther than `chord`, in its plane; nearly all `chord`'s points lie within
+  /// the reach of a long-radius elbow onto it, and the leg runs on past that elbow's tangent point
+  /// by a diameter at least, seen there by as many points as a completion needs. Of several, the
+  /// one seen farthest beyond.
   std::optional<std::size_t> legBeyondChord(const PipeEnd& end, const Completion& chord,
                                             const std::vector<Completion>& legs,
                                             const std::vector<char>& alongNetwork) const {
