@@ -2,6 +2,7 @@
 
 #include "piperun/edit/nominal_sizes.h"
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 #include <tuple>
@@ -126,6 +127,29 @@ TEST(Evaluation, BendRadiusErrorIsRelative) {
   PipeNetwork predicted = lShapedRun();
   predicted.joints[0].bendRadius = 0.11;
   EXPECT_NEAR(evaluateNetwork(truth, predicted).bendRadiusErrorMedian, 0.1, 1e-9);
+}
+
+TEST(Evaluation, AnElbowTurningAsADifferentFittingIsNotTheTruths) {
+  // The truth's 90° elbow, found at its place but turning 45° (the chord of its bend, with a leg
+  // along the diagonal): spurious, and the truth's elbow missed. Turning 80° it is found.
+  const PipeNetwork truth = lShapedRun();
+  const Eigen::Vector3d centre(2, 0.1, 0);
+  const Eigen::Vector3d middle = truth.joints[0].axis[truth.joints[0].axis.size() / 2];
+  const auto turning = [&](double degrees) {
+    PipeNetwork predicted = lShapedRun();
+    const double half = 0.5 * degrees * 3.14159265358979323846 / 180.0;
+    const Eigen::Vector3d fromCentre = (middle - centre).normalized();
+    const Eigen::Vector3d start = centre + 0.1 * (Eigen::AngleAxisd(-half, Eigen::Vector3d::UnitZ()) * fromCentre);
+    const Eigen::Vector3d end = centre + 0.1 * (Eigen::AngleAxisd(half, Eigen::Vector3d::UnitZ()) * fromCentre);
+    predicted.joints[0].axis = sampleArc(centre, start, end, 0.01);
+    return evaluateNetwork(truth, predicted);
+  };
+  const EvaluationResult chord = turning(45.0);
+  EXPECT_EQ(chord.foundElbows, 0);
+  EXPECT_EQ(chord.spuriousJoints, 1);
+  const EvaluationResult near = turning(80.0);
+  EXPECT_EQ(near.foundElbows, 1);
+  EXPECT_EQ(near.spuriousJoints, 0);
 }
 
 TEST(Evaluation, PipesOnlyLeavesTheJointsOut) {

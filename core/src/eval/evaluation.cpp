@@ -1,6 +1,7 @@
 #include "piperun/eval/evaluation.h"
 
 #include "piperun/edit/nominal_sizes.h"
+#include "piperun/pipe_measures.h"
 
 #include "points_near.h"
 
@@ -185,10 +186,18 @@ std::vector<std::pair<const Joint*, int>> matchJoints(const PipeNetwork& truth, 
     const Joint& joint = *matches[t].first;
     const double limit = std::max(params.jointMinDistance, params.jointRadiusFactor * joint.radius);
     const Eigen::Vector3d position = joint.position();
+    // An elbow found where the truth's is but turning as a different fitting (a 90° one found as a
+    // 45° one: the chord of its bend) is not that elbow.
+    const auto truthBend = type == JointType::Elbow ? bendOf(joint.axis) : std::nullopt;
+    const auto turnsAlike = [&](const Joint& found) {
+      if (!truthBend) return true;
+      const auto bend = bendOf(found.axis);
+      return !bend || std::fabs(bend->angleDegrees() - truthBend->angleDegrees()) <= params.jointMaxTurnDifferenceDeg;
+    };
     for (std::size_t p = 0; p < predicted.size(); ++p) {
       if (predicted[p]->type != type) continue;
       const double distance = (predicted[p]->position() - position).norm();
-      if (distance <= limit) pairs.emplace_back(distance, t, p);
+      if (distance <= limit && turnsAlike(*predicted[p])) pairs.emplace_back(distance, t, p);
     }
   }
   std::sort(pairs.begin(), pairs.end());

@@ -18,7 +18,8 @@ struct EvaluationParams {
   double radiusFactor = 0.5;         ///< ...of a truth sample.
   double fixedTolerance = 0.0;       ///< When > 0, this tolerance (m) replaces the rule above.
   double jointMinDistance = 0.05;    ///< Joints match when their positions are within
-  double jointRadiusFactor = 1.0;    ///< max(jointMinDistance, jointRadiusFactor × truth radius), same type.
+  double jointRadiusFactor = 1.0;    ///< max(jointMinDistance, jointRadiusFactor × truth radius), same type,
+  double jointMaxTurnDifferenceDeg = 22.5;  ///< and elbows turn alike to within this (half a 45° fitting's turn).
   bool pipesOnly = false;            ///< Sample only the straight pipes of both networks (figures "before joints").
   /// With a labelled scan: a truth sample is observable when at least observableMinPoints points
   /// labelled with its element lie nearest to the element's samples within ±observableWindow (m).
