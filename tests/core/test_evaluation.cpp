@@ -10,6 +10,8 @@
 namespace piperun {
 namespace {
 
+constexpr double kPi = 3.14159265358979323846;
+
 /// One straight pipe of radius 0.1 m, id 1.
 PipeNetwork straightPipe(const Eigen::Vector3d& start, const Eigen::Vector3d& end) {
   PipeNetwork network;
@@ -137,7 +139,7 @@ TEST(Evaluation, AnElbowTurningAsADifferentFittingIsNotTheTruths) {
   const Eigen::Vector3d middle = truth.joints[0].axis[truth.joints[0].axis.size() / 2];
   const auto turning = [&](double degrees) {
     PipeNetwork predicted = lShapedRun();
-    const double half = 0.5 * degrees * 3.14159265358979323846 / 180.0;
+    const double half = 0.5 * degrees * kPi / 180.0;
     const Eigen::Vector3d fromCentre = (middle - centre).normalized();
     const Eigen::Vector3d start = centre + 0.1 * (Eigen::AngleAxisd(-half, Eigen::Vector3d::UnitZ()) * fromCentre);
     const Eigen::Vector3d end = centre + 0.1 * (Eigen::AngleAxisd(half, Eigen::Vector3d::UnitZ()) * fromCentre);

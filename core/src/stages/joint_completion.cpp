@@ -192,17 +192,17 @@ class Completer {
   std::optional<std::size_t> legBeyondChord(const PipeEnd& end, const Completion& chord,
                                             const std::vector<Completion>& legs,
                                             const std::vector<char>& alongNetwork) const {
-    const auto bendOf = [&](const Eigen::Vector3d& along) {
+    const auto turnFromEnd = [&](const Eigen::Vector3d& along) {
       return std::acos(std::clamp(along.dot(end.outward), -1.0, 1.0));
     };
     const Eigen::Vector3d chordAlong = unitAxis(chord.pipe);
-    const double chordBend = bendOf(chordAlong);
+    const double chordBend = turnFromEnd(chordAlong);
     const Eigen::Vector3d planeNormal = chordAlong.cross(end.outward).normalized();
     std::optional<std::size_t> found;
     std::size_t mostBeyond = 0;
     for (std::size_t l = 0; l < legs.size(); ++l) {
       const Eigen::Vector3d along = unitAxis(legs[l].pipe);
-      const double bend = bendOf(along);
+      const double bend = turnFromEnd(along);
       if (!alongNetwork[l] || bend < chordBend + radians(kMinFurtherTurnDeg) ||
           std::fabs(along.dot(planeNormal)) > std::sin(radians(kMaxChordPlaneDeg))) {
         continue;
